@@ -1,0 +1,22 @@
+"""spark-bench: accuracy and sim-readiness benchmark for single-image articulated-object reconstruction.
+
+Importing the package registers the gymnasium environments ``SparkDrawer-v0`` and ``SparkDoor-v0``
+(when :mod:`spark_bench.envs` is present); heavy dependencies are imported lazily by each module.
+"""
+
+__version__ = "0.1.0"
+
+#: Version of the metric definitions (DESIGN.md "Benchmark frame", "Shape metrics",
+#: "Articulation metrics"), written into every results row.
+CONVENTION_VERSION = "spark-bench-conv-1"
+
+
+def _register_envs() -> None:
+    try:
+        from spark_bench import envs  # noqa: F401  (registers at import)
+    except ModuleNotFoundError as exc:  # envs not built yet in a partial install
+        if exc.name not in ("spark_bench.envs", "spark_bench.envs.registration"):
+            raise
+
+
+_register_envs()
