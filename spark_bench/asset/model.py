@@ -43,7 +43,7 @@ class Visual:
 
 @dataclass
 class Collision:
-    """One collision shape of a link, known to be convex.
+    """One collision shape of a link: a primitive, or a mesh that may or may not be convex.
 
     :param kind: ``box`` (``size`` = full extents), ``cylinder`` (``size`` = radius, length along local z),
         ``sphere`` (``size`` = radius,) or ``mesh`` (a convex mesh, vertices in the geom frame)
@@ -58,6 +58,11 @@ class Collision:
     size: np.ndarray = field(default_factory=lambda: np.zeros(0))
     mesh: trimesh.Trimesh | None = None
     source: str | None = None
+
+    @property
+    def is_convex(self) -> bool:
+        """Primitives always are; a mesh is when it equals its convex hull (trimesh's test)."""
+        return self.kind != "mesh" or (self.mesh is not None and bool(self.mesh.is_convex))
 
     def to_trimesh(self) -> trimesh.Trimesh:
         """This shape as a mesh in the link frame."""

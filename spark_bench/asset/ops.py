@@ -1,0 +1,78 @@
+"""Whole-asset operations: uniform scaling, translation, and the benchmark-frame normalization."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from spark_bench.asset.model import ArticulatedAsset
+
+
+def scale_asset(asset: ArticulatedAsset, scale: float) -> ArticulatedAsset:
+    """A copy of ``asset`` uniformly scaled by ``scale`` about the world origin.
+
+    Uniform scaling commutes with rigid motions, so scaling every translation (mesh vertices, joint
+    origins, collision shapes, prismatic limits) scales the world geometry at every configuration.
+    """
+    if not np.isfinite(scale) or scale <= 0:
+        raise ValueError(f"scale must be positive and finite, got {scale}")
+    out = asset.copy()
+    for link in out.links.values():
+        for visual in link.visuals:
+            visual.mesh.vertices = visual.mesh.vertices * scale
+        for col in link.collisions:
+            col.origin = col.origin.copy()
+            col.origin[:3, 3] *= scale
+            col.size = np.asarray(col.size, dtype=float) * scale
+            if col.mesh is not None:
+                col.mesh.vertices = col.mesh.vertices * scale
+    for joint in out.joints.values():
+        joint.origin = joint.origin.copy()
+        joint.origin[:3, 3] *= scale
+        if joint.type == "prismatic":
+            joint.lower *= scale
+            joint.upper *= scale
+    return out
+
+
+def translate_asset(asset: ArticulatedAsset, offset) -> ArticulatedAsset:
+    """A copy of ``asset`` moved by ``offset`` in the world frame.
+
+    The root link stays at the identity; its meshes and the origins of the joints hanging from it
+    are shifted, so the asset's files need no extra world transform.
+    """
+    offset = np.asarray(offset, dtype=float)
+    out = asset.copy()
+    root = out.root
+    for visual in out.links[root].visuals:
+        visual.mesh.vertices = visual.mesh.vertices + offset
+    for col in out.links[root].collisions:
+        col.origin = col.origin.copy()
+        col.origin[:3, 3] += offset
+    for joint in out.joints.values():
+        if joint.parent == root:
+            joint.origin = joint.origin.copy()
+            joint.origin[:3, 3] += offset
+    return out
+
+
+def normalization(asset: ArticulatedAsset, q=None) -> tuple[np.ndarray, float]:
+    """``(center, scale)`` of the benchmark frame: ``p_bench = (p_world - center) * scale``.
+
+    The world axis-aligned box at ``q`` (default: rest) is centered and scaled by ``2 / max extent``.
+    """
+    bounds = asset.bounds(q)
+    extent = float((bounds[1] - bounds[0]).max())
+    if not np.isfinite(extent) or extent <= 0:
+        raise ValueError(f"{asset.name}: degenerate bounding box {bounds.tolist()}")
+    return bounds.mean(0), 2.0 / extent
+
+
+def normalize_asset(asset: ArticulatedAsset) -> tuple[ArticulatedAsset, np.ndarray, float]:
+    """The asset in the benchmark frame (DESIGN.md): rest pose, box centered at 0, fitting [-1, 1]^3.
+
+    :returns: ``(normalized asset, center, scale)`` with ``p_bench = (p_world - center) * scale``
+    """
+    center, scale = normalization(asset)
+    out = scale_asset(translate_asset(asset, -center), scale)
+    out.meta = {**out.meta, "normalization": {"center": center.tolist(), "scale": scale}}
+    return out, center, scale

@@ -1,0 +1,400 @@
+"""URDF read and write through yourdfpy, keeping PartNet-Mobility conventions.
+
+Reading validates what yourdfpy does not: no DTD or XML entities (no expansion, no external fetch),
+unique link and joint names, a single tree (no cycles, one parent per link), finite non-zero axes,
+mesh paths that stay inside the object folder and exist. Every problem raises
+:class:`~spark_bench.errors.InputError` naming the file.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import logging
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import trimesh
+import yourdfpy
+from lxml import etree
+
+from spark_bench.asset.model import (
+    DEFAULT_REVOLUTE_UPPER,
+    JOINT_TYPES,
+    ArticulatedAsset,
+    Collision,
+    Joint,
+    Link,
+    Visual,
+)
+from spark_bench.asset.transforms import transform_points
+from spark_bench.errors import InputError
+
+MAX_URDF_BYTES = 50_000_000
+
+
+# ----- reading --------------------------------------------------------------------------------
+def read_urdf_xml(path: Path) -> bytes:
+    """The URDF's bytes, after checking that it is well-formed XML with no DTD or entities."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "URDF file not found")
+    data = path.read_bytes()
+    if len(data) > MAX_URDF_BYTES:
+        raise InputError(path, f"URDF is larger than {MAX_URDF_BYTES} bytes")
+    parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
+    try:
+        root = etree.fromstring(data, parser=parser)
+    except etree.XMLSyntaxError as exc:
+        raise InputError(path, f"malformed XML: {exc}") from None
+    docinfo = root.getroottree().docinfo
+    if docinfo.doctype or docinfo.internalDTD is not None or b"<!ENTITY" in data:
+        raise InputError(path, "XML DTDs and entities are not allowed in a URDF (no entity expansion)")
+    if root.tag != "robot":
+        raise InputError(path, f"root element is <{root.tag}>, expected <robot>")
+    return data
+
+
+def _check_structure(path: Path, robot: yourdfpy.Robot) -> None:
+    link_names = [link.name for link in robot.links]
+    dup = sorted({n for n in link_names if link_names.count(n) > 1})
+    if dup:
+        raise InputError(path, f"duplicate link name {dup[0]!r}")
+    joint_names = [joint.name for joint in robot.joints]
+    dup = sorted({n for n in joint_names if joint_names.count(n) > 1})
+    if dup:
+        raise InputError(path, f"duplicate joint name {dup[0]!r}")
+    known = set(link_names)
+    parent_of: dict[str, str] = {}
+    for joint in robot.joints:
+        for end in (joint.parent, joint.child):
+            if end not in known:
+                raise InputError(path, f"joint {joint.name!r} refers to unknown link {end!r}")
+        if joint.child in parent_of:
+            raise InputError(path, f"link {joint.child!r} has two parent joints")
+        parent_of[joint.child] = joint.parent
+        if joint.type not in JOINT_TYPES:
+            raise InputError(path, f"joint {joint.name!r} has unsupported type {joint.type!r}")
+    for start in parent_of:
+        seen, link = {start}, start
+        while link in parent_of:
+            link = parent_of[link]
+            if link in seen:
+                raise InputError(path, f"kinematic cycle through link {link!r}")
+            seen.add(link)
+    roots = [n for n in link_names if n not in parent_of]
+    if len(roots) != 1:
+        raise InputError(path, f"expected one root link, found {len(roots)}: {roots[:5]}")
+
+
+def _resolve_mesh_path(urdf_path: Path, folder: Path, filename: str) -> Path:
+    name = filename
+    for prefix in ("package://", "file://"):
+        if name.startswith(prefix):
+            name = name[len(prefix):]
+    candidate = Path(name)
+    resolved = (candidate if candidate.is_absolute() else urdf_path.parent / candidate).resolve()
+    if not resolved.is_relative_to(folder):
+        raise InputError(urdf_path, f"mesh path {filename!r} escapes the object folder")
+    if not resolved.is_file():
+        raise InputError(urdf_path, f"mesh file {filename!r} not found")
+    return resolved
+
+
+def _material_rgba(geometry) -> tuple[float, float, float, float] | None:
+    material = getattr(getattr(geometry, "visual", None), "material", None)
+    if material is None:
+        return None
+    image = getattr(material, "image", None)
+    if image is None and hasattr(material, "baseColorTexture"):
+        image = material.baseColorTexture
+    if image is not None:
+        small = np.asarray(image.convert("RGB").resize((16, 16)), dtype=float) / 255.0
+        return (*small.reshape(-1, 3).mean(0), 1.0)
+    color = getattr(material, "main_color", None)
+    if color is None:
+        return None
+    color = np.asarray(color, dtype=float) / 255.0
+    return (*color[:3], 1.0)
+
+
+def load_mesh_file(path: Path) -> tuple[trimesh.Trimesh, tuple[float, float, float, float] | None]:
+    """One mesh file (OBJ, GLB, STL, ...) as a single unprocessed mesh and its mean material colour.
+
+    Scenes (several objects, GLB node trees) are flattened with their node transforms and merged.
+    """
+    from spark_bench.asset.mesh import merge_meshes
+
+    try:
+        with warnings.catch_warnings():  # trimesh warns about texture UVs it cannot use: not our concern
+            warnings.simplefilter("ignore")
+            loaded = trimesh.load(str(path), process=False, maintain_order=True)
+    except Exception as exc:  # trimesh raises many kinds on broken files
+        raise InputError(path, f"cannot read mesh: {type(exc).__name__}: {exc}") from None
+    colors, parts = [], []
+    if isinstance(loaded, trimesh.Scene):
+        for node in loaded.graph.nodes_geometry:
+            transform, geom_name = loaded.graph[node]
+            geom = loaded.geometry[geom_name]
+            if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
+                continue
+            parts.append(trimesh.Trimesh(transform_points(transform, geom.vertices), geom.faces, process=False))
+            colors.append((_material_rgba(geom), geom.area))
+    elif isinstance(loaded, trimesh.Trimesh):
+        parts.append(trimesh.Trimesh(loaded.vertices, loaded.faces, process=False))
+        colors.append((_material_rgba(loaded), loaded.area))
+    else:  # point clouds and paths have no surface
+        raise InputError(path, f"mesh file holds no triangles ({type(loaded).__name__})")
+    mesh = merge_meshes(parts)
+    if not np.all(np.isfinite(mesh.vertices)):
+        raise InputError(path, "mesh has NaN or infinite vertex coordinates")
+    weighted = [(c, a) for c, a in colors if c is not None]
+    rgba = None
+    if weighted:
+        w = np.array([a for _, a in weighted]) + 1e-12
+        rgba = tuple(float(x) for x in np.average([c for c, _ in weighted], axis=0, weights=w))
+    return mesh, rgba
+
+
+def _geometry_mesh(urdf_path, folder, mesh_geom, cache) -> tuple[trimesh.Trimesh, tuple | None, str]:
+    resolved = _resolve_mesh_path(urdf_path, folder, mesh_geom.filename)
+    if resolved not in cache:
+        cache[resolved] = load_mesh_file(resolved)
+    mesh, rgba = cache[resolved]
+    mesh = mesh.copy()
+    if mesh_geom.scale is not None:
+        mesh.vertices = mesh.vertices * np.broadcast_to(np.asarray(mesh_geom.scale, dtype=float), (3,))
+    return mesh, rgba, str(resolved.relative_to(folder))
+
+
+def _origin(element) -> np.ndarray:
+    origin = getattr(element, "origin", None)
+    return np.eye(4) if origin is None else np.asarray(origin, dtype=float)
+
+
+def _read_link(urdf_path: Path, folder: Path, ylink, materials: dict, cache: dict, load_meshes: bool) -> Link:
+    link = Link(name=ylink.name)
+    for visual in ylink.visuals:
+        geom = visual.geometry
+        rgba = None
+        if visual.material is not None:
+            mat = materials.get(visual.material.name, visual.material)
+            if mat.color is not None:
+                rgba = tuple(float(c) for c in mat.color.rgba)
+        if geom.mesh is not None:
+            if not load_meshes:
+                continue
+            mesh, file_rgba, source = _geometry_mesh(urdf_path, folder, geom.mesh, cache)
+            mesh.apply_transform(_origin(visual))
+            link.visuals.append(Visual(mesh=mesh, rgba=rgba or file_rgba or (0.7, 0.7, 0.7, 1.0), source=source))
+        else:
+            prim = _primitive(urdf_path, ylink.name, geom, _origin(visual))
+            if prim is not None:
+                link.visuals.append(Visual(mesh=prim.to_trimesh(), rgba=rgba or (0.7, 0.7, 0.7, 1.0)))
+    for collision in ylink.collisions:
+        geom = collision.geometry
+        if geom.mesh is not None:
+            if not load_meshes:
+                continue
+            mesh, _, source = _geometry_mesh(urdf_path, folder, geom.mesh, cache)
+            link.collisions.append(Collision("mesh", origin=_origin(collision), mesh=mesh, source=source))
+        else:
+            prim = _primitive(urdf_path, ylink.name, geom, _origin(collision))
+            if prim is not None:
+                link.collisions.append(prim)
+    return link
+
+
+def _primitive(urdf_path, link_name, geom, origin) -> Collision | None:
+    if geom.box is not None:
+        kind, size = "box", np.asarray(geom.box.size, dtype=float)
+    elif geom.cylinder is not None:
+        kind, size = "cylinder", np.array([geom.cylinder.radius, geom.cylinder.length], dtype=float)
+    elif geom.sphere is not None:
+        kind, size = "sphere", np.array([geom.sphere.radius], dtype=float)
+    else:
+        return None
+    if not np.all(np.isfinite(size)) or np.any(size <= 0):
+        raise InputError(urdf_path, f"link {link_name!r} has a {kind} with invalid size {size.tolist()}")
+    return Collision(kind, origin=origin, size=size)
+
+
+def _read_joint(urdf_path: Path, yjoint) -> Joint:
+    origin = _origin(yjoint)
+    if not np.all(np.isfinite(origin)):
+        raise InputError(urdf_path, f"joint {yjoint.name!r} has a NaN or infinite origin")
+    axis = np.asarray(yjoint.axis if yjoint.axis is not None else [1.0, 0.0, 0.0], dtype=float)
+    norm = float(np.linalg.norm(axis)) if np.all(np.isfinite(axis)) else math.nan
+    if yjoint.type != "fixed" and (not math.isfinite(norm) or norm < 1e-9):
+        raise InputError(urdf_path, f"joint {yjoint.name!r} has a zero or NaN axis {axis.tolist()}")
+    axis = axis / norm if yjoint.type != "fixed" else (axis / norm if norm > 1e-9 else np.array([1.0, 0, 0]))
+    limit = yjoint.limit
+    lower = upper = None
+    if limit is not None:
+        lower, upper = limit.lower, limit.upper
+    has_limits = lower is not None and upper is not None
+    if yjoint.type == "continuous":
+        lower, upper = 0.0, 2.0 * math.pi
+    elif yjoint.type == "revolute" and not has_limits:
+        lower, upper = (lower or 0.0), (upper if upper is not None else DEFAULT_REVOLUTE_UPPER)
+    elif yjoint.type == "prismatic" and not has_limits:
+        lower, upper = (lower or 0.0), (upper or 0.0)
+    elif yjoint.type == "fixed":
+        lower, upper = 0.0, 0.0
+    lower, upper = float(lower), float(upper)
+    if not (math.isfinite(lower) and math.isfinite(upper)):
+        raise InputError(urdf_path, f"joint {yjoint.name!r} has non-finite limits")
+    if upper < lower:
+        raise InputError(urdf_path, f"joint {yjoint.name!r} has upper limit {upper} below lower {lower}")
+    dyn = yjoint.dynamics
+    return Joint(
+        name=yjoint.name, type=yjoint.type, parent=yjoint.parent, child=yjoint.child, origin=origin,
+        axis=axis, lower=lower, upper=upper, has_limits=has_limits or yjoint.type == "fixed",
+        damping=None if dyn is None else dyn.damping, friction=None if dyn is None else dyn.friction,
+        effort=None if limit is None else limit.effort, velocity=None if limit is None else limit.velocity,
+    )
+
+
+def load_urdf(path: str | Path, folder: str | Path | None = None, load_meshes: bool = True) -> ArticulatedAsset:
+    """Read a URDF into an :class:`ArticulatedAsset`, meshes in link frames.
+
+    :param path: the URDF file
+    :param folder: the object folder that mesh paths must stay inside (default: the URDF's folder)
+    :param load_meshes: read mesh files (False: structure only, much faster)
+    """
+    path = Path(path).resolve()
+    folder = Path(folder).resolve() if folder is not None else path.parent
+    data = read_urdf_xml(path)
+    try:
+        urdf = yourdfpy.URDF.load(io.BytesIO(data), build_scene_graph=False, load_meshes=False)
+    except Exception as exc:
+        raise InputError(path, f"invalid URDF: {type(exc).__name__}: {exc}") from None
+    robot = urdf.robot
+    _check_structure(path, robot)
+    materials = {m.name: m for m in robot.materials}
+    cache: dict = {}
+    links = {yl.name: _read_link(path, folder, yl, materials, cache, load_meshes) for yl in robot.links}
+    joints = {yj.name: _read_joint(path, yj) for yj in robot.joints}
+    return ArticulatedAsset(name=robot.name or path.parent.name, links=links, joints=joints, source=str(path))
+
+
+# ----- writing --------------------------------------------------------------------------------
+def _fmt(x: float) -> str:
+    return f"{float(x):.9g}"
+
+
+def write_obj(path: Path, mesh: trimesh.Trimesh, rgba=None, material_name: str = "material_0") -> None:
+    """Write ``mesh`` as a plain OBJ (and an MTL with ``Kd`` when ``rgba`` is given), byte-stable."""
+    path = Path(path)
+    lines = [f"# spark-bench mesh: {len(mesh.vertices)} vertices, {len(mesh.faces)} faces"]
+    if rgba is not None:
+        mtl = path.with_suffix(".mtl")
+        r, g, b = (float(c) for c in rgba[:3])
+        alpha = float(rgba[3]) if len(rgba) > 3 else 1.0
+        mtl.write_text(f"newmtl {material_name}\nKd {_fmt(r)} {_fmt(g)} {_fmt(b)}\nKa 0 0 0\nKs 0.1 0.1 0.1\n"
+                       f"d {_fmt(alpha)}\nillum 2\n")
+        lines += [f"mtllib {mtl.name}", f"usemtl {material_name}"]
+    lines += [f"v {_fmt(x)} {_fmt(y)} {_fmt(z)}" for x, y, z in np.asarray(mesh.vertices)]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in np.asarray(mesh.faces)]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _y_geometry_of(col: Collision, mesh_file: str | None):
+    if col.kind == "box":
+        return yourdfpy.Geometry(box=yourdfpy.Box(size=np.asarray(col.size, dtype=float)))
+    if col.kind == "cylinder":
+        return yourdfpy.Geometry(cylinder=yourdfpy.Cylinder(radius=float(col.size[0]), length=float(col.size[1])))
+    if col.kind == "sphere":
+        return yourdfpy.Geometry(sphere=yourdfpy.Sphere(radius=float(col.size[0])))
+    return yourdfpy.Geometry(mesh=yourdfpy.Mesh(filename=mesh_file))
+
+
+def asset_to_robot(asset: ArticulatedAsset, mesh_dir: str = "textured_objs", folder: Path | None = None
+                   ) -> yourdfpy.Robot:
+    """The asset as a yourdfpy ``Robot``; with ``folder``, mesh files are written under ``folder/mesh_dir``."""
+    if folder is not None:
+        (Path(folder) / mesh_dir).mkdir(parents=True, exist_ok=True)
+    ylinks, materials = [], []
+    for link in asset.links.values():
+        visuals, collisions = [], []
+        for k, visual in enumerate(link.visuals):
+            stem = f"{link.name}_{k}" if len(link.visuals) > 1 else link.name
+            rel = f"{mesh_dir}/{stem}.obj"
+            if folder is not None:
+                write_obj(Path(folder) / rel, visual.mesh, visual.rgba, material_name=f"{stem}_mat")
+            mat = yourdfpy.Material(name=f"{stem}_mat", color=yourdfpy.Color(rgba=np.asarray(visual.rgba, float)))
+            visuals.append(yourdfpy.Visual(name=stem, origin=np.eye(4),
+                                           geometry=yourdfpy.Geometry(mesh=yourdfpy.Mesh(filename=rel)),
+                                           material=mat))
+        for k, col in enumerate(link.collisions):
+            rel = None
+            if col.kind == "mesh":
+                rel = f"{mesh_dir}/{link.name}_collision_{k}.obj"
+                if folder is not None:
+                    write_obj(Path(folder) / rel, col.mesh)
+            collisions.append(yourdfpy.Collision(name=f"{link.name}_collision_{k}", origin=col.origin,
+                                                 geometry=_y_geometry_of(col, rel)))
+        ylinks.append(yourdfpy.Link(name=link.name, visuals=visuals, collisions=collisions))
+    yjoints = []
+    for joint in asset.joints.values():
+        limit = None
+        if joint.type in ("revolute", "prismatic"):
+            limit = yourdfpy.Limit(effort=joint.effort if joint.effort is not None else 100.0,
+                                   velocity=joint.velocity if joint.velocity is not None else 1.0,
+                                   lower=float(joint.lower), upper=float(joint.upper))
+        dynamics = None
+        if joint.damping is not None or joint.friction is not None:
+            dynamics = yourdfpy.Dynamics(damping=joint.damping, friction=joint.friction)
+        yjoints.append(yourdfpy.Joint(name=joint.name, type=joint.type, parent=joint.parent, child=joint.child,
+                                      origin=joint.origin, axis=np.asarray(joint.axis, dtype=float),
+                                      limit=limit, dynamics=dynamics))
+    return yourdfpy.Robot(name=asset.name, links=ylinks, joints=yjoints, materials=materials)
+
+
+def write_urdf(asset: ArticulatedAsset, folder: str | Path, filename: str = "mobility.urdf",
+               mesh_dir: str = "textured_objs") -> Path:
+    """Write the asset's URDF and its meshes (one OBJ + MTL per visual) into ``folder``."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    robot = asset_to_robot(asset, mesh_dir=mesh_dir, folder=folder)
+    out = folder / filename
+    # yourdfpy logs an error for every mesh it cannot resolve against the working directory while
+    # validating; the paths are relative to ``folder`` and were just written, so silence it here.
+    logger = logging.getLogger("yourdfpy")
+    level, logger.level = logger.level, logging.CRITICAL
+    try:
+        urdf = yourdfpy.URDF(robot=robot, build_scene_graph=False, load_meshes=False, mesh_dir=str(folder))
+        urdf.write_xml_file(str(out))
+    finally:
+        logger.setLevel(level)
+    return out
+
+
+def write_object_folder(asset: ArticulatedAsset, folder: str | Path) -> Path:
+    """Write a PartNet-Mobility object folder: ``mobility.urdf``, ``textured_objs/``, ``semantics.txt``,
+    ``meta.json``. Returns the URDF path."""
+    folder = Path(folder)
+    out = write_urdf(asset, folder)
+    lines = []
+    for link in asset.links.values():
+        if link.name == asset.root:
+            continue
+        joint = asset.joint_of_child(link.name)
+        word = link.semantic_joint or {"revolute": "hinge", "continuous": "hinge", "prismatic": "slider"}.get(
+            joint.type if joint else "", "static")
+        lines.append(f"{link.name} {word} {link.label or 'part'}")
+    (folder / "semantics.txt").write_text("\n".join(lines) + "\n")
+    meta = {k: v for k, v in asset.meta.items() if _jsonable(v)}
+    meta["model_cat"] = asset.category or meta.get("model_cat", "")
+    (folder / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
+    return out
+
+
+def _jsonable(value) -> bool:
+    try:
+        json.dumps(value)
+    except (TypeError, ValueError):
+        return False
+    return True
