@@ -51,19 +51,58 @@ def voxel_pitch(extents: np.ndarray, resolution: int = 200, n_min: int = 3,
     return float(pitch)
 
 
-def cleanup(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS) -> trimesh.Trimesh:
-    """Weld close vertices, drop degenerate/duplicate faces and unused vertices, fix normals,
-    keep the largest connected component (most faces, then largest volume)."""
+def cleanup(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS, keep_largest: bool = True,
+            fix_normals: bool = True) -> trimesh.Trimesh:
+    """Weld close vertices, drop degenerate/duplicate faces and unused vertices, fix normals, and
+    (``keep_largest``) keep the largest connected component (most faces, then largest volume)."""
     mesh = mesh.copy()
     mesh.merge_vertices(digits_vertex=max(0, int(-np.log10(weld_radius))))
     mesh.update_faces(mesh.nondegenerate_faces())
     mesh.update_faces(mesh.unique_faces())
     mesh.remove_unreferenced_vertices()
-    parts = mesh.split(only_watertight=False)
+    parts = mesh.split(only_watertight=False) if keep_largest else [mesh]
     if len(parts) > 1:
         mesh = max(parts, key=lambda m: (len(m.faces), abs(m.volume) if m.is_watertight else 0.0))
-    trimesh.repair.fix_normals(mesh)
+    if fix_normals:
+        trimesh.repair.fix_normals(mesh)
     return mesh
+
+
+def _barycentric_grid(n: int) -> np.ndarray:
+    """Barycentric weights (k, 3) of the points ``(i/n, j/n)``, ``i + j <= n``, of a triangle."""
+    i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+    keep = i + j <= n
+    u, v = i[keep] / n, j[keep] / n
+    return np.stack([1.0 - u - v, u, v], axis=1)
+
+
+def voxelize_surface(mesh: trimesh.Trimesh, pitch: float, chunk_points: int = 2_000_000
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Boolean occupancy of the voxels that the surface passes through.
+
+    Each triangle is sampled on a barycentric grid with spacing at most ``pitch / 2`` and every
+    sample marks its voxel: the same cells as subdividing until edges are shorter than the pitch
+    (trimesh's ``voxelized``), without building the subdivided mesh, which is what made that slow.
+
+    :returns: ``(occupancy of shape (nx, ny, nz), origin)``; voxel ``(i, j, k)`` covers
+        ``origin + pitch * [i, i+1) x [j, j+1) x [k, k+1)``
+    """
+    triangles = np.asarray(mesh.vertices, dtype=float)[np.asarray(mesh.faces)]
+    origin = triangles.reshape(-1, 3).min(0) - 0.5 * pitch
+    shape = np.ceil((triangles.reshape(-1, 3).max(0) + 0.5 * pitch - origin) / pitch).astype(int) + 1
+    occupancy = np.zeros(shape, dtype=bool)
+    edges = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).max(1)
+    steps = np.maximum(1, np.ceil(edges / (0.5 * pitch))).astype(int)
+    for n in np.unique(steps):
+        group = triangles[steps == n]
+        weights = _barycentric_grid(int(n))
+        per_chunk = max(1, chunk_points // len(weights))
+        for start in range(0, len(group), per_chunk):
+            points = np.einsum("kv,tvd->tkd", weights, group[start:start + per_chunk]).reshape(-1, 3)
+            index = np.floor((points - origin) / pitch).astype(int)
+            np.clip(index, 0, shape - 1, out=index)
+            occupancy[index[:, 0], index[:, 1], index[:, 2]] = True
+    return occupancy, origin
 
 
 @dataclass
@@ -90,18 +129,22 @@ def make_watertight(mesh: trimesh.Trimesh, resolution: int = 200, n_min: int = 3
     if len(mesh.faces) == 0:
         raise ValueError("empty mesh")
     if mesh.is_watertight:
-        cleaned = cleanup(mesh)
+        # a link made of several closed pieces (panels, a handle) is watertight as it is: the
+        # largest-component filter is for voxel fragments, so it does not apply here
+        cleaned = cleanup(mesh, keep_largest=False)
         if cleaned.is_watertight:
             return cleaned, WatertightReport("cleanup", None, True, len(cleaned.faces))
     from skimage.measure import marching_cubes
 
+    from scipy.ndimage import binary_fill_holes
+
     extents = mesh.extents
     pitch = voxel_pitch(extents, resolution, n_min, memory_cap)
-    grid = mesh.voxelized(pitch).fill()
+    occupancy, origin = voxelize_surface(mesh, pitch)
+    occupancy = binary_fill_holes(occupancy)
     # pad by one empty voxel so marching cubes closes the surface at the grid border
-    occupancy = np.pad(grid.matrix.astype(np.float32), 1)
-    verts, faces, _, _ = marching_cubes(occupancy, level=0.5)
-    verts = (verts - 1.0) @ grid.transform[:3, :3].T + grid.transform[:3, 3]
+    verts, faces, _, _ = marching_cubes(np.pad(occupancy, 1).astype(np.float32), level=0.5)
+    verts = origin + (verts - 1.0 + 0.5) * pitch  # voxel centers sit at half a pitch from the origin
     shell = trimesh.Trimesh(verts, faces[:, ::-1], process=False)
     # axis-wise rescale back to the original extents, about the original center
     center_orig = mesh.bounds.mean(0)
@@ -109,7 +152,10 @@ def make_watertight(mesh: trimesh.Trimesh, resolution: int = 200, n_min: int = 3
     scale = extents / np.maximum(shell.extents, 1e-12)
     scale[extents <= 0] = 1.0
     shell.vertices = (shell.vertices - center_shell) * scale + center_orig
-    shell = cleanup(shell)
+    # marching cubes orients its faces consistently: skip fix_normals, the slowest part of cleanup
+    shell = cleanup(shell, fix_normals=False)
+    if shell.volume < 0:
+        shell.invert()
     if target_faces and len(shell.faces) > target_faces:
         shell = shell.simplify_quadric_decimation(face_count=target_faces)
     return shell, WatertightReport("voxel", pitch, bool(shell.is_watertight), len(shell.faces))

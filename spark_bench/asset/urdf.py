@@ -44,14 +44,13 @@ def read_urdf_xml(path: Path) -> bytes:
     data = path.read_bytes()
     if len(data) > MAX_URDF_BYTES:
         raise InputError(path, f"URDF is larger than {MAX_URDF_BYTES} bytes")
+    if b"<!DOCTYPE" in data or b"<!ENTITY" in data:
+        raise InputError(path, "XML DTDs and entities are not allowed in a URDF (no entity expansion)")
     parser = etree.XMLParser(resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False)
     try:
         root = etree.fromstring(data, parser=parser)
     except etree.XMLSyntaxError as exc:
         raise InputError(path, f"malformed XML: {exc}") from None
-    docinfo = root.getroottree().docinfo
-    if docinfo.doctype or docinfo.internalDTD is not None or b"<!ENTITY" in data:
-        raise InputError(path, "XML DTDs and entities are not allowed in a URDF (no entity expansion)")
     if root.tag != "robot":
         raise InputError(path, f"root element is <{root.tag}>, expected <robot>")
     return data

@@ -1,0 +1,51 @@
+"""The ``oracle`` method: the ground-truth object itself, the sanity check of the whole pipeline.
+
+Every articulation error of the oracle is zero and its shape metrics are zero up to sampling noise;
+its sim-readiness is that of the ground truth. A benchmark where the oracle scores anything else has
+a bug in a metric, a check or the case preparation.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+from spark_bench.generators import CaseInput, Generation
+
+
+class Oracle:
+    """Copies the case's ground-truth object folder as the prediction."""
+
+    name = "oracle"
+    version = "1"
+    inputs = ("gt",)
+    regime = "ground truth"
+
+    def label(self) -> str:
+        return "oracle"
+
+    def config(self) -> dict:
+        return {}
+
+    def generate(self, case: CaseInput, out_dir: Path) -> Generation:
+        """Copy ``gt/`` into ``out_dir``.
+
+        :param case: the case (the ``gt`` input must be allowed)
+        :param out_dir: the output folder (empty)
+        """
+        shutil.copytree(case.gt_dir, out_dir, dirs_exist_ok=True)
+        relocate_mesh_paths(Path(out_dir), case.gt_dir)
+        return Generation(Path(out_dir), {"source": str(case.gt_dir)})
+
+
+def relocate_mesh_paths(folder: Path, source: Path) -> None:
+    """Make mesh paths of a copied object folder's URDFs that point into ``source`` relative, so the copy
+    stands on its own (a URDF written with absolute paths would otherwise still read the original)."""
+    prefixes = {f"{Path(source)}/", f"{Path(source).resolve()}/"}
+    for urdf in Path(folder).glob("*.urdf"):
+        text = urdf.read_text()
+        fixed = text
+        for prefix in prefixes:
+            fixed = fixed.replace(f'filename="{prefix}', 'filename="')
+        if fixed != text:
+            urdf.write_text(fixed)

@@ -1,0 +1,129 @@
+"""``spark-bench eval``, ``spark-bench results export`` and ``spark-bench leaderboard``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+
+def add_commands(subparsers) -> None:
+    """Register the benchmark-run commands on the ``spark-bench`` parser."""
+    p = subparsers.add_parser("eval", help="run a method on every case of a benchmark and store the results",
+                              description="Run a method on every case of a benchmark: generate (cached), "
+                                          "metrics, sim-readiness checks, scripted opening; results go to "
+                                          "the SQLite store. A killed run resumes where it stopped.")
+    p.add_argument("--method", required=True, metavar="NAME",
+                   help="oracle, geometry, predictions, command, ours, an entry point, or a methods-file entry")
+    p.add_argument("--bench", default=None, help="benchmark folder or name (default: synth-v1)")
+    p.add_argument("--predictions", metavar="DIR", help="for --method predictions: one folder per case id")
+    p.add_argument("--methods-file", metavar="FILE", help="TOML/JSON file of external commands")
+    p.add_argument("--entry", metavar="NAME", help="for --method command: which entry of the methods file")
+    p.add_argument("--config", metavar="FILE", help="method configuration file (ours)")
+    p.add_argument("--label", help="display label of the method's rows (predictions)")
+    p.add_argument("--regime", help="input regime of external predictions (default: image)")
+    p.add_argument("--sim", action=argparse.BooleanOptionalAction, default=True,
+                   help="run sim-readiness checks and the scripted opener (default: on)")
+    p.add_argument("--rl", action="store_true", help="also train a short opening policy per case")
+    p.add_argument("--rl-timesteps", type=int, default=20_000, help="policy training steps with --rl")
+    p.add_argument("--workers", type=int, default=1, help="worker processes (0: in this process)")
+    p.add_argument("--executor", choices=("local", "ray"), default="local")
+    p.add_argument("--ray-address", help="Ray cluster address (default: a local Ray)")
+    p.add_argument("--n-samples", type=int, default=100_000, help="surface samples per shape")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--align", choices=("none", "icp"), default="none")
+    p.add_argument("--cases", help="comma-separated case ids (default: every case)")
+    p.add_argument("--db", help="results database (default: $SPARK_BENCH_HOME/results.sqlite)")
+    p.add_argument("--runs-dir", help="generation cache (default: $SPARK_BENCH_HOME/runs)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run_eval_command)
+
+    r = subparsers.add_parser("results", help="the results store")
+    rsub = r.add_subparsers(dest="results_command", required=True, metavar="ACTION")
+    e = rsub.add_parser("export", help="export result rows as CSV or Parquet")
+    e.add_argument("--format", choices=("csv", "parquet"), default="csv")
+    e.add_argument("--out", help="output file (default: results.<format> in the current folder)")
+    e.add_argument("--bench", help="only this benchmark")
+    e.add_argument("--method", help="only this method label")
+    e.add_argument("--db", help="results database (default: $SPARK_BENCH_HOME/results.sqlite)")
+    e.set_defaults(func=run_export_command)
+
+    b = subparsers.add_parser("leaderboard", help="tables of the stored results (Markdown, LaTeX, HTML, CSV)")
+    b.add_argument("--bench", help="benchmark name (default: the only one, or synth-v1)")
+    b.add_argument("--format", choices=("md", "latex", "html", "csv"), default="md")
+    b.add_argument("--out", help="output file (default: stdout; HTML needs a file)")
+    b.add_argument("--per-category", action="store_true", help="add per-category tables")
+    b.add_argument("--methods", help="comma-separated labels to show (default: all)")
+    b.add_argument("--max-cases", type=int, default=24, help="HTML: cases shown with renders")
+    b.add_argument("--db", help="results database (default: $SPARK_BENCH_HOME/results.sqlite)")
+    b.set_defaults(func=run_leaderboard_command)
+
+
+def _db(args) -> Path:
+    from spark_bench.bench.runner import default_db
+
+    return Path(args.db).expanduser() if args.db else default_db()
+
+
+def run_eval_command(args) -> int:
+    from spark_bench.bench.runner import EvalOptions, run_eval
+    from spark_bench.generators import MethodSpec
+
+    spec = MethodSpec.create(args.method, predictions=args.predictions, methods_file=args.methods_file,
+                             entry=args.entry, config=args.config, label=args.label, regime=args.regime)
+    for key in ("predictions", "methods_file", "config"):
+        value = dict(spec.options).get(key)
+        if value:
+            spec = MethodSpec.create(args.method, **{**spec.option_dict, key: str(Path(value).expanduser().resolve())})
+    options = EvalOptions(sim=args.sim, rl=args.rl, n_samples=args.n_samples, seed=args.seed, align=args.align,
+                          rl_timesteps=args.rl_timesteps)
+    cases = [c for c in args.cases.split(",") if c] if args.cases else None
+    summary = run_eval(spec, args.bench, options, db=_db(args), workers=args.workers, executor=args.executor,
+                       runs_root=Path(args.runs_dir).expanduser() if args.runs_dir else None,
+                       progress=not args.no_progress, ray_address=args.ray_address, cases=cases)
+    if args.json:
+        print(json.dumps(summary.to_json()))
+        return 0
+    from spark_bench.bench.leaderboard import fmt_value
+
+    print(f"{summary.run.label} on {summary.run.bench}: {summary.n_cases} cases, {summary.n_failed} failed, "
+          f"{summary.n_skipped} already done, {summary.seconds:.1f} s")
+    for key, value in summary.metrics.items():
+        print(f"  {key:>18}  {fmt_value(value)}")
+    for case_id, reason in list(summary.failures.items())[:20]:
+        print(f"  failed {case_id}: {reason}", file=sys.stderr)
+    return 0
+
+
+def run_export_command(args) -> int:
+    from spark_bench.bench.store import ResultsStore, export_rows
+
+    out = Path(args.out or f"results.{args.format}")
+    with ResultsStore(_db(args)) as store:
+        rows = store.rows(bench=args.bench, label=args.method)
+    export_rows(rows, out, args.format)
+    print(f"wrote {len(rows)} rows to {out}", file=sys.stderr)
+    return 0
+
+
+def run_leaderboard_command(args) -> int:
+    from spark_bench.bench.leaderboard import build_leaderboard, render
+    from spark_bench.bench.store import ResultsStore
+    from spark_bench.errors import SparkBenchError
+
+    with ResultsStore(_db(args)) as store:
+        board = build_leaderboard(store, bench=args.bench,
+                                  labels=[m for m in args.methods.split(",") if m] if args.methods else None)
+    if args.format == "html" and not args.out:
+        raise SparkBenchError("--format html needs --out FILE (images are written beside it)")
+    text = render(board, args.format, per_category=args.per_category,
+                  out=Path(args.out) if args.out else None, max_cases=args.max_cases)
+    if args.out:
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.out).write_text(text)
+        print(f"wrote {args.out}", file=sys.stderr)
+    else:
+        sys.stdout.write(text)
+    return 0

@@ -1,0 +1,298 @@
+"""The leaderboard: the paper's tables from the results store, as Markdown, LaTeX, HTML or CSV.
+
+Three tables, one row per method label, variant and input regime (the latest run of each):
+
+1. shape (paper Table 1): CD, F-Score@0.1, F-Score@0.5;
+2. articulation (paper Table 2): AxisErr, PivotErr, TypeErr;
+3. sim-readiness: sim pass rate, scripted-opening success (and RL transfer success when measured).
+
+Best and second best of each column are marked (LaTeX: ``\\cellcolor{Palette5}`` and
+``\\cellcolor{Palette4}`` as in the paper; Markdown: bold and italics). Reference rows (the oracle,
+regime ``ground truth``) are shown but never ranked. Shape metrics of a method whose geometry is the
+ground truth's are ``n/a``, never zeros. The HTML page adds bar charts and, per case, the input image
+and renders of the ground truth and each method's prediction, at rest and open.
+"""
+
+from __future__ import annotations
+
+import csv
+import html
+import io
+import math
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from spark_bench.bench.aggregate import ARTICULATION_KEYS, HIGHER_IS_BETTER, SHAPE_KEYS, summarize
+from spark_bench.bench.store import ResultsStore
+from spark_bench.errors import SparkBenchError
+
+FORMATS = ("md", "latex", "html", "csv")
+#: Regimes listed but not ranked: they see the answer.
+REFERENCE_REGIMES = ("ground truth",)
+HEADERS = {"cd": "CD↓", "fscore@0.1": "F-Score@0.1↑", "fscore@0.5": "F-Score@0.5↑", "axis_err": "AxisErr↓",
+           "pivot_err": "PivotErr↓", "type_err": "TypeErr↓", "sim_pass_rate": "Sim pass↑",
+           "open_success_rate": "Open success↑", "rl_success_rate": "RL success↑"}
+LATEX_HEADERS = {"cd": r"CD$\downarrow$", "fscore@0.1": r"F-Score@0.1$\uparrow$",
+                 "fscore@0.5": r"F-Score@0.5$\uparrow$", "axis_err": r"AxisErr$\downarrow$",
+                 "pivot_err": r"PivotErr$\downarrow$", "type_err": r"TypeErr$\downarrow$",
+                 "sim_pass_rate": r"Sim pass$\uparrow$", "open_success_rate": r"Open success$\uparrow$",
+                 "rl_success_rate": r"RL success$\uparrow$"}
+#: The paper's colours for best (Palette5) and second best (Palette4).
+PALETTE = {"Palette5": (253, 207, 158), "Palette4": (231, 188, 198)}
+
+
+@dataclass
+class Entry:
+    """One leaderboard row: a method run (label, variant, regime) and its per-benchmark numbers.
+
+    :param label: the method's display label
+    :param variant: ``""`` or the variant name (``w/o joint opt.``)
+    :param regime: the input regime
+    :param method: registry name
+    :param version: method version
+    :param config_hash: the run's configuration hash
+    :param n_cases: cases in the run
+    :param n_failed: failed cases
+    :param metrics: per-benchmark numbers (None: n/a)
+    :param rows: the run's rows
+    """
+
+    label: str
+    variant: str
+    regime: str
+    method: str
+    version: str
+    config_hash: str
+    n_cases: int
+    n_failed: int
+    metrics: dict
+    rows: list[dict] = field(default_factory=list, repr=False)
+
+    @property
+    def name(self) -> str:
+        return f"{self.label} ({self.variant})" if self.variant else self.label
+
+    @property
+    def ranked(self) -> bool:
+        return self.regime not in REFERENCE_REGIMES
+
+
+@dataclass
+class Table:
+    """A titled table: its metric keys and one entry per row."""
+
+    key: str
+    title: str
+    metrics: tuple[str, ...]
+    entries: list[Entry]
+
+    def ranks(self) -> dict[tuple[int, str], int]:
+        """``{(entry index, metric): 1 or 2}`` for the best and second best ranked values."""
+        out = {}
+        for metric in self.metrics:
+            values = sorted({e.metrics.get(metric) for e in self.entries if e.ranked
+                             and _number(e.metrics.get(metric))}, reverse=HIGHER_IS_BETTER.get(metric, False))
+            for rank, value in enumerate(values[:2], 1):
+                for i, e in enumerate(self.entries):
+                    if e.ranked and e.metrics.get(metric) == value:
+                        out[(i, metric)] = rank
+        return out
+
+
+@dataclass
+class Leaderboard:
+    """Everything the renderers need: the benchmark, its entries, per-category entries."""
+
+    bench: str
+    entries: list[Entry]
+    categories: dict[str, list[Entry]] = field(default_factory=dict)
+
+    def tables(self, entries: list[Entry] | None = None) -> list[Table]:
+        entries = self.entries if entries is None else entries
+        sim_keys = ["sim_pass_rate", "open_success_rate"]
+        if any(e.metrics.get("rl_success_rate") is not None for e in entries):
+            sim_keys.append("rl_success_rate")
+        return [Table("shape", "Shape reconstruction", SHAPE_KEYS, entries),
+                Table("articulation", "URDF parameter estimation", ARTICULATION_KEYS, entries),
+                Table("sim", "Sim-readiness", tuple(sim_keys), entries)]
+
+
+def _number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def fmt_value(value, digits: int = 4) -> str:
+    """A metric for a table: ``n/a`` for None, else ``digits`` decimals."""
+    if not _number(value):
+        return "n/a"
+    return f"{value:.{digits}f}"
+
+
+# ----- building -----------------------------------------------------------------------------------
+def _entries(rows: list[dict]) -> list[Entry]:
+    runs: dict[tuple[str, str, str], list[dict]] = {}
+    for row in rows:
+        runs.setdefault((row["label"], row["variant"], row["config_hash"]), []).append(row)
+    latest: dict[tuple[str, str], tuple[float, str]] = {}
+    for (label, variant, chash), run_rows in runs.items():
+        stamp = max(r["finished_at"] or 0.0 for r in run_rows)
+        if (label, variant) not in latest or stamp > latest[(label, variant)][0]:
+            latest[(label, variant)] = (stamp, chash)
+    out = []
+    for (label, variant), (_, chash) in latest.items():
+        run_rows = runs[(label, variant, chash)]
+        first = run_rows[0]
+        sim = any(r.get("sim_pass") is not None for r in run_rows)
+        metrics = summarize(run_rows, sim=sim, extra=("cd_open", "rl_success_rate"))
+        out.append(Entry(label, variant, first["regime"], first["method"], first["method_version"], chash,
+                         len(run_rows), sum(r["status"] == "failed" for r in run_rows), metrics, run_rows))
+    # references first, then by label; a variant right after its method
+    out.sort(key=lambda e: (e.ranked, e.label, e.variant))
+    return out
+
+
+def build_leaderboard(store: ResultsStore, bench: str | None = None, labels: list[str] | None = None
+                      ) -> Leaderboard:
+    """The leaderboard of one benchmark from the store.
+
+    :param store: the results store
+    :param bench: the benchmark (default: the only one in the store, else ``synth-v1``)
+    :param labels: only these method labels
+    """
+    if bench is None:
+        benches = store.benches()
+        if not benches:
+            raise SparkBenchError(f"no results in {store.path}; run `spark-bench eval` first")
+        bench = benches[0] if len(benches) == 1 else ("synth-v1" if "synth-v1" in benches else None)
+        if bench is None:
+            raise SparkBenchError(f"results for several benchmarks ({', '.join(benches)}): choose one with --bench")
+    rows = store.rows(bench=bench)
+    if labels:
+        rows = [r for r in rows if r["label"] in labels]
+    if not rows:
+        raise SparkBenchError(f"no results for benchmark {bench!r} in {store.path}")
+    categories: dict[str, list[Entry]] = {}
+    for category in sorted({r["category"] for r in rows if r["category"]}):
+        categories[category] = _entries([r for r in rows if r["category"] == category])
+    return Leaderboard(bench, _entries(rows), categories)
+
+
+# ----- text formats ---------------------------------------------------------------------------------
+def _md_table(table: Table) -> str:
+    ranks = table.ranks()
+    head = ["Method", "Regime", *[HEADERS[m] for m in table.metrics], "Cases", "Failed"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for i, e in enumerate(table.entries):
+        cells = []
+        for m in table.metrics:
+            text = fmt_value(e.metrics.get(m))
+            rank = ranks.get((i, m))
+            cells.append(f"**{text}**" if rank == 1 else f"_{text}_" if rank == 2 else text)
+        lines.append("| " + " | ".join([e.name.replace("|", "\\|"), e.regime, *cells, str(e.n_cases),
+                                        str(e.n_failed)]) + " |")
+    return "\n".join(lines)
+
+
+def to_markdown(board: Leaderboard, per_category: bool = False) -> str:
+    """Markdown tables (best in bold, second best in italics)."""
+    parts = [f"# spark-bench leaderboard: {board.bench}", ""]
+    for table in board.tables():
+        parts += [f"## {table.title}", "", _md_table(table), ""]
+    if per_category:
+        for category, entries in board.categories.items():
+            parts += [f"## {category}", ""]
+            for table in board.tables(entries):
+                parts += [f"### {table.title}", "", _md_table(table), ""]
+    parts.append("Best **bold**, second best _italics_ (reference rows with regime `ground truth` are not "
+                 "ranked). n/a: not measured or not meaningful (geometry taken from the ground truth).")
+    return "\n".join(parts) + "\n"
+
+
+_LATEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
+                  "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}"}
+
+
+def latex_escape(text: str) -> str:
+    return "".join(_LATEX_SPECIAL.get(c, c) for c in text)
+
+
+def _latex_table(table: Table, caption: str, label: str) -> str:
+    ranks = table.ranks()
+    cols = "p{1.6in}l" + "c" * len(table.metrics)
+    lines = [r"\begin{table}[t]", r"\centering", rf"\caption{{{latex_escape(caption)}}}", rf"\label{{{label}}}",
+             r"\small{", rf"\begin{{tabular}}{{{cols}}}", r"\hline",
+             r"\textbf{Methods} & Regime & " + " & ".join(LATEX_HEADERS[m] for m in table.metrics) + r" \\",
+             r"\hline"]
+    for i, e in enumerate(table.entries):
+        cells = []
+        for m in table.metrics:
+            text = fmt_value(e.metrics.get(m))
+            rank = ranks.get((i, m))
+            cells.append(rf"\cellcolor{{Palette5}}{{{text}}}" if rank == 1 else
+                         rf"\cellcolor{{Palette4}}{{{text}}}" if rank == 2 else text)
+        lines.append(f"{latex_escape(e.name)} & {latex_escape(e.regime)} & " + " & ".join(cells) + r" \\")
+    lines += [r"\hline", r"\end{tabular}", "}", r"\end{table}"]
+    return "\n".join(lines)
+
+
+def to_latex(board: Leaderboard, per_category: bool = False) -> str:
+    """LaTeX tables in the paper's style (needs ``\\usepackage[table]{xcolor}`` and the palette below)."""
+    parts = ["% spark-bench leaderboard: " + board.bench,
+             r"% needs \usepackage[table]{xcolor} and the paper's colours:",
+             *[rf"\providecolor{{{name}}}{{RGB}}{{{r},{g},{b}}}" for name, (r, g, b) in PALETTE.items()], ""]
+    for table in board.tables():
+        parts += [_latex_table(table, f"{table.title} on {board.bench}.", f"tab:{table.key}"), ""]
+    if per_category:
+        for category, entries in board.categories.items():
+            for table in board.tables(entries):
+                parts += [_latex_table(table, f"{table.title}: {category}.",
+                                       f"tab:{table.key}-{category.lower()}"), ""]
+    return "\n".join(parts)
+
+
+def to_csv(board: Leaderboard, per_category: bool = False) -> str:
+    """One CSV line per entry (and per category and entry with ``per_category``); every metric."""
+    keys = ["cd", "fscore@0.1", "fscore@0.5", "cd_open", "axis_err", "pivot_err", "type_err",
+            "sim_pass_rate", "open_success_rate", "rl_success_rate"]
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["bench", "category", "method", "label", "variant", "regime", "version", "config_hash",
+                     "n_cases", "n_failed", *keys])
+    groups = [("", board.entries)] + (list(board.categories.items()) if per_category else [])
+    for category, entries in groups:
+        for e in entries:
+            writer.writerow([board.bench, category, e.method, e.label, e.variant, e.regime, e.version,
+                             e.config_hash, e.n_cases, e.n_failed,
+                             *["n/a" if not _number(e.metrics.get(k)) else repr(float(e.metrics[k])) for k in keys]])
+    return buffer.getvalue()
+
+
+def render(board: Leaderboard, fmt: str, per_category: bool = False, out: Path | None = None,
+           max_cases: int = 24) -> str:
+    """The leaderboard as text in ``fmt`` (``html`` writes its images beside ``out``)."""
+    if fmt == "md":
+        return to_markdown(board, per_category)
+    if fmt == "latex":
+        return to_latex(board, per_category)
+    if fmt == "csv":
+        return to_csv(board, per_category)
+    if fmt == "html":
+        if out is None:
+            raise SparkBenchError("the HTML leaderboard needs an output file for its images")
+        from spark_bench.bench.leaderboard_html import to_html
+
+        return to_html(board, Path(out), per_category, max_cases)
+    raise SparkBenchError(f"unknown format {fmt!r}; choose from {', '.join(FORMATS)}")
+
+
+def copy_file(src: Path, dst: Path) -> bool:
+    """Copy ``src`` to ``dst`` when it exists; whether it did."""
+    if Path(src).is_file():
+        shutil.copyfile(src, dst)
+        return True
+    return False
+
+
+def html_escape(text: str) -> str:
+    return html.escape(str(text), quote=True)

@@ -1,0 +1,168 @@
+"""The HTML leaderboard page: tables with the paper's colours, bar charts, and a per-case gallery.
+
+The page is one file; its images (PNG) go into a folder beside it (``<name>_files/``) and are linked
+with relative paths, so the page and its folder can be copied anywhere together.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from spark_bench.bench.leaderboard import (
+    HEADERS,
+    HIGHER_IS_BETTER,
+    PALETTE,
+    Leaderboard,
+    Table,
+    _number,
+    copy_file,
+    fmt_value,
+    html_escape,
+)
+
+RENDER_SIZE = 192
+
+_CSS = "\n".join([
+    "body { font-family: system-ui, sans-serif; margin: 24px; color: #222; }",
+    "table { border-collapse: collapse; margin: 8px 0 24px; }",
+    "th, td { border-bottom: 1px solid #ccc; padding: 4px 10px; text-align: right; }",
+    "th:first-child, td:first-child, th:nth-child(2), td:nth-child(2) { text-align: left; }",
+    f"td.best {{ background: rgb{PALETTE['Palette5']}; font-weight: bold; }}",
+    f"td.second {{ background: rgb{PALETTE['Palette4']}; }}",
+    ".gallery td { text-align: center; vertical-align: top; font-size: 12px; }",
+    f".gallery img {{ width: {RENDER_SIZE}px; height: {RENDER_SIZE}px; border: 1px solid #ddd; }}",
+    ".charts img { max-width: 100%; }",
+    ".na { color: #888; }",
+])
+
+
+def _table_html(table: Table) -> str:
+    ranks = table.ranks()
+    head = "".join(f"<th>{html_escape(h)}</th>" for h in
+                   ["Method", "Regime", *[HEADERS[m] for m in table.metrics], "Cases", "Failed"])
+    lines = [f"<table class='metrics' id='table-{table.key}'><tr>{head}</tr>"]
+    for i, e in enumerate(table.entries):
+        cells = []
+        for m in table.metrics:
+            value = e.metrics.get(m)
+            rank = ranks.get((i, m))
+            css = "best" if rank == 1 else "second" if rank == 2 else ("na" if not _number(value) else "")
+            cells.append(f"<td class='{css}'>{fmt_value(value)}</td>")
+        lines.append(f"<tr><td>{html_escape(e.name)}</td><td>{html_escape(e.regime)}</td>{''.join(cells)}"
+                     f"<td>{e.n_cases}</td><td>{e.n_failed}</td></tr>")
+    lines.append("</table>")
+    return "\n".join(lines)
+
+
+def bar_chart(table: Table, path: Path) -> Path | None:
+    """One horizontal bar chart per metric of ``table`` (n/a values left out), as a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    metrics = [m for m in table.metrics if any(_number(e.metrics.get(m)) for e in table.entries)]
+    if not metrics:
+        return None
+    names = [e.name for e in table.entries]
+    fig, axes = plt.subplots(1, len(metrics), figsize=(3.6 * len(metrics), 0.45 * len(names) + 1.2),
+                             squeeze=False)
+    for ax, metric in zip(axes[0], metrics):
+        values = [e.metrics.get(metric) if _number(e.metrics.get(metric)) else 0.0 for e in table.entries]
+        colors = ["#b8a8cf" if e.ranked else "#cccccc" for e in table.entries]
+        ax.barh(range(len(names)), values, color=colors)
+        ax.set_yticks(range(len(names)), names if ax is axes[0][0] else [""] * len(names), fontsize=8)
+        ax.invert_yaxis()
+        arrow = "higher is better" if HIGHER_IS_BETTER.get(metric) else "lower is better"
+        ax.set_title(f"{HEADERS[metric]} ({arrow})", fontsize=9)
+        for k, e in enumerate(table.entries):
+            if not _number(e.metrics.get(metric)):
+                ax.text(0, k, " n/a", va="center", fontsize=7, color="#888")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
+def _render_cell(folder: str | Path | None, camera: dict, state: str, target: Path) -> str:
+    from spark_bench.bench.render import render_folder
+
+    if not folder:
+        return "<td class='na'>no prediction</td>"
+    try:
+        if not target.is_file():
+            render_folder(Path(folder), camera, state, RENDER_SIZE).save(target)
+    except Exception as exc:  # a broken prediction must not break the page
+        return f"<td class='na'>cannot render: {html_escape(type(exc).__name__)}</td>"
+    return f"<td><img src='{html_escape(target.parent.name + '/' + target.name)}' alt='{state}'></td>"
+
+
+def _gallery(board: Leaderboard, assets: Path, max_cases: int) -> str:
+    from spark_bench.bench.render import read_camera
+
+    by_case: dict[str, dict[int, dict]] = {}
+    case_dirs: dict[str, str] = {}
+    for k, entry in enumerate(board.entries):
+        for row in entry.rows:
+            by_case.setdefault(row["case_id"], {})[k] = row
+            case_dirs.setdefault(row["case_id"], row["case_dir"])
+    lines = ["<table class='gallery'>"]
+    for n, case_id in enumerate(sorted(by_case)[:max_cases]):
+        case_dir = Path(case_dirs[case_id])
+        camera = read_camera(case_dir / "camera.json")
+        stem = f"case{n:03d}"
+        image = assets / f"{stem}_input.png"
+        has_input = copy_file(case_dir / "input.png", image)
+        cells = [f"<td><b>{html_escape(case_id)}</b><br>"
+                 + (f"<img src='{assets.name}/{image.name}' alt='input'>" if has_input else "no input image")
+                 + "<br>input</td>"]
+        header = ["<th>case</th>", "<th>ground truth<br>rest</th>", "<th>ground truth<br>open</th>"]
+        cells += [_render_cell(case_dir / "gt", camera, s, assets / f"{stem}_gt_{s}.png") for s in ("rest", "open")]
+        for k, entry in enumerate(board.entries):
+            header += [f"<th>{html_escape(entry.name)}<br>{s}</th>" for s in ("rest", "open")]
+            row = by_case[case_id].get(k)
+            if row is None or row["status"] != "ok":
+                why = "not run" if row is None else f"failed: {row['stage']}"
+                cells += [f"<td class='na'>{html_escape(why)}</td>"] * 2
+                continue
+            cells += [_render_cell(row["prediction_dir"], camera, s, assets / f"{stem}_m{k}_{s}.png")
+                      for s in ("rest", "open")]
+        if n == 0:
+            lines.append("<tr>" + "".join(header) + "</tr>")
+        lines.append("<tr>" + "".join(cells) + "</tr>")
+    lines.append("</table>")
+    return "\n".join(lines)
+
+
+def to_html(board: Leaderboard, out: Path, per_category: bool = False, max_cases: int = 24) -> str:
+    """The page's HTML; its images are written into ``<out stem>_files/`` beside ``out``.
+
+    :param board: the leaderboard
+    :param out: the HTML file the text will be written to
+    :param per_category: add per-category tables
+    :param max_cases: cases shown in the gallery
+    """
+    out = Path(out)
+    assets = out.parent / f"{out.stem}_files"
+    assets.mkdir(parents=True, exist_ok=True)
+    parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
+             f"<title>spark-bench leaderboard: {html_escape(board.bench)}</title>",
+             f"<style>{_CSS}</style></head><body>",
+             f"<h1>spark-bench leaderboard: {html_escape(board.bench)}</h1>",
+             "<p>Best of each column <span style='background:rgb{}'>highlighted</span>, second best "
+             "<span style='background:rgb{}'>lighter</span>; reference rows (regime <i>ground truth</i>) are "
+             "not ranked; n/a: not measured or not meaningful.</p>".format(PALETTE["Palette5"], PALETTE["Palette4"])]
+    charts = []
+    for table in board.tables():
+        parts += [f"<h2>{html_escape(table.title)}</h2>", _table_html(table)]
+        chart = bar_chart(table, assets / f"chart_{table.key}.png")
+        if chart is not None:
+            charts.append(f"<img src='{assets.name}/{chart.name}' alt='{html_escape(table.title)} chart'>")
+    if per_category:
+        for category, entries in board.categories.items():
+            parts.append(f"<h2>{html_escape(category)}</h2>")
+            for table in board.tables(entries):
+                parts += [f"<h3>{html_escape(table.title)}</h3>", _table_html(table)]
+    parts += ["<h2>Charts</h2>", "<div class='charts'>", *charts, "</div>",
+              "<h2>Cases</h2>", _gallery(board, assets, max_cases), "</body></html>"]
+    return "\n".join(parts) + "\n"

@@ -1,0 +1,128 @@
+"""The opening test of a prediction: the scripted opener, planned from the *predicted* joints, acting on
+the *ground-truth* object (:func:`spark_bench.rl.scripted.open_with_joint`).
+
+Each ground-truth drawer (prismatic) and door (revolute) is opened once in its environment
+(``SparkDrawer-v0`` / ``SparkDoor-v0``), with the parameters of the predicted joint it was matched with
+by the metrics (Hungarian matching on parts). The predicted axis line is carried from the prediction's
+frame into the ground truth's: prediction world -> its benchmark frame (-> the ICP alignment, when the
+metrics aligned) -> ground-truth world. An unmatched joint counts as not opened. Continuous joints
+(knobs, caps) have no opening task and are left out.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from spark_bench.errors import InputError
+
+ENV_OF_TYPE = {"prismatic": "SparkDrawer-v0", "revolute": "SparkDoor-v0"}
+
+
+def predicted_axes_in_gt_frame(pred, gt, alignment=None) -> dict[str, tuple[np.ndarray, np.ndarray, str]]:
+    """``{pred joint: (axis, pivot, type)}`` in the ground truth's world frame.
+
+    :param pred: predicted asset
+    :param gt: ground-truth asset
+    :param alignment: optional 4x4 similarity the metrics applied to the prediction's benchmark frame
+    """
+    from spark_bench.metrics.geometry import benchmark_transform
+
+    frame = np.linalg.inv(benchmark_transform(gt)) @ np.asarray(alignment if alignment is not None else np.eye(4)) \
+        @ benchmark_transform(pred)
+    out = {}
+    for name, (point, direction) in pred.joint_frames().items():
+        d = frame[:3, :3] @ direction
+        p = frame[:3, :3] @ point + frame[:3, 3]
+        out[name] = (d / np.linalg.norm(d), p, pred.joints[name].type)
+    return out
+
+
+def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, seed: int = 0,
+                               max_steps: int = 200) -> dict:
+    """Open every ground-truth drawer and door with the matched predicted joint.
+
+    :param pred_folder: the predicted object folder
+    :param gt_folder: the ground-truth object folder
+    :param metrics: :meth:`MetricsResult.to_dict` of the prediction (its ``matching`` and ``alignment``)
+    :param seed: environment reset seed
+    :param max_steps: step limit per episode
+    :returns: ``{"success_rate": fraction opened (None when nothing can be opened), "joints": {...}}``
+    """
+    from spark_bench.data import load_object
+    from spark_bench.rl.rollout import make_env
+    from spark_bench.rl.scripted import open_with_joint
+
+    gt = load_object(gt_folder)
+    pred = load_object(pred_folder)
+    matched = {m["gt_joint"]: m["pred_joint"] for m in metrics.get("matching", [])}
+    axes = predicted_axes_in_gt_frame(pred, gt, metrics.get("alignment"))
+    joints = {}
+    for joint in gt.movable_joints():
+        env_id = ENV_OF_TYPE.get(joint.type)
+        if env_id is None:
+            continue
+        pred_name = matched.get(joint.name)
+        if pred_name is None:
+            joints[joint.name] = {"success": False, "why": "no matched predicted joint"}
+            continue
+        axis, pivot, pred_type = axes[pred_name]
+        if pred_type not in ("prismatic", "revolute", "continuous"):
+            joints[joint.name] = {"success": False, "why": f"predicted joint is {pred_type}"}
+            continue
+        try:
+            env = make_env(env_id, asset=gt, joint=joint.name)
+        except InputError as exc:  # no task for this joint (no graspable surface...): not the method's fault
+            joints[joint.name] = {"success": None, "why": f"no opening task: {' '.join(str(exc).split())[:200]}"}
+            continue
+        try:
+            result = open_with_joint(env, axis, pivot, pred_type, seed=seed, max_steps=max_steps)
+        finally:
+            env.close()
+        joints[joint.name] = {"success": bool(result.success), "pred_joint": pred_name,
+                              "max_fraction": float(result.max_fraction), "steps": int(result.steps)}
+    judged = [j["success"] for j in joints.values() if j["success"] is not None]
+    rate = float(np.mean(judged)) if judged else None
+    return {"success_rate": rate, "joints": joints}
+
+
+def rl_transfer(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, out_dir: str | Path,
+                timesteps: int = 20_000, seed: int = 0, episodes: int = 10) -> dict:
+    """Train a short opening policy on the prediction, evaluate it on the ground truth.
+
+    The first ground-truth drawer or door with a matched predicted joint of an openable type is used:
+    the policy is trained on the predicted object opening the predicted joint, then run on the ground
+    truth opening the ground-truth joint.
+
+    :param pred_folder: the predicted object folder
+    :param gt_folder: the ground-truth object folder
+    :param metrics: the prediction's metrics (their ``matching``)
+    :param out_dir: where the model and its learning curve go
+    :param timesteps: training steps
+    :param seed: training seed
+    :param episodes: evaluation episodes on the ground truth
+    :returns: ``{"success_rate": ..., "train_success_rate": ..., "gt_joint": ..., "pred_joint": ...}``
+    """
+    from spark_bench.data import load_object
+    from spark_bench.rl.rollout import ModelPolicy, make_env, run_episodes
+    from spark_bench.rl.train import load_model, train
+
+    gt, pred = load_object(gt_folder), load_object(pred_folder)
+    for match in metrics.get("matching", []):
+        env_id = ENV_OF_TYPE.get(match["gt_type"])
+        pred_type = pred.joints[match["pred_joint"]].type
+        if env_id is None or ENV_OF_TYPE.get("revolute" if pred_type == "continuous" else pred_type) != env_id:
+            continue
+        result = train(env_id, steps=timesteps, out=Path(out_dir), asset=pred, joint=match["pred_joint"], n_envs=2,
+                       seed=seed, eval_every=timesteps, eval_episodes=episodes, progress_bar=False)
+        env = make_env(env_id, asset=gt, joint=match["gt_joint"])
+        try:
+            stats = run_episodes(env, ModelPolicy(load_model(Path(out_dir) / "model.zip")), episodes, seed=20_000)
+        finally:
+            env.close()
+        return {"success_rate": float(stats.to_dict().get("success_rate", 0.0)),
+                "train_success_rate": result.final.get("success_rate"), "gt_joint": match["gt_joint"],
+                "pred_joint": match["pred_joint"], "env": env_id, "timesteps": timesteps}
+    return {"success_rate": 0.0 if metrics.get("matching") else None,
+            "why": "no matched drawer or door of the same kind to train on"}

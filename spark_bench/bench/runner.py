@@ -1,0 +1,561 @@
+"""The eval runner: a method on every case of a benchmark, scored, checked and stored.
+
+Per case (:func:`evaluate_case`, plain data in and out, so it runs in a process pool or as a Ray task):
+generate (cached under ``runs/<bench>/<label>-<hash>/<case>/``), load, shape and articulation metrics,
+sim-readiness checks, the scripted opener with the predicted joints against the ground-truth object,
+and, with ``rl``, a short policy training on the prediction evaluated on the ground truth. A failing
+stage fails the case with a one-line reason; the run goes on.
+
+The driver (:func:`run_eval`) skips cases whose result is already stored (resume), writes each result
+as it arrives, one transaction per case, and shows a progress bar.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import socket
+import time
+import traceback
+from collections.abc import Callable, Iterable
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from spark_bench import CONVENTION_VERSION, __version__
+from spark_bench.bench.store import METRIC_COLUMNS, ResultsStore, config_hash, now
+from spark_bench.errors import InputError, SparkBenchError
+from spark_bench.generators import (
+    GENERATION_MARKER,
+    CaseInput,
+    Generation,
+    MethodSpec,
+    json_default,
+    make_generator,
+)
+
+DEFAULT_BENCH = "synth-v1"
+EXECUTORS = ("local", "ray")
+#: How often a case may take its worker process down (a crash in native code) before it is failed.
+MAX_CRASHES = 2
+
+
+@dataclass(frozen=True)
+class EvalOptions:
+    """What is measured per case (part of the run's identity: changing it starts a new run).
+
+    :param sim: run the sim-readiness checks and the scripted opener
+    :param rl: train a short opening policy on the prediction, evaluate it on the ground truth
+    :param n_samples: surface samples per shape for the metrics
+    :param seed: sampling seed
+    :param align: ``none`` or ``icp``
+    :param rl_timesteps: training steps of the policy with ``rl``
+    """
+
+    sim: bool = True
+    rl: bool = False
+    n_samples: int = 100_000
+    seed: int = 0
+    align: str = "none"
+    rl_timesteps: int = 20_000
+
+    def identity(self) -> dict:
+        out = asdict(self)
+        if not self.rl:
+            out.pop("rl_timesteps")
+        return out
+
+
+@dataclass(frozen=True)
+class RunIdentity:
+    """Who produced the rows of a run, resolved once in the driver.
+
+    :param bench: benchmark name
+    :param method: registry name
+    :param label: display label (leaderboard row)
+    :param regime: input regime
+    :param version: method version
+    :param config_json: method configuration and eval options, as JSON
+    :param config_hash: hash of ``config_json`` (results key)
+    :param generation_hash: hash of the method configuration alone (generation cache key)
+    """
+
+    bench: str
+    method: str
+    label: str
+    regime: str
+    version: str
+    config_json: str
+    config_hash: str
+    generation_hash: str
+
+
+@dataclass(frozen=True)
+class CaseTask:
+    """One case of one run, as plain data.
+
+    :param case_id: the case id
+    :param case_dir: the case folder
+    :param spec: the method
+    :param run: the run identity
+    :param generation_dir: where this case's generation is cached
+    :param options: what to measure
+    :param threads: threads for the nearest-neighbour queries in this worker
+    """
+
+    case_id: str
+    case_dir: str
+    spec: MethodSpec
+    run: RunIdentity
+    generation_dir: str
+    options: EvalOptions
+    threads: int = 1
+
+
+@dataclass
+class EvalSummary:
+    """What a run did: its identity, its cases, and the per-benchmark numbers."""
+
+    run: RunIdentity
+    n_cases: int
+    n_failed: int
+    n_skipped: int
+    metrics: dict
+    failures: dict[str, str] = field(default_factory=dict)
+    seconds: float = 0.0
+
+    def to_json(self) -> dict:
+        """The ``eval --json`` document."""
+        return {"method": self.run.label, "bench": self.run.bench, "n_cases": self.n_cases,
+                "n_failed": self.n_failed, "metrics": self.metrics}
+
+
+# ----- the benchmark ----------------------------------------------------------------------------
+def resolve_bench(bench: str | None) -> tuple[str, Path]:
+    """``(name, folder)`` of a benchmark: a folder path, or a name ``ensure_benchmark`` knows.
+
+    :param bench: a benchmark folder, a name (``synth-v1``), or None for :data:`DEFAULT_BENCH`
+    """
+    bench = bench or DEFAULT_BENCH
+    path = Path(bench).expanduser()
+    if path.is_dir():
+        return _manifest(path).get("name") or path.name, path.resolve()
+    from spark_bench.data.benchmarks import ensure_benchmark
+
+    folder = Path(ensure_benchmark(bench))
+    return bench, folder
+
+
+def _manifest(folder: Path) -> dict:
+    path = folder / "manifest.json"
+    if not path.is_file():
+        raise InputError(folder, "not a benchmark folder (no manifest.json)")
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"malformed JSON: {exc}") from None
+    if not isinstance(data, dict) or not isinstance(data.get("cases"), list):
+        raise InputError(path, "expected an object with a 'cases' list")
+    return data
+
+
+def bench_cases(folder: Path) -> list[str]:
+    """The case ids of a benchmark folder, in manifest order."""
+    return [str(c) for c in _manifest(folder)["cases"]]
+
+
+def read_case(case_dir: Path) -> dict:
+    """``case.json`` of a case folder."""
+    path = Path(case_dir) / "case.json"
+    if not path.is_file():
+        raise InputError(path, "case file not found")
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"malformed JSON: {exc}") from None
+    if not isinstance(data, dict):
+        raise InputError(path, "expected a JSON object")
+    return data
+
+
+# ----- one case -----------------------------------------------------------------------------------
+class StageError(Exception):
+    """A stage failed: the case is recorded as failed at ``stage`` with the one-line ``reason``."""
+
+    def __init__(self, stage: str, reason: str):
+        self.stage, self.reason = stage, " ".join(reason.split())
+        super().__init__(f"{stage}: {self.reason}")
+
+
+def _reason(exc: BaseException) -> str:
+    text = str(exc) or type(exc).__name__
+    if not isinstance(exc, (SparkBenchError, StageError)):
+        text = f"{type(exc).__name__}: {text}"
+    return " ".join(text.split())[:500]
+
+
+class _Stages:
+    """Runs named stages, timing each and turning any exception into a :class:`StageError`."""
+
+    def __init__(self):
+        self.timings: dict[str, float] = {}
+
+    def __call__(self, name: str, fn: Callable, *args, **kwargs):
+        start = time.perf_counter()
+        try:
+            return fn(*args, **kwargs)
+        except StageError:
+            raise
+        except Exception as exc:  # a method or check may fail in any way: record it, go on
+            raise StageError(name, _reason(exc)) from exc
+        finally:
+            self.timings[name] = self.timings.get(name, 0.0) + time.perf_counter() - start
+
+
+def generate_cached(task: CaseTask, generator) -> tuple[Generation, bool]:
+    """The case's generation: read from the cache marker, or produced now and then marked.
+
+    A generation without its marker (a run killed mid-way) is discarded and redone.
+
+    :returns: ``(generation, was_cached)``
+    """
+    out_dir = Path(task.generation_dir)
+    marker = out_dir / GENERATION_MARKER
+    if marker.is_file():
+        try:
+            data = json.loads(marker.read_text())
+            return Generation(Path(data["folder"]), data.get("info", {}),
+                              {k: Path(v) for k, v in data.get("variants", {}).items()},
+                              bool(data.get("shape_metrics_valid", True))), True
+        except (json.JSONDecodeError, KeyError, OSError):
+            pass  # a damaged marker: generate again
+    if out_dir.exists():
+        shutil.rmtree(out_dir)
+    out_dir.mkdir(parents=True)
+    case = CaseInput(task.case_id, Path(task.case_dir), read_case(Path(task.case_dir)).get("category", ""),
+                     frozenset(generator.inputs))
+    generation = Generation.from_result(generator.generate(case, out_dir), out_dir)
+    tmp = marker.with_suffix(".tmp")
+    tmp.write_text(json.dumps(generation.to_json(), default=json_default))
+    os.replace(tmp, marker)  # atomic: the marker is either absent or complete
+    return generation, False
+
+
+def _base_row(task: CaseTask, category: str) -> dict:
+    run = task.run
+    return {
+        "bench": run.bench, "case_id": task.case_id, "category": category, "method": run.method,
+        "label": run.label, "variant": "", "regime": run.regime, "config": json.loads(run.config_json),
+        "config_hash": run.config_hash, "method_version": run.version, "package_version": __version__,
+        "convention": CONVENTION_VERSION, "case_dir": task.case_dir, "started_at": now(),
+    }
+
+
+def _metric_columns(metrics: dict) -> dict:
+    return {column: metrics.get(key) for key, column in METRIC_COLUMNS.items()}
+
+
+def _score(pred_folder: Path, gt, options: EvalOptions, threads: int) -> dict:
+    from spark_bench.data import load_object
+    from spark_bench.metrics import compute_metrics
+
+    pred = load_object(pred_folder)
+    return compute_metrics(pred, gt, n_samples=options.n_samples, seed=options.seed, align=options.align,
+                           workers=threads).to_dict()
+
+
+def _sim_checks(pred_folder: Path) -> dict:
+    from spark_bench.sim import run_checks
+
+    report = run_checks(pred_folder)
+    out = report.to_dict()
+    out["passed"] = bool(report.passed)
+    return out
+
+
+def _scripted_open(pred_folder: Path, gt_folder: Path, metrics: dict, seed: int) -> dict:
+    from spark_bench.bench.opening import open_with_predicted_joints
+
+    return open_with_predicted_joints(pred_folder, gt_folder, metrics, seed=seed)
+
+
+def _rl_transfer(pred_folder: Path, gt_folder: Path, metrics: dict, out_dir: Path, options: EvalOptions) -> dict:
+    from spark_bench.bench.opening import rl_transfer
+
+    return rl_transfer(pred_folder, gt_folder, metrics, out_dir, timesteps=options.rl_timesteps, seed=options.seed)
+
+
+def _success_rate(result: dict) -> float | None:
+    for key in ("success_rate", "success", "open_success_rate"):
+        if result.get(key) is not None:
+            return float(result[key])
+    return None
+
+
+def _check_stage(stages: _Stages, name: str, fn: Callable, *args) -> dict:
+    """A sim-readiness stage; it never fails the case (the metrics stand on their own).
+
+    An exception in the checks of the prediction (``sim``) means it is not sim-ready (``passed``
+    False, ``error`` says why). The opening stages act on the ground truth: an exception there is not
+    the method's doing, so it is recorded without a success rate. A stage whose module is not installed
+    is skipped.
+    """
+    try:
+        return stages(name, fn, *args)
+    except StageError as exc:
+        cause = exc.__cause__
+        if isinstance(cause, ImportError) and (cause.name or "").startswith("spark_bench."):
+            return {"skipped": f"{cause.name} is not installed"}
+        if name == "sim":
+            return {"passed": False, "error": exc.reason}
+        return {"success_rate": None, "error": exc.reason}
+
+
+def evaluate_case(task: CaseTask) -> list[dict]:
+    """Generate, score and check one case; the rows to store (the result, then any variants).
+
+    Never raises for a problem of the case or the method: a failure is a row with ``status='failed'``,
+    the stage and a one-line reason.
+
+    :param task: the case and the run
+    """
+    stages = _Stages()
+    category = ""
+    row: dict = {}
+    try:
+        case = stages("case", read_case, Path(task.case_dir))
+        category = str(case.get("category", ""))
+        row = _base_row(task, category)
+        generator = stages("method", make_generator, task.spec)
+        generation, cached = stages("generate", generate_cached, task, generator)
+        row.update(prediction_dir=str(generation.folder), info={**generation.info, "generation_cached": cached},
+                   shape_metrics_valid=generation.shape_metrics_valid)
+        from spark_bench.data import load_object
+
+        gt_folder = Path(task.case_dir) / "gt"
+        gt = stages("load_gt", load_object, gt_folder)
+        metrics = stages("metrics", _score, generation.folder, gt, task.options, task.threads)
+        row.update(metrics=metrics, **_metric_columns(metrics))
+        checks: dict = {}
+        if task.options.sim:
+            checks["sim"] = _check_stage(stages, "sim", _sim_checks, generation.folder)
+            row["sim_pass"] = checks["sim"].get("passed")
+            checks["open"] = _check_stage(stages, "open", _scripted_open, generation.folder, gt_folder, metrics,
+                                          task.options.seed)
+            row["open_success"] = _success_rate(checks["open"])
+        if task.options.rl:
+            checks["rl"] = _check_stage(stages, "rl", _rl_transfer, generation.folder, gt_folder, metrics,
+                                        Path(task.generation_dir).with_name(Path(task.generation_dir).name + ".rl"),
+                                        task.options)
+            row["rl_success"] = _success_rate(checks["rl"])
+        row.update(checks=checks, status="ok")
+        rows = [row]
+        for variant, folder in generation.variants.items():
+            vrow = {**_base_row(task, category), "variant": variant, "prediction_dir": str(folder),
+                    "shape_metrics_valid": generation.shape_metrics_valid, "info": row["info"]}
+            try:
+                vmetrics = stages(f"metrics[{variant}]", _score, Path(folder), gt, task.options, task.threads)
+                vrow.update(metrics=vmetrics, status="ok", **_metric_columns(vmetrics))
+            except StageError as exc:
+                vrow.update(status="failed", stage=exc.stage, reason=exc.reason)
+            rows.append(vrow)
+    except StageError as exc:
+        row = row or _base_row(task, category)
+        row.update(status="failed", stage=exc.stage, reason=exc.reason,
+                   info={**row.get("info", {}), "traceback": traceback.format_exc(limit=8)[-4000:]})
+        rows = [row]
+    finished = now()
+    for r in rows:
+        r["timings"] = dict(stages.timings)
+        r["finished_at"] = finished
+        r["info"] = {**r.get("info", {}), "host": socket.gethostname(), "pid": os.getpid()}
+    return rows
+
+
+def _failed_rows(task: CaseTask, reason: str, stage: str = "worker") -> list[dict]:
+    row = _base_row(task, "")
+    row.update(status="failed", stage=stage, reason=reason, finished_at=now())
+    return [row]
+
+
+# ----- the run --------------------------------------------------------------------------------------
+def _safe_name(text: str) -> str:
+    keep = "".join(c if c.isalnum() or c in "-_.=" else "_" for c in text)
+    return keep.strip("._") or "method"
+
+
+def run_identity(bench: str, spec: MethodSpec, options: EvalOptions) -> RunIdentity:
+    """Resolve the method once: its label, regime, version and configuration hashes."""
+    generator = make_generator(spec)
+    method_config = json.loads(json.dumps(generator.config(), sort_keys=True, default=json_default))
+    full = {"method": spec.name, "method_config": method_config, "version": str(generator.version),
+            "eval": options.identity()}
+    return RunIdentity(
+        bench=bench, method=spec.name, label=str(generator.label()), regime=str(generator.regime),
+        version=str(generator.version), config_json=json.dumps(full, sort_keys=True),
+        config_hash=config_hash(full),
+        generation_hash=config_hash({"method": spec.name, "config": method_config,
+                                     "version": str(generator.version)}))
+
+
+def default_db() -> Path:
+    """``$SPARK_BENCH_HOME/results.sqlite``."""
+    from spark_bench.paths import home
+
+    return home() / "results.sqlite"
+
+
+def plan_tasks(bench_dir: Path, run: RunIdentity, spec: MethodSpec, options: EvalOptions, runs_root: Path,
+               done: set[str], threads: int = 1, cases: Iterable[str] | None = None) -> list[CaseTask]:
+    """The tasks of the cases not yet done."""
+    gen_root = runs_root / _safe_name(run.bench) / f"{_safe_name(run.label)}-{run.generation_hash[:8]}"
+    ids = list(cases) if cases is not None else bench_cases(bench_dir)
+    return [CaseTask(cid, str(bench_dir / "cases" / cid), spec, run, str(gen_root / _safe_name(cid)), options,
+                     threads) for cid in ids if cid not in done]
+
+
+def _progress():
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    return Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+                    TextColumn("{task.fields[failed]} failed"), TimeRemainingColumn(), transient=False,
+                    console=Console(stderr=True))
+
+
+def _execute_local(tasks: list[CaseTask], workers: int, on_rows: Callable[[list[dict]], None]) -> None:
+    """Run tasks in a process pool (inline for ``workers == 0``); a pool broken by a crashing
+    case is rebuilt, and a case that crashes its worker :data:`MAX_CRASHES` times is failed."""
+    if workers <= 0:
+        for task in tasks:
+            on_rows(evaluate_case(task))
+        return
+    pending = list(tasks)
+    crashes: dict[str, int] = {}
+    while pending:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = {pool.submit(evaluate_case, t): t for t in pending}
+            pending = []
+            broken = False
+            while futures:
+                done, _ = wait(futures, return_when=FIRST_COMPLETED)
+                for future in done:
+                    task = futures.pop(future)
+                    try:
+                        on_rows(future.result())
+                    except BrokenProcessPool:
+                        broken = True
+                        crashes[task.case_id] = crashes.get(task.case_id, 0) + 1
+                        if crashes[task.case_id] >= MAX_CRASHES:
+                            on_rows(_failed_rows(task, "the worker process died on this case "
+                                                       f"{MAX_CRASHES} times (a crash in native code?)"))
+                        else:
+                            pending.append(task)
+                if broken:  # every other future of a broken pool fails too: requeue them
+                    for future, task in futures.items():
+                        if future.done() and not future.exception():
+                            on_rows(future.result())
+                        else:
+                            pending.append(task)
+                    futures = {}
+
+
+def _execute_ray(tasks: list[CaseTask], workers: int, on_rows: Callable[[list[dict]], None],
+                 address: str | None = None) -> None:
+    """Run tasks as Ray tasks (a cluster with ``address``, else a local Ray), results back here."""
+    try:
+        import ray
+    except ImportError:
+        raise SparkBenchError("--executor ray needs Ray: pip install 'spark-bench[ray]'") from None
+    if not ray.is_initialized():
+        kwargs = {"address": address} if address else ({"num_cpus": workers} if workers > 0 else {})
+        ray.init(ignore_reinit_error=True, log_to_driver=False, **kwargs)
+    remote = ray.remote(max_retries=MAX_CRASHES - 1)(evaluate_case)
+    refs = {remote.remote(t): t for t in tasks}
+    while refs:
+        ready, _ = ray.wait(list(refs), num_returns=1)
+        for ref in ready:
+            task = refs.pop(ref)
+            try:
+                on_rows(ray.get(ref))
+            except Exception as exc:  # a task that died (node lost, worker crash) after its retries
+                on_rows(_failed_rows(task, f"ray task failed: {_reason(exc)}"))
+
+
+def run_eval(spec: MethodSpec, bench: str | None = None, options: EvalOptions | None = None,
+             db: str | Path | None = None, workers: int = 1, executor: str = "local",
+             runs_root: str | Path | None = None, progress: bool = True, ray_address: str | None = None,
+             cases: Iterable[str] | None = None) -> EvalSummary:
+    """Evaluate a method on every case of a benchmark, resuming where a previous run stopped.
+
+    :param spec: the method
+    :param bench: benchmark folder or name (default :data:`DEFAULT_BENCH`)
+    :param options: what to measure per case
+    :param db: results database (default ``$SPARK_BENCH_HOME/results.sqlite``)
+    :param workers: worker processes (``0``: in this process)
+    :param executor: ``local`` (process pool) or ``ray``
+    :param runs_root: generation cache root (default ``$SPARK_BENCH_HOME/runs``)
+    :param progress: show a progress bar
+    :param ray_address: Ray cluster address for ``executor="ray"``
+    :param cases: only these case ids (default: every case of the benchmark)
+    """
+    if executor not in EXECUTORS:
+        raise SparkBenchError(f"unknown executor {executor!r}; choose from {', '.join(EXECUTORS)}")
+    options = options or EvalOptions()
+    bench_name, bench_dir = resolve_bench(bench)
+    run = run_identity(bench_name, spec, options)
+    if runs_root is None:
+        from spark_bench.paths import cache_dir
+
+        runs_root = cache_dir("runs")
+    threads = max(1, (os.cpu_count() or 1) // max(1, workers))
+    all_ids = list(cases) if cases is not None else bench_cases(bench_dir)
+    start = time.perf_counter()
+    with ResultsStore(db or default_db()) as store:
+        done = store.done_cases(run.bench, run.label, run.config_hash)
+        tasks = plan_tasks(bench_dir, run, spec, options, Path(runs_root), done, threads, all_ids)
+        failed = [0]
+
+        with _maybe_progress(progress) as bar:
+            job = bar.add_task(run.label, total=len(all_ids), completed=len(all_ids) - len(tasks),
+                               failed=0) if bar else None
+
+            def on_rows(rows: list[dict]) -> None:
+                store.put(rows)
+                failed[0] += rows[0]["status"] == "failed"
+                if bar:
+                    bar.update(job, advance=1, failed=failed[0])
+
+            if executor == "ray":
+                _execute_ray(tasks, workers, on_rows, ray_address)
+            else:
+                _execute_local(tasks, workers, on_rows)
+        rows = [r for r in store.rows(bench=run.bench, label=run.label, where=[("config_hash", run.config_hash)])
+                if r["case_id"] in set(all_ids)]
+    from spark_bench.bench.aggregate import summarize
+
+    main_rows = [r for r in rows if r["variant"] == ""]
+    return EvalSummary(run=run, n_cases=len(all_ids), n_failed=sum(r["status"] == "failed" for r in main_rows),
+                       n_skipped=len(all_ids) - len(tasks), metrics=summarize(main_rows, sim=options.sim),
+                       failures={r["case_id"]: f"{r['stage']}: {r['reason']}" for r in main_rows
+                                 if r["status"] == "failed"},
+                       seconds=time.perf_counter() - start)
+
+
+class _NoProgress:
+    def __enter__(self):
+        return None
+
+    def __exit__(self, *exc):
+        return False
+
+
+def _maybe_progress(show: bool):
+    return _progress() if show else _NoProgress()
+
+
+__all__ = ["DEFAULT_BENCH", "CaseTask", "EvalOptions", "EvalSummary", "RunIdentity", "bench_cases",
+           "evaluate_case", "generate_cached", "plan_tasks", "read_case", "resolve_bench", "run_eval",
+           "run_identity"]

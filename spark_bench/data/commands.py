@@ -1,0 +1,101 @@
+"""The ``spark-bench data`` command group: ``synth``, ``prepare``, ``build``, ``sheet``.
+
+Heavy imports (trimesh, MuJoCo, the generator) happen inside each command, so ``--help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_commands(subparsers) -> None:
+    """Register ``data`` and its sub-commands on the top-level ``spark-bench`` parser."""
+    data = subparsers.add_parser("data", help="make datasets and benchmark cases",
+                                 description="Generate procedural objects and prepare benchmark cases.")
+    sub = data.add_subparsers(dest="data_command", required=True, metavar="SUBCOMMAND")
+
+    synth = sub.add_parser("synth", help="generate procedural objects (PartNet-Mobility folders)")
+    synth.add_argument("--out", type=Path, required=True, help="folder to write the object folders into")
+    synth.add_argument("--n", type=int, default=50, help="number of objects (default 50)")
+    synth.add_argument("--seed", type=int, default=0, help="generator seed (default 0)")
+    synth.add_argument("--categories", nargs="+", default=None, metavar="CAT",
+                       help="only these categories (default: all)")
+    synth.set_defaults(func=run_synth)
+
+    prepare = sub.add_parser("prepare", help="turn object folders into benchmark cases",
+                             description="Merge, make watertight, normalize and render each object into "
+                                         "BENCH/cases/<id>; failed objects are listed in BENCH/manifest.json. "
+                                         "Re-running resumes: finished cases are kept.")
+    prepare.add_argument("--src", type=Path, required=True, help="a folder of object folders, or one object")
+    prepare.add_argument("--out", type=Path, required=True, help="the benchmark folder to write")
+    prepare.add_argument("--ids", nargs="+", default=None, metavar="ID", help="only these object ids")
+    _add_prepare_options(prepare)
+    prepare.add_argument("--overwrite", action="store_true", help="rebuild cases that are already complete")
+    prepare.set_defaults(func=run_prepare)
+
+    build = sub.add_parser("build", help="build a named benchmark into the cache (e.g. synth-v1)")
+    build.add_argument("name", nargs="?", default="synth-v1", help="benchmark name (default synth-v1)")
+    build.add_argument("--rebuild", action="store_true", help="delete and rebuild it")
+    build.add_argument("--workers", type=int, default=1, help="processes (default 1)")
+    build.set_defaults(func=run_build)
+
+    sheet = sub.add_parser("sheet", help="(re)write a benchmark's contact sheet PNG")
+    sheet.add_argument("bench", type=Path, help="the benchmark folder")
+    sheet.add_argument("--out", type=Path, default=None, help="output PNG (default BENCH/contact_sheet.png)")
+    sheet.add_argument("--thumb", type=int, default=192, help="image size in the sheet (default 192)")
+    sheet.set_defaults(func=run_sheet)
+
+
+def _add_prepare_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--image-size", type=int, default=512, help="render size in pixels (default 512)")
+    parser.add_argument("--resolution", type=int, default=200,
+                        help="watertight remesh voxels along a part's largest axis (default 200, as SPARK)")
+    parser.add_argument("--seed", type=int, default=0, help="base seed of the camera views (default 0)")
+    parser.add_argument("--workers", type=int, default=1, help="processes (default 1)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def run_synth(args) -> int:
+    from spark_bench.data.synth import generate_dataset
+
+    if args.n < 1:
+        raise _usage(f"--n must be at least 1, got {args.n}")
+    paths = generate_dataset(args.out, args.n, seed=args.seed, categories=args.categories)
+    print(f"wrote {len(paths)} objects to {args.out}")
+    return 0
+
+
+def run_prepare(args) -> int:
+    from spark_bench.data.prepare import PrepareOptions, prepare_benchmark
+
+    options = PrepareOptions(image_size=args.image_size, resolution=args.resolution, seed=args.seed)
+    manifest = prepare_benchmark(args.src, args.out, ids=args.ids, options=options, workers=args.workers,
+                                 progress=not args.no_progress, overwrite=args.overwrite)
+    print(f"{len(manifest['cases'])} cases in {args.out}, {len(manifest['failed'])} failed")
+    for case_id, reason in manifest["failed"].items():
+        print(f"  failed {case_id}: {reason}")
+    if manifest["cases"]:
+        print(f"contact sheet: {Path(args.out) / 'contact_sheet.png'}")
+    return 1 if manifest["failed"] else 0
+
+
+def run_build(args) -> int:
+    from spark_bench.data.benchmarks import ensure_benchmark
+
+    folder = ensure_benchmark(args.name, rebuild=args.rebuild, workers=args.workers)
+    print(folder)
+    return 0
+
+
+def run_sheet(args) -> int:
+    from spark_bench.data.prepare import write_contact_sheet
+
+    print(write_contact_sheet(args.bench, args.out, thumb=args.thumb))
+    return 0
+
+
+def _usage(message: str):
+    from spark_bench.errors import SparkBenchError
+
+    return SparkBenchError(message)

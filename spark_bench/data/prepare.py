@@ -1,0 +1,494 @@
+"""Benchmark-case preparation: object folders -> cases (``spark-bench data prepare``).
+
+For each object (docs/formats.md, "Benchmark"): read it; merge each link's visuals into one mesh with
+the area-weighted mean colour; make it watertight (SPARK appendix remesh); keep only convex collision
+shapes; normalize into the benchmark frame; write the ground truth ``gt/``; render the input (rest)
+and open states with per-link masks from a seeded front view; write ``camera.json`` and, last,
+``case.json``. A case is built in a hidden temporary folder and renamed into place, so a case folder
+with a ``case.json`` is always complete and a killed run resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+from spark_bench.asset.model import ArticulatedAsset, Link, Visual
+from spark_bench.errors import InputError, SparkBenchError
+
+CASES_DIR = "cases"
+MANIFEST = "manifest.json"
+CASE_FILE = "case.json"
+CONTACT_SHEET = "contact_sheet.png"
+#: Stages timed by :func:`prepare_case` (``benchmarks/bench_prepare.py`` reports them).
+STAGES = ("load", "merge", "watertight", "normalize_write", "render")
+
+
+@dataclass
+class PrepareOptions:
+    """How cases are made; stored in the manifest so a resumed run cannot mix settings.
+
+    :param image_size: width and height of the renders in pixels (the paper used 2048)
+    :param resolution: watertight remesh voxels along a part's largest axis (R; the paper's 200)
+    :param n_min: minimum voxels across a part's thinnest axis (N_min)
+    :param fov_deg: vertical field of view of the camera
+    :param distance: radius of the camera sphere (benchmark frame)
+    :param seed: base seed of the per-case views
+    """
+
+    image_size: int = 512
+    resolution: int = 200
+    n_min: int = 3
+    fov_deg: float = 40.0
+    distance: float = 4.0
+    seed: int = 0
+
+    def __post_init__(self):
+        if self.image_size < 16 or self.resolution < 4 or self.n_min < 1:
+            raise SparkBenchError(f"invalid prepare options {self}: image_size >= 16, resolution >= 4, n_min >= 1")
+
+
+@dataclass
+class CaseResult:
+    """Outcome of one object: ``reason`` is None on success; ``seconds`` by stage (:data:`STAGES`)."""
+
+    case_id: str
+    reason: str | None = None
+    seconds: dict[str, float] = field(default_factory=dict)
+    skipped: bool = False
+
+
+class StageTimer:
+    """Accumulates wall time per named stage: ``with timer("render"): ...``."""
+
+    def __init__(self):
+        self.seconds: dict[str, float] = {}
+
+    @contextmanager
+    def __call__(self, stage: str) -> Iterator[None]:
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[stage] = self.seconds.get(stage, 0.0) + time.perf_counter() - start
+
+
+# ----- ground truth --------------------------------------------------------------------------
+def link_color(link: Link) -> tuple[float, float, float, float]:
+    """Area-weighted mean RGBA of a link's visuals (grey when it has none)."""
+    if not link.visuals:
+        return (0.7, 0.7, 0.7, 1.0)
+    weights = np.array([float(v.mesh.area) for v in link.visuals]) + 1e-12
+    colors = np.array([v.rgba for v in link.visuals], dtype=float)
+    return tuple(float(c) for c in np.average(colors, axis=0, weights=weights))
+
+
+def ground_truth_asset(asset: ArticulatedAsset, resolution: int = 200, n_min: int = 3,
+                       timer: StageTimer | None = None) -> tuple[ArticulatedAsset, dict[str, dict]]:
+    """The asset with one watertight mesh per link, its mean colour and only convex collisions.
+
+    Non-convex mesh collisions are dropped: the simulator's converter decomposes the visual mesh.
+
+    :param resolution: R of :func:`~spark_bench.asset.mesh.make_watertight`
+    :param n_min: N_min of :func:`~spark_bench.asset.mesh.make_watertight`
+    :returns: ``(asset, report per link)`` (same frame as the input)
+    """
+    from spark_bench.asset.mesh import make_watertight
+
+    timer = timer or StageTimer()
+    out = asset.copy()
+    reports: dict[str, dict] = {}
+    for name, link in out.links.items():
+        with timer("merge"):
+            color = link_color(link)
+            merged = link.merged_mesh() if link.has_geometry else None
+            collisions = [c for c in link.collisions if c.is_convex]
+        if merged is not None:
+            with timer("watertight"):
+                try:
+                    mesh, report = make_watertight(merged, resolution=resolution, n_min=n_min)
+                except ValueError as exc:
+                    raise ValueError(f"link {name!r}: cannot make the mesh watertight: {exc}") from None
+            reports[name] = {**asdict(report), "input_faces": int(len(merged.faces))}
+            link.visuals = [Visual(mesh=mesh, rgba=color)]
+        else:
+            link.visuals = []
+        link.collisions = collisions
+    return out, reports
+
+
+def _joint_label(asset: ArticulatedAsset, joint_name: str) -> str:
+    """The semantic label of what a joint moves: its child's, else the first labelled link below."""
+    for link in asset.moving_links(joint_name):
+        if asset.links[link].label:
+            return asset.links[link].label
+    return ""
+
+
+def joint_records(asset: ArticulatedAsset) -> list[dict]:
+    """case.json ``joints``: every movable joint in file order, world frame at rest (a point on the axis
+    and the unit axis), its limits and ``open``, the value it has in ``open.png``."""
+    frames = asset.joint_frames()
+    out = []
+    for joint in asset.movable_joints():
+        origin, axis = frames[joint.name]
+        out.append({"name": joint.name, "type": joint.type, "parent": joint.parent, "child": joint.child,
+                    "axis": [float(x) for x in axis], "origin": [float(x) for x in origin],
+                    "lower": float(joint.lower), "upper": float(joint.upper), "open": float(joint.open_value),
+                    "label": _joint_label(asset, joint.name)})
+    return out
+
+
+def relative_mesh_paths(urdf: Path) -> None:
+    """Rewrite absolute mesh paths inside the URDF's folder as relative ones, in place.
+
+    The case is built in a temporary folder and renamed, and a benchmark folder may be moved or
+    shared: the ground truth must not name the place it was written in.
+    """
+    from lxml import etree
+
+    folder = urdf.parent.resolve()
+    tree = etree.parse(str(urdf), etree.XMLParser(resolve_entities=False, no_network=True))
+    changed = False
+    for mesh in tree.iter("mesh"):
+        name = mesh.get("filename", "")
+        if Path(name).is_absolute() and Path(name).resolve().is_relative_to(folder):
+            mesh.set("filename", Path(name).resolve().relative_to(folder).as_posix())
+            changed = True
+    if changed:
+        tree.write(str(urdf), xml_declaration=True, encoding="utf-8", pretty_print=True)
+
+
+# ----- images ----------------------------------------------------------------------------------
+def write_rgb(path: Path, rgb: np.ndarray) -> None:
+    from PIL import Image
+
+    Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8)).save(path)
+
+
+def write_segmentation(path: Path, labels: np.ndarray) -> None:
+    """16-bit grey PNG of link labels (0 background, k + 1 = index k into case.json ``links``)."""
+    from PIL import Image
+
+    Image.fromarray(np.ascontiguousarray(labels, dtype=np.uint16)).save(path)
+
+
+def read_segmentation(path: str | Path) -> np.ndarray:
+    """A ``*_seg.png`` as an ``(H, W)`` uint16 array."""
+    from PIL import Image
+
+    with Image.open(path) as image:
+        return np.asarray(image).astype(np.uint16)
+
+
+# ----- one case -------------------------------------------------------------------------------
+def is_case_complete(case_dir: Path) -> bool:
+    """A case folder is complete when its ``case.json`` (written last) exists."""
+    return (Path(case_dir) / CASE_FILE).is_file()
+
+
+def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions | None = None,
+                 case_id: str | None = None, timer: StageTimer | None = None) -> dict:
+    """Build one benchmark case from an object folder; returns the ``case.json`` record.
+
+    Built in ``.<id>.partial`` beside ``case_dir`` and renamed into place at the end (an existing
+    ``case_dir`` is replaced).
+
+    :param src: object folder (PartNet-Mobility layout) or URDF file
+    :param case_dir: the case folder to create (``BENCH/cases/<id>``)
+    :param options: see :class:`PrepareOptions`
+    :param case_id: the case id (default: the name of ``case_dir``)
+    :param timer: collects seconds per stage (:data:`STAGES`)
+    """
+    from spark_bench.asset.ops import normalize_asset
+    from spark_bench.asset.urdf import write_object_folder
+    from spark_bench.data.camera import CameraView, view_seed
+    from spark_bench.data.readers import load_object
+    from spark_bench.data.render import AssetRenderer
+
+    options = options or PrepareOptions()
+    timer = timer or StageTimer()
+    src, case_dir = Path(src), Path(case_dir)
+    case_id = case_id or case_dir.name
+    work = case_dir.parent / f".{case_dir.name}.partial"
+    if work.exists():
+        shutil.rmtree(work)
+    work.mkdir(parents=True)
+    try:
+        with timer("load"):
+            source = load_object(src)
+            if not any(link.has_geometry for link in source.links.values()):
+                raise InputError(src, "object has no visual geometry")
+        gt, reports = ground_truth_asset(source, options.resolution, options.n_min, timer)
+        with timer("normalize_write"):
+            gt, center, scale = normalize_asset(gt)
+            gt.name = case_id
+            relative_mesh_paths(write_object_folder(gt, work / "gt"))
+        seed = view_seed(case_id, options.seed)
+        view = CameraView.front(seed, options.distance, options.image_size, options.fov_deg)
+        links = list(gt.links)
+        with timer("render"):
+            with AssetRenderer(gt, options.image_size, links=links) as renderer:
+                for stem, q in (("input", gt.rest_configuration()), ("open", gt.open_configuration())):
+                    image = renderer.render(view, q)
+                    write_rgb(work / f"{stem}.png", image.rgb)
+                    write_segmentation(work / f"{stem}_seg.png", image.segmentation)
+            view.save(work / "camera.json")
+        record = {
+            "id": case_id, "category": gt.category, "source": str(src.resolve()),
+            "links": links, "joints": joint_records(gt),
+            "normalization": {"center": [float(c) for c in center], "scale": float(scale)},
+            "image_size": options.image_size, "view_seed": seed,
+            "watertight": {"resolution": options.resolution, "n_min": options.n_min, "links": reports},
+        }
+        (work / CASE_FILE).write_text(json.dumps(record, indent=1) + "\n")
+        if case_dir.exists():
+            shutil.rmtree(case_dir)
+        work.rename(case_dir)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    return record
+
+
+# ----- many cases -----------------------------------------------------------------------------
+def find_objects(src: str | Path, ids: Sequence[str] | None = None) -> dict[str, Path]:
+    """Object folders under ``src`` by id (folder name); ``src`` itself when it is one object.
+
+    Every non-hidden sub-folder counts as an object, so one without a URDF is reported as failed
+    rather than silently skipped.
+
+    :param ids: keep only these ids (each must exist)
+    """
+    src = Path(src)
+    if not src.is_dir():
+        raise InputError(src, "source folder not found")
+    if (src / "mobility.urdf").is_file() or (any(src.glob("*.urdf")) and not any(
+            p.is_dir() and any(p.glob("*.urdf")) for p in src.iterdir())):
+        found = {src.resolve().name: src}
+    else:
+        found = {p.name: p for p in sorted(src.iterdir()) if p.is_dir() and not p.name.startswith(".")}
+    if not found:
+        raise InputError(src, "no object folders found")
+    if ids:
+        missing = [i for i in ids if i not in found]
+        if missing:
+            raise InputError(src, f"no object folder for id(s) {', '.join(missing)}")
+        found = {i: found[i] for i in ids}
+    return found
+
+
+def one_line(exc: BaseException) -> str:
+    """An exception as a one-line reason for the manifest."""
+    text = str(exc) if isinstance(exc, SparkBenchError) else f"{type(exc).__name__}: {exc}"
+    return " ".join(text.split())
+
+
+def _prepare_one(src: Path, case_dir: Path, options: PrepareOptions) -> CaseResult:
+    """Worker body: never raises (except on interrupt); failures come back as the reason."""
+    timer = StageTimer()
+    try:
+        prepare_case(src, case_dir, options, case_dir.name, timer)
+    except Exception as exc:  # any failure of one object is recorded and the run goes on
+        return CaseResult(case_dir.name, one_line(exc), timer.seconds)
+    return CaseResult(case_dir.name, None, timer.seconds)
+
+
+def read_manifest(bench: str | Path) -> dict:
+    """``BENCH/manifest.json`` (InputError when absent or malformed)."""
+    path = Path(bench) / MANIFEST
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError(path, "benchmark manifest not found (run `spark-bench data prepare`)") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"malformed JSON: {exc}") from None
+    if not isinstance(data, dict) or not isinstance(data.get("cases"), list):
+        raise InputError(path, 'expected an object with a "cases" list')
+    return data
+
+
+def complete_cases(bench: str | Path) -> list[str]:
+    """Ids of the complete case folders of a benchmark, sorted."""
+    cases = Path(bench) / CASES_DIR
+    if not cases.is_dir():
+        return []
+    return sorted(p.name for p in cases.iterdir() if not p.name.startswith(".") and is_case_complete(p))
+
+
+def write_manifest(bench: Path, name: str, options: PrepareOptions, failed: dict[str, str],
+                   source: str | None, created: str | None = None) -> dict:
+    """(Re)write ``manifest.json`` from the complete case folders and the failures of this run."""
+    from spark_bench import CONVENTION_VERSION
+
+    cases = complete_cases(bench)
+    now = datetime.now(UTC).isoformat(timespec="seconds")
+    manifest = {"name": name, "convention": CONVENTION_VERSION, "cases": cases,
+                "failed": {k: v for k, v in sorted(failed.items()) if k not in cases},
+                "created": created or now, "updated": now, "source": source, "options": asdict(options)}
+    tmp = bench / f".{MANIFEST}.tmp"
+    tmp.write_text(json.dumps(manifest, indent=1) + "\n")
+    tmp.replace(bench / MANIFEST)
+    return manifest
+
+
+@contextmanager
+def bench_lock(bench: Path, wait: bool = False) -> Iterator[None]:
+    """An exclusive lock on a benchmark folder, so two runs never write the same cases."""
+    import fcntl
+
+    bench.mkdir(parents=True, exist_ok=True)
+    with open(bench / ".lock", "w") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+        except BlockingIOError:
+            raise SparkBenchError(f"{bench}: another spark-bench process is preparing this benchmark") from None
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _previous(bench: Path, options: PrepareOptions) -> dict:
+    """The existing manifest of a resumed run; its options must match this run's."""
+    if not (bench / MANIFEST).is_file():
+        return {}
+    old = read_manifest(bench)
+    if old.get("options") and old["options"] != asdict(options) and complete_cases(bench):
+        raise SparkBenchError(f"{bench}: prepared with other options {old['options']}; "
+                              "use another output folder or --overwrite")
+    return old
+
+
+def prepare_benchmark(src: str | Path, out: str | Path, ids: Sequence[str] | None = None,
+                      options: PrepareOptions | None = None, workers: int = 1, progress: bool = True,
+                      name: str | None = None, overwrite: bool = False, contact_sheet: bool = True,
+                      on_result=None) -> dict:
+    """Prepare every object under ``src`` into the benchmark folder ``out``; returns the manifest.
+
+    Complete cases already in ``out`` are kept (resume); a failing object is recorded in the
+    manifest's ``failed`` with its reason and the run goes on.
+
+    :param src: a folder of object folders, or one object folder
+    :param out: the benchmark folder
+    :param ids: only these object ids
+    :param workers: processes (1: in this process)
+    :param progress: show a progress bar
+    :param name: benchmark name (default: the folder name of ``out``)
+    :param overwrite: rebuild complete cases too
+    :param contact_sheet: write ``contact_sheet.png`` at the end
+    :param on_result: called with each :class:`CaseResult` (timings), skipped ones included
+    """
+    options = options or PrepareOptions()
+    out = Path(out)
+    objects = find_objects(src, ids)
+    with bench_lock(out):
+        old = {} if overwrite else _previous(out, options)
+        (out / CASES_DIR).mkdir(parents=True, exist_ok=True)
+        name = name or old.get("name") or out.resolve().name
+        failed = {k: v for k, v in old.get("failed", {}).items() if k not in objects}
+        todo = {}
+        for case_id, path in objects.items():
+            if not overwrite and is_case_complete(out / CASES_DIR / case_id):
+                if on_result:
+                    on_result(CaseResult(case_id, skipped=True))
+            else:
+                todo[case_id] = path
+        created = old.get("created")
+        write_manifest(out, name, options, failed, str(Path(src).resolve()), created)
+        for result in _run(todo, out / CASES_DIR, options, workers, progress):
+            if result.reason is not None:
+                failed[result.case_id] = result.reason
+            if on_result:
+                on_result(result)
+            manifest = write_manifest(out, name, options, failed, str(Path(src).resolve()), created)
+            created = manifest["created"]
+        manifest = write_manifest(out, name, options, failed, str(Path(src).resolve()), created)
+    if contact_sheet and manifest["cases"]:
+        write_contact_sheet(out)
+    return manifest
+
+
+def _run(todo: dict[str, Path], cases: Path, options: PrepareOptions, workers: int,
+         progress: bool) -> Iterator[CaseResult]:
+    from tqdm import tqdm
+
+    bar = tqdm(total=len(todo), desc="prepare", unit="case", disable=not progress or not todo)
+    try:
+        if workers <= 1 or len(todo) <= 1:
+            for case_id, path in todo.items():
+                bar.set_postfix_str(case_id)
+                yield _prepare_one(path, cases / case_id, options)
+                bar.update()
+            return
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        # spawn: each worker opens its own OpenGL context, none inherited from a fork
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+            futures = [pool.submit(_prepare_one, path, cases / case_id, options) for case_id, path in todo.items()]
+            for future in as_completed(futures):
+                result = future.result()
+                bar.set_postfix_str(result.case_id)
+                bar.update()
+                yield result
+    finally:
+        bar.close()
+
+
+# ----- reading cases, contact sheet -----------------------------------------------------------
+def read_case(case_dir: str | Path) -> dict:
+    """A case's ``case.json``."""
+    path = Path(case_dir) / CASE_FILE
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError(path, "case file not found (incomplete case?)") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"malformed JSON: {exc}") from None
+
+
+def write_contact_sheet(bench: str | Path, path: str | Path | None = None, thumb: int = 192,
+                        columns: int = 4) -> Path:
+    """A PNG grid of every case: input | open side by side, labelled with id and category.
+
+    :param bench: the benchmark folder
+    :param path: output file (default ``BENCH/contact_sheet.png``)
+    :param thumb: size of each image in pixels
+    :param columns: cases per row
+    """
+    from PIL import Image, ImageDraw, ImageFont
+
+    bench = Path(bench)
+    path = Path(path) if path else bench / CONTACT_SHEET
+    ids = complete_cases(bench)
+    if not ids:
+        raise SparkBenchError(f"{bench}: no complete cases for a contact sheet")
+    label_h, pad = 20, 6
+    columns = max(1, min(columns, len(ids)))
+    rows = -(-len(ids) // columns)
+    cell_w, cell_h = 2 * thumb + pad, thumb + label_h + pad
+    sheet = Image.new("RGB", (columns * cell_w + pad, rows * cell_h + pad), (255, 255, 255))
+    draw = ImageDraw.Draw(sheet)
+    try:
+        font = ImageFont.load_default(size=13)
+    except TypeError:  # Pillow < 10.1 has only the bitmap font
+        font = ImageFont.load_default()
+    for k, case_id in enumerate(ids):
+        case_dir = bench / CASES_DIR / case_id
+        x0, y0 = pad + (k % columns) * cell_w, pad + (k // columns) * cell_h
+        for j, stem in enumerate(("input", "open")):
+            with Image.open(case_dir / f"{stem}.png") as image:
+                sheet.paste(image.convert("RGB").resize((thumb, thumb), Image.LANCZOS), (x0 + j * thumb, y0))
+        category = read_case(case_dir).get("category", "")
+        draw.text((x0 + 2, y0 + thumb + 3), f"{case_id}  {category}  (input | open)", fill=(20, 20, 20), font=font)
+    sheet.save(path)
+    return path

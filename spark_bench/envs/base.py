@@ -1,0 +1,221 @@
+"""The shared opening environment: a floating parallel-jaw gripper must open one joint of an object.
+
+:class:`SparkArticulationEnv` holds everything; :mod:`spark_bench.envs.drawer` and
+:mod:`spark_bench.envs.door` fix the joint kind and document the task.
+"""
+
+from __future__ import annotations
+
+import os
+from functools import lru_cache
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+import mujoco  # noqa: E402  (after MUJOCO_GL)
+
+from spark_bench.envs.assets import AssetLike, asset_key, load_asset  # noqa: E402
+from spark_bench.envs.scene import N_SUBSTEPS, Scene, build_scene  # noqa: E402
+
+#: Largest TCP displacement per step (action 1.0), m.
+MAX_STEP = 0.02
+#: Start distance of the TCP in front of the grasp point, m, and the uniform noise on each axis.
+START_OFFSET = 0.10
+START_NOISE = 0.03
+#: The TCP counts as at the grasp point within this distance, m (for the grasp reward).
+GRASP_RADIUS = 0.03
+#: A finger touches when its pad's contact normal force exceeds this, N.
+TOUCH_THRESHOLD = 0.5
+#: Dense reward weights: reach, grasp, open progress, success; the sum is divided by their total.
+REWARD_WEIGHTS = (1.0, 1.0, 2.0, 1.0)
+OBS_SIZE = 19
+
+
+@lru_cache(maxsize=16)
+def _cached_scene(key: str, kind: str, joint: str | None) -> Scene:
+    asset, _ = load_asset(key)
+    return build_scene(asset, kind, joint)
+
+
+def make_scene(asset: AssetLike, kind: str, joint: str | None) -> Scene:
+    """The compiled scene, cached per (asset, kind, joint) for assets given by name, so that the
+    copies of a vectorized environment share one model."""
+    key = asset_key(asset)
+    if key is None:
+        return build_scene(asset, kind, joint)
+    return _cached_scene(key, kind, joint)
+
+
+class SparkArticulationEnv(gym.Env):
+    """Open one joint of an articulated object with a floating parallel-jaw gripper.
+
+    See :class:`~spark_bench.envs.drawer.SparkDrawerEnv` and :class:`~spark_bench.envs.door.SparkDoorEnv`
+    for the task's documentation.
+
+    :param asset: an object folder, URDF file, benchmark case folder, an ArticulatedAsset, or None for
+        the default cabinet
+    :param joint: the joint to open (default: the first of the task's kind)
+    :param target_fraction: success when the joint passes this fraction of its range
+    :param reward_type: ``dense`` or ``sparse``
+    :param render_mode: None or ``rgb_array``
+    :param width: rendered image width, pixels
+    :param height: rendered image height, pixels
+    :param seed: seeds the start-state noise (same as the first ``reset(seed=...)``)
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": int(round(1.0 / (N_SUBSTEPS * 0.004)))}
+    joint_kind = "prismatic"
+
+    def __init__(self, asset: AssetLike = None, joint: str | None = None, target_fraction: float = 0.75,
+                 reward_type: str = "dense", render_mode: str | None = None, width: int = 480,
+                 height: int = 360, seed: int | None = None):
+        if not 0.0 < target_fraction <= 1.0:
+            raise ValueError(f"target_fraction must be in (0, 1], got {target_fraction}")
+        if reward_type not in ("dense", "sparse"):
+            raise ValueError(f"reward_type must be 'dense' or 'sparse', got {reward_type!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+        self.scene = make_scene(asset, self.joint_kind, joint)
+        self.target_fraction = float(target_fraction)
+        self.reward_type = reward_type
+        self.render_mode = render_mode
+        self.width, self.height = int(width), int(height)
+        self.model = self.scene.model
+        self.data = mujoco.MjData(self.model)
+        self._renderer = None
+        self._index()
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32)
+        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(OBS_SIZE,), dtype=np.float32)
+        self._seed = seed
+
+    # ----- indices ---------------------------------------------------------------------------
+    def _index(self) -> None:
+        m, g = self.model, self.scene.gripper
+        qadr = [m.jnt_qposadr[m.joint(n).id] for n in g.slide_joints]
+        vadr = [m.jnt_dofadr[m.joint(n).id] for n in g.slide_joints]
+        self._tcp_q = slice(qadr[0], qadr[0] + 3)
+        self._tcp_v = slice(vadr[0], vadr[0] + 3)
+        assert qadr == list(range(qadr[0], qadr[0] + 3)) and vadr == list(range(vadr[0], vadr[0] + 3))
+        self._finger_q = np.array([m.jnt_qposadr[m.joint(n).id] for n in g.finger_joints])
+        self._wrist_q = m.jnt_qposadr[m.joint(g.wrist_joint).id] if g.wrist_joint else None
+        act = [m.actuator(n).id for n in g.slide_actuators]
+        self._act_tcp = slice(act[0], act[0] + 3)
+        assert act == list(range(act[0], act[0] + 3))
+        self._act_fingers = np.array([m.actuator(n).id for n in g.finger_actuators])
+        self._touch = np.array([m.sensor_adr[m.sensor(n).id] for n in g.touch_sensors])
+        jid = m.joint(self.scene.joint.name).id
+        self._joint_q, self._joint_v = m.jnt_qposadr[jid], m.jnt_dofadr[jid]
+        self._rest, self._open = self.scene.joint_range
+        self._span = self._open - self._rest
+        self._body = m.body(self.scene.grasp_body).id
+        self._local = self.scene.grasp_local.copy()
+        self._max_opening = g.config.max_opening
+        self._closed = -g.config.squeeze  # a closed command aims past contact, so the fingers squeeze
+        self._low, self._high = self.scene.workspace[0], self.scene.workspace[1]
+
+    # ----- state -----------------------------------------------------------------------------
+    @property
+    def tcp(self) -> np.ndarray:
+        """The TCP's world position."""
+        return self.data.qpos[self._tcp_q].copy()
+
+    @property
+    def grasp_point(self) -> np.ndarray:
+        """The grasp point's world position (it moves with the part)."""
+        return self.data.xpos[self._body] + self.data.xmat[self._body].reshape(3, 3) @ self._local
+
+    @property
+    def joint_fraction(self) -> float:
+        """The joint's position as a fraction of its range (0 rest, 1 fully open)."""
+        return float((self.data.qpos[self._joint_q] - self._rest) / self._span)
+
+    def _touching(self) -> np.ndarray:
+        return self.data.sensordata[self._touch] > TOUCH_THRESHOLD
+
+    def _obs(self) -> np.ndarray:
+        d = self.data
+        tcp = d.qpos[self._tcp_q]
+        grasp = self.grasp_point
+        out = np.empty(OBS_SIZE, dtype=np.float32)
+        out[0:3] = tcp
+        out[3] = d.qpos[self._wrist_q] if self._wrist_q is not None else 0.0
+        out[4] = (d.qpos[self._finger_q[0]] + d.qpos[self._finger_q[1]]) / (2 * self._max_opening)
+        out[5:8] = d.qvel[self._tcp_v]
+        out[8:11] = grasp
+        out[11:14] = grasp - tcp
+        out[14] = (d.qpos[self._joint_q] - self._rest) / self._span
+        out[15] = d.qvel[self._joint_v] / self._span
+        out[16:18] = np.minimum(d.sensordata[self._touch] / 10.0, 1.0)
+        out[18] = np.linalg.norm(out[11:14])
+        return out
+
+    def _reward_terms(self, obs: np.ndarray) -> dict[str, float]:
+        dist = float(obs[18])
+        reach = 1.0 - np.tanh(10.0 * dist)
+        grasped = float(dist < GRASP_RADIUS and bool(np.all(self._touching())))
+        progress = float(np.clip(obs[14] / self.target_fraction, 0.0, 1.0))
+        success = float(obs[14] >= self.target_fraction)
+        return {"reach": float(reach), "grasp": grasped, "progress": progress, "success": success}
+
+    def _reward(self, terms: dict[str, float]) -> float:
+        if self.reward_type == "sparse":
+            return terms["success"]
+        w = REWARD_WEIGHTS
+        total = w[0] * terms["reach"] + w[1] * terms["grasp"] + w[2] * terms["progress"] + w[3] * terms["success"]
+        return float(total / sum(w))
+
+    # ----- gymnasium API ---------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        if seed is None and self._seed is not None:
+            seed, self._seed = self._seed, None
+        super().reset(seed=seed)
+        d = self.data
+        mujoco.mj_resetData(self.model, d)
+        d.qpos[:] = self.scene.rest_qpos
+        start = self.scene.grasp.point + START_OFFSET * self.scene.grasp.outward
+        start = start + self.np_random.uniform(-START_NOISE, START_NOISE, size=3)
+        start = np.clip(start, self._low, self._high)
+        d.qpos[self._tcp_q] = start
+        d.qpos[self._finger_q] = self._max_opening
+        d.ctrl[self._act_tcp] = start
+        d.ctrl[self._act_fingers] = self._max_opening
+        mujoco.mj_forward(self.model, d)
+        obs = self._obs()
+        info = self._reward_terms(obs)
+        info["is_success"] = bool(info["success"])
+        return obs, info
+
+    def step(self, action):
+        a = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
+        d = self.data
+        d.ctrl[self._act_tcp] = np.clip(d.qpos[self._tcp_q] + MAX_STEP * a[:3], self._low, self._high)
+        d.ctrl[self._act_fingers] = self._closed + (self._max_opening - self._closed) * 0.5 * (1.0 - a[3])
+        mujoco.mj_step(self.model, d, nstep=N_SUBSTEPS)
+        obs = self._obs()
+        terms = self._reward_terms(obs)
+        reward = self._reward(terms)
+        terms["is_success"] = bool(terms["success"])
+        if not np.all(np.isfinite(obs)):  # diverged physics: end the episode rather than feed NaNs
+            obs = np.nan_to_num(obs, nan=0.0, posinf=0.0, neginf=0.0)
+            return obs, 0.0, True, False, terms
+        return obs, reward, False, False, terms
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        if self._renderer is None:
+            self._renderer = mujoco.Renderer(self.model, self.height, self.width)
+            self._camera = mujoco.MjvCamera()
+            box = self.scene.workspace
+            self._camera.lookat[:] = 0.5 * (box[0] + box[1])
+            self._camera.distance = 1.6 * float(np.max(box[1] - box[0]))
+            self._camera.azimuth, self._camera.elevation = 215.0, -25.0
+        self._renderer.update_scene(self.data, camera=self._camera)
+        return self._renderer.render()
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

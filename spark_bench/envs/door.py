@@ -1,0 +1,59 @@
+"""``SparkDoor-v0``: swing a door (a revolute part) open with a floating parallel-jaw gripper."""
+
+from __future__ import annotations
+
+from spark_bench.envs.base import SparkArticulationEnv
+
+
+class SparkDoorEnv(SparkArticulationEnv):
+    """Swing a door open.
+
+    The object is any articulated asset with a revolute (or continuous) joint (default: a seeded
+    procedural cabinet), converted to MuJoCo by :mod:`spark_bench.sim`; the agent is a physically
+    simulated floating parallel-jaw gripper moved by position servos on three world-aligned slide joints.
+    Its wrist is a passive, spring-loaded hinge through the TCP, parallel to the door's hinge, so a held
+    handle can turn between the fingers as the door swings. Control runs at 25 Hz (10 physics steps of
+    4 ms). A continuous joint counts as open at pi/2.
+
+    **Action space** ``Box(-1, 1, (4,), float32)``: ``a[0:3]`` moves the TCP target by ``0.02 * a[0:3]``
+    m from the TCP's current position (world x, y, z; clipped to a workspace box around the object);
+    ``a[3]`` commands the fingers: -1 fully open, +1 closed (each finger squeezes with at most 40 N).
+
+    **Observation space** ``Box(-inf, inf, (19,), float32)``:
+
+    ====== =====================================================================
+    index  meaning
+    ====== =====================================================================
+    0-2    TCP position (world, m)
+    3      wrist angle (rad)
+    4      finger opening, 0 closed to 1 fully open
+    5-7    TCP velocity (m/s)
+    8-10   grasp point on the door (its handle, else its front face near the free edge), world
+    11-13  grasp point minus TCP
+    14     joint angle as a fraction of its range (0 closed, 1 fully open)
+    15     joint velocity divided by the range
+    16-17  left / right finger pad contact force / 10 N, clipped to 1
+    18     distance TCP to grasp point
+    ====== =====================================================================
+
+    **Rewards** (``reward_type="dense"``, in [0, 1]): ``(reach + grasp + 2 progress + success) / 5`` with
+    ``reach = 1 - tanh(10 d)`` (d: TCP to grasp point, m), ``grasp = 1`` when both pads touch and
+    ``d < 0.03``, ``progress = min(fraction / target_fraction, 1)``, ``success = 1`` when
+    ``fraction >= target_fraction``. ``reward_type="sparse"``: ``success``.
+
+    **Starting state**: every object joint at rest (its lower limit); the TCP 0.10 m in front of the
+    grasp point plus uniform noise of ±0.03 m per axis; fingers open, wrist at 0.
+
+    **Episode end**: no termination on success (``info["is_success"]`` reports it each step); termination
+    only if the physics diverges. Truncation at ``max_episode_steps`` (default 100, by
+    ``gymnasium.make``'s ``TimeLimit``).
+
+    **Arguments**: ``gymnasium.make("SparkDoor-v0", asset=None, joint=None, target_fraction=0.75,
+    reward_type="dense", render_mode=None, max_episode_steps=100, seed=None)``; see
+    :class:`~spark_bench.envs.base.SparkArticulationEnv`. A joint that does not exist, or an asset with
+    no revolute joint, raises :class:`~spark_bench.errors.InputError` at ``make``.
+
+    **Info**: ``reach``, ``grasp``, ``progress``, ``success`` (the reward terms) and ``is_success``.
+    """
+
+    joint_kind = "revolute"

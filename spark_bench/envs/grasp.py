@@ -1,0 +1,209 @@
+"""Where to grasp the moving part of a joint: its handle, from labels or from geometry.
+
+A link labelled ``handle`` among the part's links (``semantics.txt`` label, or GAPartNet's
+annotation ``category``) is the handle. Otherwise the handle is found from the part's surface at rest:
+project it on the part's outward direction (the pull direction of a drawer, the swing direction of a
+door's far edge), take the front face as the densest level near the front, and keep what stands
+proud of it by more than :data:`HANDLE_MIN_PROUD`; the connected clusters of those points are handle
+candidates, and the chosen one is the central one (drawers) or the one farthest from the hinge (doors).
+A part with nothing proud of its front face gets its front face's center (drawers) or a point of the
+front face near its free edge (doors), with ``has_handle=False``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from spark_bench.asset.mesh import sample_surface
+from spark_bench.asset.model import ArticulatedAsset
+
+#: A surface point counts as handle when it stands this far (m) in front of the front face.
+HANDLE_MIN_PROUD = 0.008
+#: Bin width (m) of the front-face level histogram.
+LEVEL_BIN = 0.002
+#: A histogram level is a face when it holds this fraction of the densest level's points.
+FACE_DENSITY = 0.1
+#: Surface samples per part.
+N_SAMPLES = 20000
+
+
+@dataclass
+class GraspTarget:
+    """A grasp on the moving part of one joint, world frame at the rest configuration.
+
+    :param point: the grasp point (where the TCP should go)
+    :param outward: unit direction out of the part's front (the gripper approaches along ``-outward``)
+    :param long_axis: the handle's long direction (perpendicular to ``outward``); fingers close across it
+    :param has_handle: whether a handle was found (label or geometry)
+    :param source: ``label``, ``geometry`` or ``face`` (no handle)
+    """
+
+    point: np.ndarray
+    outward: np.ndarray
+    long_axis: np.ndarray
+    has_handle: bool
+    source: str
+
+    @property
+    def closing(self) -> np.ndarray:
+        """The direction the fingers close along: across the handle, in the front plane."""
+        c = np.cross(self.outward, self.long_axis)
+        return c / np.linalg.norm(c)
+
+
+def _unit(v) -> np.ndarray:
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
+
+
+def outward_direction(joint_type: str, origin: np.ndarray, axis: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The part's outward direction: the pull direction of a prismatic joint, or the direction in which
+    the part's centroid starts to move when a revolute joint opens (``axis x r``).
+
+    :param origin: a point on the joint axis (world)
+    :param axis: unit joint axis (world), opening = increasing joint value
+    :param points: the part's surface points at rest (world)
+    """
+    if joint_type == "prismatic":
+        return _unit(axis)
+    r = points.mean(0) - origin
+    r = r - np.dot(r, axis) * axis
+    if np.linalg.norm(r) < 1e-9:
+        raise ValueError("the part's centroid lies on its hinge axis: no outward direction")
+    return _unit(np.cross(axis, r))
+
+
+def _face_normal(mesh, guess: np.ndarray, min_cos: float = 0.95) -> np.ndarray:
+    """The area-weighted mean normal of the faces facing ``guess`` (the front face's true normal)."""
+    normals = mesh.face_normals
+    weights = mesh.area_faces * (normals @ guess > min_cos)
+    if weights.sum() <= 0:
+        return guess
+    return _unit(weights @ normals)
+
+
+def _perpendicular_basis(n: np.ndarray) -> np.ndarray:
+    """Two unit vectors spanning the plane perpendicular to ``n``, the first as vertical as possible."""
+    up = np.array([0.0, 0.0, 1.0]) if abs(n[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    v = _unit(up - np.dot(up, n) * n)
+    return np.stack([v, np.cross(n, v)])
+
+
+def front_level(depth: np.ndarray, window: float = 0.12) -> float:
+    """The front face's level along the outward direction: the densest histogram bin within
+    ``window`` of the front-most point (faces are flat, so a face fills one bin)."""
+    top = depth.max()
+    near = depth[depth > top - window]
+    bins = np.arange(near.min(), top + LEVEL_BIN, LEVEL_BIN)
+    if len(bins) < 2:
+        return float(top)
+    counts, edges = np.histogram(near, bins=bins)
+    # the front-most of the dense levels: a door's back face is as dense as its front face
+    k = int(np.flatnonzero(counts >= FACE_DENSITY * counts.max()).max())
+    return float(0.5 * (edges[k] + edges[k + 1]))
+
+
+def clusters(points: np.ndarray, radius: float = 0.015) -> list[np.ndarray]:
+    """Connected groups of points (neighbours closer than ``radius``), largest first, as index arrays."""
+    if len(points) == 0:
+        return []
+    pairs = cKDTree(points).query_pairs(radius, output_type="ndarray")
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points),) * 2)
+    _, labels = connected_components(graph, directed=False)
+    groups = [np.flatnonzero(labels == k) for k in np.unique(labels)]
+    return sorted(groups, key=len, reverse=True)
+
+
+def _handle_links(asset: ArticulatedAsset, links: list[str]) -> list[str]:
+    out = []
+    for name in links:
+        link = asset.links[name]
+        category = str(link.annotations.get("category", "")) if isinstance(link.annotations, dict) else ""
+        if "handle" in link.label.lower() or "handle" in category.lower():
+            out.append(name)
+    return out
+
+
+def _long_axis(points: np.ndarray, basis: np.ndarray) -> np.ndarray:
+    """The principal direction of ``points`` in the plane spanned by ``basis`` (vertical if round)."""
+    uv = (points - points.mean(0)) @ basis.T
+    if len(uv) < 3:
+        return basis[0]
+    evals, evecs = np.linalg.eigh(np.cov(uv.T))
+    if evals[1] < 1.5 * max(evals[0], 1e-12):  # a knob: no long axis; a vertical one closes sideways
+        return basis[0]
+    return _unit(evecs[:, 1] @ basis)
+
+
+def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0) -> GraspTarget:
+    """The grasp on the part moved by ``joint``, at the asset's rest configuration.
+
+    :param asset: the object
+    :param joint: a movable joint's name
+    :param seed: seed of the surface sampling
+    """
+    spec = asset.joints[joint]
+    links = asset.part_of_joint(joint)
+    part = asset.mesh(links=links)
+    if len(part.faces) == 0:
+        raise ValueError(f"{asset.name}: the part moved by {joint} has no geometry")
+    origin, axis = asset.joint_frames()[joint]
+    points = sample_surface(part, N_SAMPLES, seed=seed)
+    n = outward_direction(spec.type, origin, axis, points)
+    if spec.type != "prismatic":
+        n = _face_normal(part, n)
+    basis = _perpendicular_basis(n)
+    depth = points @ n
+    face = front_level(depth)
+    rotational = spec.type != "prismatic"
+
+    def lateral_score(group_points: np.ndarray) -> float:
+        center = group_points.mean(0)
+        if rotational:  # doors: far from the hinge
+            r = center - origin
+            return -float(np.linalg.norm(r - np.dot(r, axis) * axis))
+        return float(np.linalg.norm((center - points.mean(0)) @ basis.T))  # drawers: central
+
+    labelled = _handle_links(asset, links)
+    if labelled:
+        handle_pts = sample_surface(asset.mesh(links=labelled), 4000, seed=seed)
+        groups = [np.arange(len(handle_pts))]
+        source = "label"
+    else:
+        proud = np.flatnonzero(depth > face + HANDLE_MIN_PROUD)
+        handle_pts = points[proud]
+        min_size = max(20, int(0.002 * len(points)))
+        groups = [g for g in clusters(handle_pts) if len(g) >= min_size]
+        source = "geometry"
+    if groups:
+        if source == "geometry":
+            scores = [lateral_score(handle_pts[g]) for g in groups]
+            best = handle_pts[groups[int(np.argmin(scores))]]
+        else:
+            best = handle_pts
+        uv = best @ basis.T
+        lateral = 0.5 * (uv.min(0) + uv.max(0))
+        along = float(np.median(best @ n))
+        point = lateral @ basis + along * n
+        return GraspTarget(point=point, outward=n, long_axis=_long_axis(best, basis), has_handle=True,
+                           source=source)
+
+    # no handle: a point of the front face, central (drawer) or near the free edge (door)
+    front = points[np.abs(depth - face) < 2 * LEVEL_BIN]
+    uv = front @ basis.T
+    if rotational:
+        r = front - origin
+        radial = np.linalg.norm(r - np.outer(r @ axis, axis), axis=1)
+        keep = radial > np.quantile(radial, 0.85)
+        center_v = 0.5 * (uv[:, 0].min() + uv[:, 0].max())
+        lateral = np.array([center_v, np.median(uv[keep, 1])])
+    else:
+        lateral = 0.5 * (uv.min(0) + uv.max(0))
+    point = lateral @ basis + face * n
+    return GraspTarget(point=point, outward=n, long_axis=basis[0] if rotational else basis[1],
+                       has_handle=False, source="face")

@@ -1,0 +1,177 @@
+"""A floating parallel-jaw gripper added to an :class:`mujoco.MjSpec`.
+
+The gripper is a physically simulated body, not a mocap: three world-aligned slide joints carry it, a
+position actuator drives each towards a target, and gravity compensation makes it hover. Its hand
+hangs below with a fixed orientation (fingers pointing along the approach direction, closing across the
+handle) and, for doors, a passive spring-loaded wrist hinge parallel to the door's hinge, so that a
+held handle can turn between the fingers without tearing out of the grasp. Two fingers slide on the
+hand, each with its own force-limited position actuator, so a grasp squeezes with a bounded force.
+
+Frames: the hand frame's origin is the *tool center point* (TCP), the point between the finger pads;
+hand x is the approach direction (palm to fingertips), hand y the closing direction.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+PREFIX = "spark_gripper"
+
+
+@dataclass
+class GripperConfig:
+    """Dimensions and gains of the gripper.
+
+    :param finger_length: pad length along the approach direction, m
+    :param tip_beyond_tcp: how far the fingertips reach past the TCP, m
+    :param max_opening: finger travel per side, m (full opening is twice this)
+    :param kp: stiffness of the translation servos, N/m
+    :param force_limit: force limit of each translation servo, N
+    :param finger_kp: stiffness of each finger servo, N/m
+    :param squeeze: how far past fully closed (m) the closed command aims: the grip force on a handle of
+        width w is about ``finger_kp * (squeeze + w / 2)``, up to ``grip_force``
+    :param grip_force: force limit of each finger servo, N
+    :param pad_friction: sliding friction of the finger pads
+    :param wrist_stiffness: spring of the passive wrist hinge (doors), N m/rad
+    :param wrist_damping: damping of the passive wrist hinge, N m s/rad
+    :param rgba: display colour
+    """
+
+    finger_length: float = 0.05
+    tip_beyond_tcp: float = 0.012
+    max_opening: float = 0.045
+    kp: float = 1500.0
+    force_limit: float = 150.0
+    finger_kp: float = 1000.0
+    squeeze: float = 0.025
+    grip_force: float = 40.0
+    pad_friction: float = 1.5
+    wrist_stiffness: float = 0.3
+    wrist_damping: float = 0.3
+    rgba: tuple = (0.15, 0.35, 0.8, 1.0)
+
+
+@dataclass
+class GripperHandles:
+    """Names of the gripper's elements in the compiled model (resolve ids with ``model.joint(name)``).
+
+    :param slide_joints: x, y, z translation joints
+    :param wrist_joint: the passive wrist hinge, or None
+    :param finger_joints: left, right finger slides (0 = closed)
+    :param slide_actuators: x, y, z position actuators
+    :param finger_actuators: left, right finger actuators
+    :param hand_body: the body whose frame is the TCP
+    :param finger_bodies: left, right finger bodies
+    :param touch_sensors: left, right pad touch sensors
+    """
+
+    slide_joints: tuple[str, str, str]
+    wrist_joint: str | None
+    finger_joints: tuple[str, str]
+    slide_actuators: tuple[str, str, str]
+    finger_actuators: tuple[str, str]
+    hand_body: str
+    finger_bodies: tuple[str, str]
+    touch_sensors: tuple[str, str]
+    config: GripperConfig = field(default_factory=GripperConfig)
+
+
+def hand_rotation(approach: np.ndarray, closing: np.ndarray) -> np.ndarray:
+    """The hand's 3x3 rotation from its approach (x) and closing (y) directions, orthonormalized."""
+    x = np.asarray(approach, float)
+    x = x / np.linalg.norm(x)
+    y = np.asarray(closing, float) - np.dot(closing, x) * x
+    if np.linalg.norm(y) < 1e-6:  # closing parallel to approach: any perpendicular will do
+        y = np.cross(x, [0.0, 0.0, 1.0]) if abs(x[2]) < 0.9 else np.cross(x, [0.0, 1.0, 0.0])
+    y = y / np.linalg.norm(y)
+    return np.stack([x, y, np.cross(x, y)], axis=1)
+
+
+def _quat(rotation: np.ndarray) -> np.ndarray:
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation).reshape(-1))
+    return quat
+
+
+def add_gripper(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
+                wrist_axis: np.ndarray | None = None, workspace: np.ndarray | None = None,
+                config: GripperConfig | None = None) -> GripperHandles:
+    """Add the floating gripper to ``spec`` (in place) and return the names of its parts.
+
+    :param spec: the scene; the gripper's bodies are children of its world body
+    :param approach: world direction from palm to fingertips (towards the object)
+    :param closing: world direction along which the fingers close (across the handle)
+    :param wrist_axis: world axis of a passive wrist hinge through the TCP, or None for a rigid wrist
+    :param workspace: ``[[min], [max]]`` world box the TCP may reach (the slide joints' ranges)
+    :param config: dimensions and gains
+    """
+    cfg = config or GripperConfig()
+    rotation = hand_rotation(approach, closing)
+    if workspace is None:
+        workspace = np.array([[-2.0] * 3, [2.0] * 3])
+    p = PREFIX
+    carriage = spec.worldbody.add_body(name=f"{p}_carriage", gravcomp=1.0)
+    carriage.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.01, 0, 0], mass=0.5,
+                      contype=0, conaffinity=0, group=3)
+    slides, slide_acts = [], []
+    for i, axis_name in enumerate("xyz"):
+        axis = np.zeros(3)
+        axis[i] = 1.0
+        name = f"{p}_slide_{axis_name}"
+        carriage.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis, limited=True,
+                           range=[float(workspace[0, i]), float(workspace[1, i])], armature=0.01)
+        act = spec.add_actuator(name=f"{name}_servo", target=name,
+                                trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_position(kp=cfg.kp, dampratio=1.0)
+        act.ctrlrange = [float(workspace[0, i]), float(workspace[1, i])]
+        act.forcerange = [-cfg.force_limit, cfg.force_limit]
+        act.forcelimited = True
+        slides.append(name)
+        slide_acts.append(act.name)
+
+    hand = carriage.add_body(name=f"{p}_hand", quat=_quat(rotation), gravcomp=1.0)
+    wrist = None
+    if wrist_axis is not None:
+        wrist = f"{p}_wrist"
+        hand.add_joint(name=wrist, type=mujoco.mjtJoint.mjJNT_HINGE, axis=rotation.T @ np.asarray(wrist_axis, float),
+                       stiffness=cfg.wrist_stiffness, damping=cfg.wrist_damping, limited=True,
+                       range=[-2.0, 2.0], armature=0.002)
+    color = list(cfg.rgba)
+    length, tip = cfg.finger_length, cfg.tip_beyond_tcp
+    palm_x = tip - length - 0.012
+    hand.add_geom(name=f"{p}_palm", type=mujoco.mjtGeom.mjGEOM_BOX, pos=[palm_x, 0, 0],
+                  size=[0.012, cfg.max_opening + 0.015, 0.02], mass=0.4, rgba=color, contype=2, conaffinity=1)
+    hand.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=[palm_x - 0.06, 0, 0], size=[0.015, 0.05, 0],
+                  quat=_quat(hand_rotation([0, 0, 1], [0, 1, 0])), mass=0.2, rgba=color, contype=0,
+                  conaffinity=0)
+    fingers, finger_joints, finger_acts, sensors = [], [], [], []
+    pad_half = 0.006
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        body = hand.add_body(name=f"{p}_finger_{side}", gravcomp=1.0)
+        joint = f"{p}_finger_{side}_slide"
+        body.add_joint(name=joint, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, sign, 0], limited=True,
+                       range=[0.0, cfg.max_opening], armature=0.001, damping=2.0)
+        center = [tip - length / 2, sign * pad_half, 0]
+        body.add_geom(name=f"{p}_pad_{side}", type=mujoco.mjtGeom.mjGEOM_BOX, pos=center,
+                      size=[length / 2, pad_half, 0.012], mass=0.05, rgba=color, contype=2, conaffinity=1,
+                      friction=[cfg.pad_friction, 0.02, 0.001], condim=4, priority=1)
+        body.add_site(name=f"{p}_pad_{side}_site", type=mujoco.mjtGeom.mjGEOM_BOX, pos=center,
+                      size=[length / 2 + 0.002, pad_half + 0.002, 0.014], rgba=[0, 0, 0, 0])
+        sensor = spec.add_sensor(name=f"{p}_touch_{side}", type=mujoco.mjtSensor.mjSENS_TOUCH,
+                                 objtype=mujoco.mjtObj.mjOBJ_SITE, objname=f"{p}_pad_{side}_site")
+        act = spec.add_actuator(name=f"{joint}_servo", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_position(kp=cfg.finger_kp, dampratio=1.0)
+        act.ctrlrange = [-cfg.squeeze, cfg.max_opening]
+        act.forcerange = [-cfg.grip_force, cfg.grip_force]
+        act.forcelimited = True
+        fingers.append(body.name)
+        finger_joints.append(joint)
+        finger_acts.append(act.name)
+        sensors.append(sensor.name)
+    return GripperHandles(slide_joints=tuple(slides), wrist_joint=wrist, finger_joints=tuple(finger_joints),
+                          slide_actuators=tuple(slide_acts), finger_actuators=tuple(finger_acts),
+                          hand_body=hand.name, finger_bodies=tuple(fingers), touch_sensors=tuple(sensors),
+                          config=cfg)

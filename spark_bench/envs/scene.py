@@ -1,0 +1,210 @@
+"""The compiled scene of an opening task: the object's MJCF (from :mod:`spark_bench.sim`), the floating
+gripper, the chosen joint and where to grasp its part.
+
+The object's :class:`mujoco.MjSpec` comes from :func:`spark_bench.sim.build_spec` (the sim-readiness
+conversion: bodies named by link, joints by URDF joint name, convex collision geometry). When that
+module is not installed, :func:`primitive_spec` builds the object from its own collision shapes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from spark_bench.asset.model import ArticulatedAsset, Joint
+from spark_bench.envs.grasp import GraspTarget, find_grasp
+from spark_bench.envs.gripper import GripperConfig, GripperHandles, add_gripper
+from spark_bench.errors import InputError
+
+#: Physics step, s. The control period is ``TIMESTEP * N_SUBSTEPS`` (25 Hz).
+TIMESTEP = 0.004
+N_SUBSTEPS = 10
+#: How far (m) around the object's box the gripper may move.
+WORKSPACE_MARGIN = 0.35
+#: Collision bits of object geoms: they collide with each other and with the gripper's (contype 2,
+#: conaffinity 1, see :mod:`spark_bench.envs.gripper`), whose fingers do not collide with each other.
+OBJECT_CONTYPE, OBJECT_CONAFFINITY = 1, 3
+
+KIND_TYPES = {"prismatic": ("prismatic",), "revolute": ("revolute", "continuous")}
+
+
+@dataclass
+class Scene:
+    """A compiled opening task.
+
+    :param model: the compiled model (object + gripper); share it read-only between environments
+    :param asset: the object
+    :param joint: the joint to open (its asset entry)
+    :param grasp: where to grasp the part, world frame at rest
+    :param grasp_body: the MuJoCo body the grasp point moves with (the joint's child link)
+    :param grasp_local: the grasp point in that body's frame
+    :param gripper: names of the gripper's elements
+    :param workspace: ``[[min], [max]]`` box the TCP may reach
+    :param rest_qpos: the full ``qpos`` with every object joint at rest, gripper at the origin
+    """
+
+    model: mujoco.MjModel
+    asset: ArticulatedAsset
+    joint: Joint
+    grasp: GraspTarget
+    grasp_body: str
+    grasp_local: np.ndarray
+    gripper: GripperHandles
+    workspace: np.ndarray
+    rest_qpos: np.ndarray
+
+    @property
+    def joint_range(self) -> tuple[float, float]:
+        """The joint's opening range: ``(rest, open)``."""
+        return self.joint.rest_value, self.joint.open_value
+
+
+def choose_joint(asset: ArticulatedAsset, kind: str, joint: str | None) -> Joint:
+    """The joint to open: ``joint`` checked against ``kind``, or the first joint of that kind.
+
+    :param kind: ``prismatic`` or ``revolute``
+    :raises InputError: no such joint, or not of the right kind
+    """
+    types = KIND_TYPES[kind]
+    where = asset.source or asset.name
+    movable = [j.name for j in asset.movable_joints()]
+    if joint is not None:
+        if joint not in asset.joints:
+            raise InputError(where, f"no joint named {joint!r} (movable joints: {', '.join(movable) or 'none'})")
+        found = asset.joints[joint]
+        if found.type not in types:
+            raise InputError(where, f"joint {joint!r} is {found.type}, this task needs a {kind} joint")
+        candidate = found
+    else:
+        matches = [j for j in asset.movable_joints() if j.type in types]
+        if not matches:
+            raise InputError(where, f"asset has no {kind} joint (movable joints: {', '.join(movable) or 'none'})")
+        candidate = matches[0]
+    if candidate.open_value <= candidate.rest_value:
+        raise InputError(where, f"joint {candidate.name!r} has an empty range [{candidate.lower}, {candidate.upper}]")
+    return candidate
+
+
+def _quat(rotation: np.ndarray) -> np.ndarray:
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=float).reshape(-1))
+    return quat
+
+
+def primitive_spec(asset: ArticulatedAsset) -> mujoco.MjSpec:
+    """The object as an MjSpec from its own collision shapes (convex hulls of its visuals where it has
+    none), visual meshes in geom group 2; bodies named by link, joints by joint name, root welded."""
+    spec = mujoco.MjSpec()
+    spec.compiler.degree = False
+
+    def add_geoms(body, link):
+        for k, col in enumerate(link.collisions):
+            pos, quat = col.origin[:3, 3], _quat(col.origin[:3, :3])
+            if col.kind == "box":
+                body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=np.asarray(col.size) / 2, pos=pos, quat=quat)
+            elif col.kind == "cylinder":
+                body.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[col.size[0], col.size[1] / 2, 0],
+                              pos=pos, quat=quat)
+            elif col.kind == "sphere":
+                body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[col.size[0], 0, 0], pos=pos, quat=quat)
+            else:
+                name = f"{link.name}_collision_{k}"
+                spec.add_mesh(name=name, uservert=col.mesh.vertices.reshape(-1).tolist(),
+                              userface=col.mesh.faces.reshape(-1).tolist())
+                body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name, pos=pos, quat=quat)
+        if not link.collisions and link.has_geometry:
+            hull = link.merged_mesh().convex_hull
+            name = f"{link.name}_hull"
+            spec.add_mesh(name=name, uservert=hull.vertices.reshape(-1).tolist(),
+                          userface=hull.faces.reshape(-1).tolist())
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name)
+        for k, vis in enumerate(link.visuals):
+            if not len(vis.mesh.faces):
+                continue
+            name = f"{link.name}_visual_{k}"
+            spec.add_mesh(name=name, uservert=vis.mesh.vertices.reshape(-1).tolist(),
+                          userface=vis.mesh.faces.reshape(-1).tolist())
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name, contype=0, conaffinity=0,
+                          group=2, density=0, rgba=list(vis.rgba))
+
+    bodies = {asset.root: spec.worldbody.add_body(name=asset.root)}
+    add_geoms(bodies[asset.root], asset.links[asset.root])
+    for joint in asset.topological_joints():
+        body = bodies[joint.parent].add_body(name=joint.child, pos=joint.origin[:3, 3],
+                                             quat=_quat(joint.origin[:3, :3]))
+        bodies[joint.child] = body
+        if joint.is_movable:
+            kind = mujoco.mjtJoint.mjJNT_SLIDE if joint.type == "prismatic" else mujoco.mjtJoint.mjJNT_HINGE
+            body.add_joint(name=joint.name, type=kind, axis=np.asarray(joint.axis, float),
+                           range=[joint.lower, joint.upper], limited=joint.type != "continuous",
+                           damping=joint.damping or 0.5, frictionloss=joint.friction or 0.0, armature=0.01)
+        add_geoms(body, asset.links[joint.child])
+    return spec
+
+
+def object_spec(asset: ArticulatedAsset) -> mujoco.MjSpec:
+    """The object's MjSpec: :func:`spark_bench.sim.build_spec` when installed, else :func:`primitive_spec`."""
+    try:
+        from spark_bench.sim import build_spec
+    except ImportError:
+        return primitive_spec(asset)
+    return build_spec(asset)
+
+
+def _set_collision_bits(spec: mujoco.MjSpec) -> None:
+    """Object geoms that collide at all keep colliding with each other and with the gripper."""
+    for geom in spec.geoms:
+        if geom.contype or geom.conaffinity:
+            geom.contype, geom.conaffinity = OBJECT_CONTYPE, OBJECT_CONAFFINITY
+
+
+def workspace_box(asset: ArticulatedAsset, margin: float = WORKSPACE_MARGIN) -> np.ndarray:
+    """The box holding the object both at rest and fully open, grown by ``margin`` on every side."""
+    rest, opened = asset.bounds(), asset.bounds(asset.open_configuration())
+    return np.stack([np.minimum(rest[0], opened[0]) - margin, np.maximum(rest[1], opened[1]) + margin])
+
+
+def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
+                gripper: GripperConfig | None = None) -> Scene:
+    """Compile the object with the gripper, for opening ``joint`` (or the first joint of ``kind``).
+
+    :param asset: the object (benchmark frame or metres; Z up, front facing -X)
+    :param kind: ``prismatic`` (drawers) or ``revolute`` (doors)
+    :param joint: the joint's name, or None for the first of ``kind``
+    :param gripper: gripper dimensions and gains
+    """
+    chosen = choose_joint(asset, kind, joint)
+    try:
+        grasp = find_grasp(asset, chosen.name)
+    except ValueError as exc:
+        raise InputError(asset.source or asset.name, str(exc)) from None
+    spec = object_spec(asset)
+    _set_collision_bits(spec)
+    spec.option.timestep = TIMESTEP
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, 640)
+    spec.visual.global_.offheight = max(spec.visual.global_.offheight, 480)
+    workspace = workspace_box(asset)
+    wrist = asset.joint_frames()[chosen.name][1] if chosen.is_rotational else None
+    handles = add_gripper(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
+                          workspace=workspace, config=gripper)
+    try:
+        model = spec.compile()
+    except ValueError as exc:
+        raise InputError(asset.source or asset.name, f"MJCF does not compile: {exc}") from None
+
+    data = mujoco.MjData(model)
+    for j in asset.movable_joints():
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+        if jid >= 0:
+            data.qpos[model.jnt_qposadr[jid]] = j.rest_value
+    mujoco.mj_kinematics(model, data)
+    body = chosen.child
+    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body)
+    if bid < 0:
+        raise InputError(asset.source or asset.name, f"MJCF has no body for link {body!r}")
+    local = data.xmat[bid].reshape(3, 3).T @ (grasp.point - data.xpos[bid])
+    return Scene(model=model, asset=asset, joint=chosen, grasp=grasp, grasp_body=body, grasp_local=local,
+                 gripper=handles, workspace=workspace, rest_qpos=data.qpos.copy())

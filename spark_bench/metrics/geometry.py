@@ -1,0 +1,126 @@
+"""What the metrics read from an asset: checked, posed surfaces and joint axes in the benchmark frame.
+
+Everything here returns plain arrays: triangles as (F, 3, 3) world-frame vertex rows (posed by
+forward kinematics), the 4x4 similarity into the benchmark frame, and joint axis lines.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+
+from spark_bench.asset.model import ArticulatedAsset, Configuration
+from spark_bench.asset.transforms import transform_points
+from spark_bench.errors import InputError
+from spark_bench.metrics.articulation import JointAxis
+
+
+def _where(asset: ArticulatedAsset) -> str:
+    return asset.source or asset.name or "asset"
+
+
+def validate_asset(asset: ArticulatedAsset) -> None:
+    """Raise :class:`InputError` for NaN/inf anywhere the metrics read, or a zero joint axis.
+
+    :param asset: the asset to check
+    """
+    where = _where(asset)
+    for link in asset.links.values():
+        for visual in link.visuals:
+            vertices = np.asarray(visual.mesh.vertices, dtype=np.float64)
+            if not np.isfinite(vertices).all():
+                raise InputError(where, f"link {link.name!r}: mesh {visual.source or ''} has NaN or infinite vertices")
+            faces = np.asarray(visual.mesh.faces)
+            if len(faces) and (faces.min() < 0 or faces.max() >= len(vertices)):
+                raise InputError(where, f"link {link.name!r}: mesh {visual.source or ''} has faces with bad vertex indices")
+    for joint in asset.joints.values():
+        if not np.isfinite(np.asarray(joint.origin, dtype=np.float64)).all():
+            raise InputError(where, f"joint {joint.name!r}: origin has NaN or infinite values")
+        if not joint.is_movable:
+            continue
+        axis = np.asarray(joint.axis, dtype=np.float64)
+        if not np.isfinite(axis).all() or np.linalg.norm(axis) <= 0.0:
+            raise InputError(where, f"joint {joint.name!r}: axis {axis.tolist()} is NaN or zero")
+        if not (np.isfinite(joint.rest_value) and np.isfinite(joint.open_value)):
+            raise InputError(where, f"joint {joint.name!r}: limits [{joint.lower}, {joint.upper}] are not finite")
+
+
+def posed_triangles(asset: ArticulatedAsset, q: Configuration | None = None,
+                    links: Iterable[str] | None = None) -> np.ndarray:
+    """The visual surface of ``links`` (default: all) at configuration ``q``, world frame, (F, 3, 3).
+
+    :param asset: the asset
+    :param q: joint values by name (missing joints at rest)
+    :param links: which links to include
+    """
+    poses = asset.link_poses(q)
+    chunks = []
+    for name in links if links is not None else asset.links:
+        for visual in asset.links[name].visuals:
+            faces = np.asarray(visual.mesh.faces, dtype=np.int64).reshape(-1, 3)
+            if len(faces):
+                vertices = transform_points(poses[name], np.asarray(visual.mesh.vertices, dtype=np.float64))
+                chunks.append(vertices[faces])
+    return np.concatenate(chunks) if chunks else np.zeros((0, 3, 3))
+
+
+def has_area(triangles: np.ndarray) -> bool:
+    """Whether the triangles have a positive total area (something to sample)."""
+    if len(triangles) == 0:
+        return False
+    cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    return bool(np.linalg.norm(cross, axis=1).sum() > 0.0)
+
+
+def benchmark_transform(asset: ArticulatedAsset) -> np.ndarray:
+    """4x4 similarity from the asset's world frame into its benchmark frame (DESIGN.md): the rest
+    pose's axis-aligned box centered at the origin and scaled by ``2 / max extent``.
+
+    :raises InputError: when the asset has no surface or a flat-to-a-point box
+    """
+    from spark_bench.asset.ops import normalization
+
+    rest = posed_triangles(asset, asset.rest_configuration())
+    if not has_area(rest):
+        raise InputError(_where(asset), "empty mesh: the asset has no surface to measure")
+    try:
+        center, scale = normalization(asset)
+    except ValueError as exc:
+        raise InputError(_where(asset), str(exc)) from None
+    out = np.eye(4) * scale
+    out[3, 3] = 1.0
+    out[:3, 3] = -scale * np.asarray(center, dtype=np.float64)
+    return out
+
+
+def transform_triangles(matrix: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Apply a 4x4 transform to (F, 3, 3) triangles."""
+    return triangles @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def part_links(asset: ArticulatedAsset, joint: str) -> list[str]:
+    """The part of a movable joint: the links it moves and no movable joint below it moves; when
+    those carry no geometry (a helper link between two chained joints), every link it moves."""
+    links = asset.part_of_joint(joint)
+    if not any(asset.links[name].has_geometry for name in links):
+        links = asset.moving_links(joint)
+    return links
+
+
+def joint_axes(asset: ArticulatedAsset, frame: np.ndarray) -> list[JointAxis]:
+    """World-frame axis lines of the movable joints at rest, mapped by ``frame``: the full transform
+    for the points on the axes, its rotation only for the directions.
+
+    :param asset: the asset
+    :param frame: 4x4 similarity (benchmark frame, alignment) applied to the asset
+    """
+    linear = np.asarray(frame, dtype=np.float64)[:3, :3]
+    frames = asset.joint_frames(asset.rest_configuration())
+    out = []
+    for joint in asset.movable_joints():
+        point, direction = frames[joint.name]
+        direction = linear @ direction  # a similarity's linear part is s R: rescaling leaves R
+        out.append(JointAxis(joint.name, joint.type, transform_points(frame, point[None])[0],
+                             direction / np.linalg.norm(direction)))
+    return out

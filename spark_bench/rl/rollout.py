@@ -1,0 +1,189 @@
+"""Run a policy (the scripted opener or a trained model) for some episodes and score it.
+
+A policy here is anything with ``reset(env)`` (called at each episode start) and ``__call__(obs) ->
+action``: :class:`ScriptedPolicy` wraps the scripted opener, :class:`ModelPolicy` a saved
+stable-baselines3 model.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+from spark_bench.errors import InputError
+
+VIDEO_SUFFIXES = (".gif", ".mp4")
+
+
+def make_env(env_id: str, asset=None, joint: str | None = None, render_mode: str | None = None,
+             max_episode_steps: int | None = None, **kwargs) -> gym.Env:
+    """``gymnasium.make`` for a spark-bench environment, with a clear error for an unknown id.
+
+    :param env_id: ``SparkDrawer-v0`` or ``SparkDoor-v0``
+    :param asset: see :mod:`spark_bench.envs.assets`
+    :param joint: the joint to open
+    :param render_mode: None or ``rgb_array``
+    :param max_episode_steps: time limit (default: the registered one)
+    """
+    import spark_bench.envs  # noqa: F401  (registers)
+    from spark_bench.envs.registration import ENVIRONMENTS
+
+    if env_id not in ENVIRONMENTS:
+        raise InputError(None, f"unknown environment {env_id!r} (choose from {', '.join(ENVIRONMENTS)})")
+    options = {k: v for k, v in {"asset": asset, "joint": joint}.items() if v is not None}
+    if max_episode_steps is not None:
+        options["max_episode_steps"] = int(max_episode_steps)
+    return gym.make(env_id, render_mode=render_mode, **options, **kwargs)
+
+
+class ScriptedPolicy:
+    """The scripted opener with the environment's own (ground-truth) joint, or with given parameters.
+
+    :param joint: ``(axis, pivot, type)`` to plan from (world frame), or None for the ground truth
+    """
+
+    def __init__(self, joint: tuple | None = None):
+        self.joint = joint
+        self._opener = None
+
+    def reset(self, env: gym.Env) -> None:
+        from spark_bench.rl.scripted import ScriptedOpener, ground_truth_joint
+
+        axis, pivot, joint_type = self.joint if self.joint is not None else ground_truth_joint(env)
+        self._opener = ScriptedOpener(axis, pivot, joint_type, env.unwrapped.scene.grasp.outward)
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return self._opener(obs)
+
+
+class ModelPolicy:
+    """A stable-baselines3 model, or one saved by :func:`spark_bench.rl.train.train`.
+
+    :param model: the model, its ``.zip`` file, or a training output folder holding ``model.zip``
+    :param deterministic: act with the policy's mean action
+    """
+
+    def __init__(self, model, deterministic: bool = True):
+        if isinstance(model, (str, Path)):
+            from spark_bench.rl.train import load_model
+
+            model = load_model(model)
+        self.model = model
+        self.deterministic = deterministic
+
+    def reset(self, env: gym.Env) -> None:
+        pass
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        action, _ = self.model.predict(obs, deterministic=self.deterministic)
+        return action
+
+
+def load_policy(policy: str):
+    """``scripted`` or the path of a saved model."""
+    if policy == "scripted":
+        return ScriptedPolicy()
+    return ModelPolicy(policy)
+
+
+@dataclass
+class RolloutStats:
+    """Scores of a policy over some episodes.
+
+    :param success_rate: fraction of episodes in which the joint passed the target at some step
+    :param episodes: number of episodes
+    :param mean_return: mean summed reward
+    :param mean_max_fraction: mean of each episode's largest joint fraction
+    :param successes: per-episode success
+    :param returns: per-episode return
+    """
+
+    success_rate: float
+    episodes: int
+    mean_return: float
+    mean_max_fraction: float
+    successes: list[bool] = field(default_factory=list)
+    returns: list[float] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def run_episodes(env: gym.Env, policy, episodes: int, seed: int = 0, frames: list | None = None
+                 ) -> RolloutStats:
+    """Run ``policy`` for ``episodes`` full episodes (until the time limit) with seeds ``seed + i``.
+
+    :param frames: if given, rendered frames are appended (the environment must render ``rgb_array``)
+    """
+    successes, returns, fractions = [], [], []
+    for episode in range(episodes):
+        obs, _ = env.reset(seed=seed + episode)
+        policy.reset(env)
+        done, total, success, best = False, 0.0, False, 0.0
+        while not done:
+            if frames is not None:
+                frames.append(env.render())
+            obs, reward, terminated, truncated, info = env.step(policy(obs))
+            total += float(reward)
+            success = success or bool(info.get("is_success", False))
+            best = max(best, env.unwrapped.joint_fraction)
+            done = terminated or truncated
+        successes.append(success)
+        returns.append(total)
+        fractions.append(best)
+    return RolloutStats(success_rate=float(np.mean(successes)), episodes=episodes,
+                        mean_return=float(np.mean(returns)), mean_max_fraction=float(np.mean(fractions)),
+                        successes=successes, returns=returns)
+
+
+def write_video(frames: list[np.ndarray], path: str | Path, fps: int) -> Path:
+    """Write frames as a GIF or MP4 (MP4 needs the ``imageio-ffmpeg`` package)."""
+    import imageio.v3 as iio
+
+    path = Path(path)
+    if path.suffix.lower() not in VIDEO_SUFFIXES:
+        raise InputError(path, f"video must end in {' or '.join(VIDEO_SUFFIXES)}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.suffix.lower() == ".gif":
+        iio.imwrite(path, np.stack(frames), duration=1000.0 / fps, loop=0)
+        return path
+    try:
+        iio.imwrite(path, np.stack(frames), fps=fps, codec="libx264", plugin="FFMPEG")
+    except (ImportError, ValueError, RuntimeError) as exc:
+        raise InputError(path, f"cannot write MP4 ({exc}); install imageio-ffmpeg or use .gif") from None
+    return path
+
+
+def rollout(env_id: str, asset=None, policy: str = "scripted", episodes: int = 10, seed: int = 0,
+            joint: str | None = None, video: str | Path | None = None,
+            max_episode_steps: int | None = None) -> RolloutStats:
+    """Score ``policy`` on an environment.
+
+    :param env_id: ``SparkDrawer-v0`` or ``SparkDoor-v0``
+    :param asset: the object (see :mod:`spark_bench.envs.assets`)
+    :param policy: ``scripted`` or a saved model's path
+    :param episodes: number of episodes (seeds ``seed .. seed + episodes - 1``)
+    :param joint: the joint to open
+    :param video: write the episodes to this ``.gif`` / ``.mp4``
+    :param max_episode_steps: time limit (default: the registered one)
+    """
+    env = make_env(env_id, asset=asset, joint=joint, render_mode="rgb_array" if video else None,
+                   max_episode_steps=max_episode_steps)
+    try:
+        frames = [] if video else None
+        stats = run_episodes(env, load_policy(policy), episodes, seed=seed, frames=frames)
+        if video:
+            write_video(frames, video, fps=env.metadata.get("render_fps", 25))
+    finally:
+        env.close()
+    return stats
+
+
+def stats_json(stats: RolloutStats) -> str:
+    """The CLI's JSON line: success rate, episodes, mean return (and the mean largest fraction)."""
+    return json.dumps({"success_rate": stats.success_rate, "episodes": stats.episodes,
+                       "mean_return": stats.mean_return, "mean_max_fraction": stats.mean_max_fraction})

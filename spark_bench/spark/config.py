@@ -1,0 +1,254 @@
+"""Configuration of the SPARK pipeline: one backend per stage, loadable from JSON or TOML.
+
+Example (TOML)::
+
+    [prior]
+    backend = "vlm"          # vlm | annotation | file
+    [vlm]
+    base_url = "https://api.openai.com/v1"
+    model = "gpt-4o"
+    api_key_env = "OPENAI_API_KEY"
+    [geometry]
+    backend = "annotation"   # annotation | predictions | spark
+    [open_state]
+    backend = "dataset"      # dataset | http
+    [optimize]
+    enabled = true
+
+Command-line style overrides (``section.key=value``, value parsed as JSON when it parses) go through
+:meth:`SparkConfig.with_overrides`. :meth:`SparkConfig.label` is the string results rows carry.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import asdict, dataclass, field, fields, is_dataclass
+from pathlib import Path
+
+from spark_bench.errors import InputError
+from spark_bench.spark.prior import NoiseModel
+
+PRIOR_BACKENDS = ("annotation", "vlm", "file")
+GEOMETRY_BACKENDS = ("annotation", "predictions", "spark")
+OPEN_STATE_BACKENDS = ("dataset", "http")
+REFINE_BACKENDS = ("render", "vlm", "none")
+
+
+@dataclass
+class VLMConfig:
+    """An OpenAI-compatible chat-completions endpoint with image input.
+
+    :param base_url: API root; requests go to ``{base_url}/chat/completions``
+    :param model: model name sent in the request
+    :param api_key_env: environment variable holding the API key (sent as a Bearer token if set)
+    :param timeout_s: per-request timeout
+    :param max_retries: attempts after the first, on HTTP 429/5xx, network errors and invalid answers
+    :param backoff_s: first retry delay, doubled each time
+    :param temperature: sampling temperature
+    :param max_tokens: answer length cap
+    :param json_schema: send ``response_format: json_schema`` (False: ``json_object``, for servers
+        that lack structured outputs)
+    """
+
+    base_url: str = "http://127.0.0.1:8000/v1"
+    model: str = "gpt-4o"
+    api_key_env: str = "OPENAI_API_KEY"
+    timeout_s: float = 120.0
+    max_retries: int = 3
+    backoff_s: float = 1.0
+    temperature: float = 0.0
+    max_tokens: int = 2000
+    json_schema: bool = True
+
+
+@dataclass
+class PriorConfig:
+    """Stage 1. :param backend: ``annotation`` | ``vlm`` | ``file``; :param file_dir: folder of
+    ``<case id>.json`` answers for ``file``; :param noise: the ``annotation`` noise model."""
+
+    backend: str = "annotation"
+    file_dir: str = ""
+    noise: NoiseModel = field(default_factory=NoiseModel)
+
+
+@dataclass
+class GeometryConfig:
+    """Stage 2. :param backend: ``annotation`` | ``predictions`` | ``spark``; :param predictions_dir:
+    folder of ``<case id>/`` object folders; :param spark_command: command template (see
+    :func:`spark_bench.spark.geometry.spark_geometry`); :param timeout_s: its time limit."""
+
+    backend: str = "annotation"
+    predictions_dir: str = ""
+    spark_command: str = ""
+    timeout_s: float = 3600.0
+
+
+@dataclass
+class OpenStateConfig:
+    """Stage 3. :param backend: ``dataset`` | ``http``; :param url: image-generation endpoint for
+    ``http``; :param model: model name sent; :param api_key_env: key variable; :param timeout_s: limit."""
+
+    backend: str = "dataset"
+    url: str = ""
+    model: str = ""
+    api_key_env: str = "OPENAI_API_KEY"
+    timeout_s: float = 300.0
+
+
+@dataclass
+class OptimizeConfig:
+    """Stage 4 (see :class:`spark_bench.spark.refine.RefineSettings` for the knobs' meaning).
+
+    :param enabled: run the joint optimization (False: export the prior as is)
+    :param refine: discrete type/axis refinement: ``render`` (offline), ``vlm`` (ask the VLM again with
+        the coarse URDF, then fit continuously) or ``none``
+    :param threads: torch CPU threads during the optimization
+    """
+
+    enabled: bool = True
+    refine: str = "render"
+    screen_size: int = 32
+    screen_tau: float = 1.0
+    short_steps: int = 20
+    top_k: int = 3
+    final_sizes: list[int] = field(default_factory=lambda: [64, 128])
+    final_taus: list[float] = field(default_factory=lambda: [0.7, 0.6])
+    final_steps: list[int] = field(default_factory=lambda: [40, 30])
+    w_edge: float = 0.2
+    lambda_t: float = 0.01
+    lambda_theta: float = 0.001
+    lr_pivot: float = 0.01
+    lr_value: float = 0.03
+    include_fixed: bool = False
+    max_faces: int = 600
+    threads: int = 1
+
+
+@dataclass
+class SparkConfig:
+    """The whole pipeline's configuration.
+
+    :param prior: stage 1, structure prior
+    :param geometry: stage 2, part geometry
+    :param open_state: stage 3, open-state image
+    :param optimize: stage 4, joint optimization
+    :param vlm: the VLM endpoint (prior ``vlm`` and refine ``vlm``)
+    :param write_prior: also write the prior-only asset to ``<out>/prior/`` (the "w/o joint
+        optimization" row of the ablation)
+    """
+
+    prior: PriorConfig = field(default_factory=PriorConfig)
+    geometry: GeometryConfig = field(default_factory=GeometryConfig)
+    open_state: OpenStateConfig = field(default_factory=OpenStateConfig)
+    optimize: OptimizeConfig = field(default_factory=OptimizeConfig)
+    vlm: VLMConfig = field(default_factory=VLMConfig)
+    write_prior: bool = True
+
+    def label(self) -> str:
+        """``prior=...,geometry=...,open=...,opt=...``: what a results row made with this config says."""
+        opt = "none" if not self.optimize.enabled else "native" if self.optimize.refine == "render" \
+            else f"native+{self.optimize.refine}"
+        return f"prior={self.prior.backend},geometry={self.geometry.backend},open={self.open_state.backend},opt={opt}"
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict, source=None) -> SparkConfig:
+        """Build from nested dicts; unknown keys and bad backend names are errors naming ``source``."""
+        config = _build(cls, data, source, "")
+        config.validate(source)
+        return config
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> SparkConfig:
+        """Read a ``.json`` or ``.toml`` file."""
+        path = Path(path)
+        try:
+            text = path.read_text()
+            data = tomllib.loads(text) if path.suffix.lower() == ".toml" else json.loads(text)
+        except FileNotFoundError:
+            raise InputError(path, "config file not found") from None
+        except (json.JSONDecodeError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise InputError(path, f"malformed config: {exc}") from None
+        return cls.from_dict(data, path)
+
+    def with_overrides(self, overrides: list[str]) -> SparkConfig:
+        """A copy with ``section.key=value`` overrides applied (e.g. ``prior.backend=vlm``)."""
+        data = self.to_dict()
+        for item in overrides:
+            key, sep, raw = item.partition("=")
+            if not sep:
+                raise InputError(None, f"override {item!r} is not KEY=VALUE")
+            try:
+                value = json.loads(raw)
+            except json.JSONDecodeError:
+                value = raw
+            node = data
+            parts = key.strip().split(".")
+            for part in parts[:-1]:
+                if not isinstance(node.get(part), dict):
+                    raise InputError(None, f"override {item!r}: no section {part!r}")
+                node = node[part]
+            if parts[-1] not in node:
+                raise InputError(None, f"override {item!r}: no setting {parts[-1]!r}")
+            node[parts[-1]] = value
+        return SparkConfig.from_dict(data, "command line")
+
+    def validate(self, source=None) -> None:
+        checks = [("prior.backend", self.prior.backend, PRIOR_BACKENDS),
+                  ("geometry.backend", self.geometry.backend, GEOMETRY_BACKENDS),
+                  ("open_state.backend", self.open_state.backend, OPEN_STATE_BACKENDS),
+                  ("optimize.refine", self.optimize.refine, REFINE_BACKENDS)]
+        for key, value, allowed in checks:
+            if value not in allowed:
+                raise InputError(source, f"{key} = {value!r} is not one of {list(allowed)}")
+        if self.prior.backend == "file" and not self.prior.file_dir:
+            raise InputError(source, "prior.backend = 'file' needs prior.file_dir")
+        if self.geometry.backend == "predictions" and not self.geometry.predictions_dir:
+            raise InputError(source, "geometry.backend = 'predictions' needs geometry.predictions_dir")
+        if self.geometry.backend == "spark" and not self.geometry.spark_command:
+            raise InputError(source, "geometry.backend = 'spark' needs geometry.spark_command")
+        if self.open_state.backend == "http" and not self.open_state.url:
+            raise InputError(source, "open_state.backend = 'http' needs open_state.url")
+        opt = self.optimize
+        if not (len(opt.final_sizes) == len(opt.final_taus) == len(opt.final_steps)):
+            raise InputError(source, "optimize.final_sizes, final_taus and final_steps must have equal lengths")
+
+
+def _build(cls, data, source, prefix):
+    if not isinstance(data, dict):
+        raise InputError(source, f"section {prefix or 'root'} must be a table/object")
+    known = {f.name: f for f in fields(cls)}
+    unknown = set(data) - set(known)
+    if unknown:
+        raise InputError(source, f"unknown setting(s) {sorted(prefix + k for k in unknown)}")
+    kwargs = {}
+    defaults = cls()
+    for name, value in data.items():
+        default = getattr(defaults, name)
+        if is_dataclass(default):
+            kwargs[name] = _build(type(default), value, source, f"{prefix}{name}.")
+        else:
+            kwargs[name] = _coerce(value, default, source, prefix + name)
+    return cls(**kwargs)
+
+
+def _coerce(value, default, source, key):
+    if isinstance(default, bool):
+        if not isinstance(value, bool):
+            raise InputError(source, f"{key} must be true or false")
+        return value
+    if isinstance(default, int | float) and not isinstance(value, bool):
+        try:
+            return type(default)(value)
+        except (TypeError, ValueError):
+            raise InputError(source, f"{key} must be a number, got {value!r}") from None
+    if isinstance(default, str):
+        return str(value)
+    if isinstance(default, list):
+        if not isinstance(value, list):
+            raise InputError(source, f"{key} must be a list")
+        return list(value)
+    return value

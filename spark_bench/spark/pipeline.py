@@ -1,0 +1,215 @@
+"""``ours``: the SPARK pipeline on one benchmark case, stage by stage (see the package docstring).
+
+:func:`run_ours` writes into ``out_dir``:
+
+- the refined asset as a PartNet-Mobility object folder (``mobility.urdf``, ``textured_objs/``...);
+- ``prior/``: the same object with the prior's joints, before any optimization (the "w/o joint
+  optimization" variant of the ablation; with ``optimize.enabled = False`` both are the prior);
+- ``prior.json``: the coarse URDF answer (reusable by the ``file`` prior backend);
+- ``spark_report.json``: config label, backends, prior and refined joints (world frame), the loss
+  curve, candidate losses, timings and, when the ground truth is at hand, name-matched joint errors
+  before and after (diagnostics; the official scores come from ``spark_bench.metrics``).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from spark_bench.errors import InputError
+from spark_bench.spark.assemble import assemble_asset, joint_summary
+from spark_bench.spark.camera import load_camera
+from spark_bench.spark.config import SparkConfig
+from spark_bench.spark.diagnostics import joint_errors
+from spark_bench.spark.geometry import (
+    PartGeometry,
+    annotation_geometry,
+    predictions_geometry,
+    spark_geometry,
+)
+from spark_bench.spark.open_state import OpenState, dataset_open_state, http_open_state
+from spark_bench.spark.optimize import LossWeights, OpenStateScene, Stage
+from spark_bench.spark.prior import annotation_prior, file_prior
+from spark_bench.spark.refine import RefineSettings, refine
+from spark_bench.spark.structure import PriorStructure
+from spark_bench.spark.vlm import request_structure
+
+
+def refine_settings(config: SparkConfig, discrete: bool) -> RefineSettings:
+    """The optimizer's settings from the ``optimize`` section."""
+    opt = config.optimize
+    return RefineSettings(
+        screen=Stage(opt.screen_size, opt.screen_tau, 0), short_steps=opt.short_steps, top_k=opt.top_k,
+        final=[Stage(s, t, n) for s, t, n in zip(opt.final_sizes, opt.final_taus, opt.final_steps)],
+        weights=LossWeights(opt.w_edge, opt.lambda_t, opt.lambda_theta), refine_discrete=discrete,
+        include_fixed=opt.include_fixed, max_faces=opt.max_faces, lr_pivot=opt.lr_pivot, lr_value=opt.lr_value)
+
+
+@contextmanager
+def torch_threads(n: int):
+    """Run with ``n`` torch CPU threads, then restore the previous count."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(max(1, int(n)))
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before)
+
+
+def read_case(case_dir: Path) -> dict:
+    """``case.json`` of a benchmark case."""
+    path = Path(case_dir) / "case.json"
+    try:
+        case = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError(path, "case file not found") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(path, f"malformed JSON: {exc}") from None
+    if not isinstance(case, dict) or "id" not in case:
+        raise InputError(path, 'expected an object with an "id"')
+    return case
+
+
+def load_ground_truth(case_dir: Path):
+    """The case's ``gt/`` object (benchmark frame)."""
+    from spark_bench.data import load_object
+
+    return load_object(Path(case_dir) / "gt")
+
+
+def _geometry(config: SparkConfig, case_dir: Path, case_id: str, gt, prior_json: Path | None,
+              work: Path) -> PartGeometry:
+    backend = config.geometry.backend
+    if backend == "annotation":
+        return annotation_geometry(gt)
+    if backend == "predictions":
+        return predictions_geometry(config.geometry.predictions_dir, case_id)
+    return spark_geometry(config.geometry.spark_command, case_dir, prior_json, work, config.geometry.timeout_s)
+
+
+def _prior(config: SparkConfig, case_dir: Path, case_id: str, gt, geometry: PartGeometry | None):
+    backend = config.prior.backend
+    known = geometry.names if geometry is not None else None
+    if backend == "annotation":
+        return annotation_prior(gt, case_id, config.prior.noise), None
+    if backend == "file":
+        return file_prior(config.prior.file_dir, case_id, known), None
+    image = Path(case_dir) / "input.png"
+    if not image.is_file():
+        raise InputError(image, "input image not found")
+    return request_structure(config.vlm, image.read_bytes(), known, geometry.labels if geometry else None)
+
+
+def _open_state(config: SparkConfig, case_dir: Path) -> OpenState:
+    if config.open_state.backend == "dataset":
+        return dataset_open_state(case_dir)
+    return http_open_state(config.open_state, (Path(case_dir) / "input.png").read_bytes())
+
+
+def run_ours(case_dir: Path, out_dir: Path, config: SparkConfig | None = None) -> dict:
+    """Run the SPARK pipeline on one case and write the refined and prior-only objects.
+
+    :param case_dir: a benchmark case folder (docs/formats.md)
+    :param out_dir: where the object folder, ``prior/``, ``prior.json`` and ``spark_report.json`` go
+    :param config: the pipeline configuration (default: everything offline)
+    :returns: the report (also written to ``spark_report.json``)
+    """
+    from spark_bench.asset.urdf import write_object_folder
+
+    config = config or SparkConfig()
+    case_dir, out_dir = Path(case_dir), Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    timings: dict[str, float] = {}
+    tick = time.perf_counter()
+    case = read_case(case_dir)
+    case_id = str(case["id"])
+    needs_gt = "annotation" in (config.prior.backend, config.geometry.backend)
+    gt = load_ground_truth(case_dir) if needs_gt else None
+    timings["load"] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    geometry = None
+    if config.geometry.backend != "spark":  # these know the parts before the prior
+        geometry = _geometry(config, case_dir, case_id, gt, None, out_dir)
+    prior, raw_answer = _prior(config, case_dir, case_id, gt, geometry)
+    prior_json = out_dir / "prior.json"
+    prior_json.write_text(json.dumps(raw_answer if raw_answer is not None else prior.to_dict(), indent=1) + "\n")
+    timings["prior"] = time.perf_counter() - tick
+    if geometry is None:
+        tick = time.perf_counter()
+        geometry = _geometry(config, case_dir, case_id, gt, prior_json, out_dir)
+        timings["geometry"] = time.perf_counter() - tick
+
+    prior_asset = assemble_asset(prior, geometry, name=case_id, category=str(case.get("category", "")))
+    movable = [j.name for j in prior.joints if j.type != "fixed"]
+    report = {
+        "case": case_id, "label": config.label(), "config": config.to_dict(),
+        "backends": {"prior": config.prior.backend, "geometry": config.geometry.backend,
+                     "open_state": config.open_state.backend,
+                     "optimize": "none" if not config.optimize.enabled else config.optimize.refine},
+        "geometry_is_ground_truth": config.geometry.backend == "annotation",
+        "prior_joints": joint_summary(prior_asset, [j.name for j in prior.joints]),
+    }
+    if config.write_prior:
+        write_object_folder(prior_asset, out_dir / "prior")
+
+    refined_asset = prior_asset
+    if config.optimize.enabled:
+        refined_asset, opt_report = _optimize(config, case_dir, prior, prior_asset, geometry, timings)
+        report.update(opt_report)
+    tick = time.perf_counter()
+    write_object_folder(refined_asset, out_dir)
+    timings["export"] = time.perf_counter() - tick
+    report["refined_joints"] = joint_summary(refined_asset, [j.name for j in prior.joints])
+    if gt is not None:
+        truth = joint_summary(gt, [j.name for j in gt.movable_joints()])
+        report["diagnostics"] = {"matched_by": "part name",
+                                 "prior": joint_errors(report["prior_joints"], truth),
+                                 "refined": joint_errors(report["refined_joints"], truth)}
+    report["movable_joints"] = movable
+    report["timings"] = {k: round(v, 4) for k, v in timings.items()}
+    (out_dir / "spark_report.json").write_text(json.dumps(report, indent=1, default=_json_default) + "\n")
+    return report
+
+
+def _optimize(config: SparkConfig, case_dir: Path, prior: PriorStructure, prior_asset, geometry, timings):
+    tick = time.perf_counter()
+    open_state = _open_state(config, case_dir)
+    camera = load_camera(Path(case_dir) / "camera.json")
+    timings["open_state"] = time.perf_counter() - tick
+    discrete = config.optimize.refine == "render"
+    start_asset = prior_asset
+    if config.optimize.refine == "vlm":  # the paper's re-prediction of type and axis, then the fit
+        tick = time.perf_counter()
+        image = (Path(case_dir) / "input.png").read_bytes()
+        reprior, _ = request_structure(config.vlm, image, geometry.names, geometry.labels, refine_from=prior)
+        start_asset = assemble_asset(reprior, geometry, name=prior_asset.name, category=prior_asset.category)
+        timings["vlm_refine"] = time.perf_counter() - tick
+    tick = time.perf_counter()
+    with torch_threads(config.optimize.threads):
+        scene = OpenStateScene(start_asset, camera, open_state.mask, config.optimize.max_faces)
+        result = refine(start_asset, scene, refine_settings(config, discrete))
+    timings["joint_optimization"] = time.perf_counter() - tick
+    timings.update({f"opt_{k}": v for k, v in result.timings.items()})
+    return result.asset, {
+        "open_state_source": open_state.source,
+        "loss_curve": [round(v, 6) for v in result.curve],
+        "loss_prior": result.loss_prior, "loss_refined": result.loss_final,
+        "candidates": result.candidates,
+        "hypotheses": {n: {"type": h.type, "axis": np.round(h.axis, 10).tolist(),
+                           "pivot_offset": np.round(h.pivot_offset, 10).tolist(), "value": h.value, "from": h.tag}
+                       for n, h in result.hypotheses.items()},
+    }
+
+
+def _json_default(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"not JSON serializable: {type(value).__name__}")

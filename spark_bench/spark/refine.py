@@ -1,0 +1,223 @@
+"""Discrete refinement of joint type and axis, and the whole native joint-optimization stage.
+
+The paper re-asks the VLM for each joint's type and axis given the coarse URDF (section 3.3). The
+offline counterpart here renders every candidate of the canonical dictionary and keeps the best after a
+short continuous fit:
+
+1. candidates per movable joint: ``revolute`` about each of the six canonical directions, with several
+   pivot starts (the prior's pivot and the four edges of the part's rest bounding box parallel to the
+   axis, where hinges almost always are), ``prismatic`` along each direction, and optionally ``fixed``;
+2. screening: the loss of every candidate at a coarse resolution with the other joints as they are;
+3. the ``top_k`` best get a short fit (:func:`~spark_bench.spark.optimize.fit`), the best final loss wins
+   (ties go to the prior's own type and axis);
+4. after one sweep over the joints, every joint is fitted together, coarse to fine.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from spark_bench.asset.model import ArticulatedAsset
+from spark_bench.spark.assemble import apply_pivot_offset, joint_summary, set_joint
+from spark_bench.spark.optimize import (
+    FitResult,
+    Hypothesis,
+    LossWeights,
+    OpenStateScene,
+    Stage,
+    canonical_sign,
+    fit,
+)
+from spark_bench.spark.structure import CANONICAL_AXES, OBJECT_TO_WORLD, axis_vector
+
+#: The prior's own hypothesis is preferred when a candidate does not beat it by this much.
+PRIOR_MARGIN = 2e-3
+
+
+@dataclass
+class RefineSettings:
+    """Knobs of the native joint optimization (see the module docstring).
+
+    :param screen: the coarse level used to screen candidates and for the short fits
+    :param short_steps: Adam steps of each candidate's short fit
+    :param top_k: candidates per joint that get a short fit
+    :param final: the levels of the final joint fit, coarse to fine
+    :param weights: loss weights
+    :param refine_discrete: try other types and axes (False: continuous fit of the prior's only)
+    :param include_fixed: also try ``fixed`` (a part that does not move)
+    :param sweeps: passes of the discrete search over the joints
+    :param max_faces: per-link face budget for rendering
+    :param lr_pivot: Adam step for pivot offsets
+    :param lr_value: Adam step for open values
+    :param screen_values: open values tried for each candidate while screening, by type
+    """
+
+    screen: Stage = field(default_factory=lambda: Stage(32, 1.0, 0))
+    short_steps: int = 20
+    top_k: int = 3
+    final: list[Stage] = field(default_factory=lambda: [Stage(64, 0.7, 40), Stage(128, 0.6, 30)])
+    weights: LossWeights = field(default_factory=LossWeights)
+    refine_discrete: bool = True
+    include_fixed: bool = False
+    sweeps: int = 1
+    max_faces: int = 600
+    lr_pivot: float = 0.01
+    lr_value: float = 0.03
+    screen_values: dict = field(default_factory=lambda: {"revolute": (0.5, 1.0, 1.5, 2.0),
+                                                         "prismatic": (0.15, 0.3, 0.5, 0.7)})
+
+
+@dataclass
+class RefineResult:
+    """The refined asset and what it took.
+
+    :param asset: a copy of the input asset with refined joints
+    :param hypotheses: the final hypothesis per movable joint
+    :param curve: loss per Adam step of the final fit
+    :param candidates: per joint, every candidate's tag with its screening and short-fit losses
+    :param timings: seconds per phase
+    :param loss_prior: the prior's image loss at the finest level
+    :param loss_final: the refined image loss at the finest level
+    """
+
+    asset: ArticulatedAsset
+    hypotheses: dict[str, Hypothesis]
+    curve: list[float]
+    candidates: dict[str, list[dict]]
+    timings: dict[str, float]
+    loss_prior: float
+    loss_final: float
+
+
+def prior_hypotheses(asset: ArticulatedAsset, include_fixed: bool = False) -> dict[str, Hypothesis]:
+    """The asset's own joints as hypotheses (open value = upper limit), excluding the root joint."""
+    out = {}
+    for joint in asset.joints.values():
+        if joint.parent == asset.root:
+            continue
+        if joint.is_movable or include_fixed:
+            jtype = "revolute" if joint.type == "continuous" else joint.type
+            out[joint.name] = Hypothesis(jtype, np.asarray(joint.axis, float), np.zeros(3),
+                                         float(joint.open_value), tag=f"prior/{jtype}")
+    return out
+
+
+def _frames(asset: ArticulatedAsset, joint_name: str):
+    """World rotation of the parent frame and of the joint frame, and the world pivot, at rest."""
+    joint = asset.joints[joint_name]
+    parent = asset.link_poses()[joint.parent]
+    frame = parent @ joint.origin
+    return parent[:3, :3], frame[:3, :3], frame[:3, 3]
+
+
+def candidate_hypotheses(asset: ArticulatedAsset, joint_name: str, prior: Hypothesis,
+                         include_fixed: bool = False, default_values: dict | None = None) -> list[Hypothesis]:
+    """Every type/axis/pivot-start candidate of one joint (see the module docstring)."""
+    values = default_values or {"revolute": np.pi / 2, "prismatic": 0.5}
+    parent_rot, joint_rot, pivot_world = _frames(asset, joint_name)
+    part_world = _part_vertices(asset, joint_name)
+    out = []
+    for name, direction in CANONICAL_AXES.items():
+        world_dir = OBJECT_TO_WORLD @ np.asarray(direction)
+        axis_joint = joint_rot.T @ world_dir
+        for jtype in ("revolute", "prismatic"):
+            value = prior.value if prior.type == jtype and prior.value > 0 else values[jtype]
+            out.append(Hypothesis(jtype, axis_joint, np.zeros(3), value, tag=f"{jtype}/{name}/prior"))
+        if len(part_world):
+            for k, point in enumerate(_box_edges(part_world, axis_vector(name), pivot_world)):
+                offset = parent_rot.T @ (point - pivot_world)
+                value = prior.value if prior.type == "revolute" and prior.value > 0 else values["revolute"]
+                out.append(Hypothesis("revolute", axis_joint, offset, value, tag=f"revolute/{name}/edge{k}"))
+    if include_fixed:
+        out.append(Hypothesis("fixed", prior.axis, np.zeros(3), 0.0, tag="fixed"))
+    return out
+
+
+def _part_vertices(asset: ArticulatedAsset, joint_name: str) -> np.ndarray:
+    meshes = asset.link_meshes(links=asset.part_of_joint(joint_name))
+    return np.concatenate([m.vertices for m in meshes.values()]) if meshes else np.zeros((0, 3))
+
+
+def _box_edges(points_world: np.ndarray, axis_object: np.ndarray, pivot_world: np.ndarray) -> list[np.ndarray]:
+    """World points on the four edges of the part's object-frame bounding box parallel to the axis."""
+    obj = points_world @ OBJECT_TO_WORLD  # world -> object: R^T p, row-wise
+    lo, hi = obj.min(0), obj.max(0)
+    along = int(np.argmax(np.abs(axis_object)))
+    others = [d for d in range(3) if d != along]
+    pivot_obj = OBJECT_TO_WORLD.T @ pivot_world
+    edges = []
+    for a in (lo[others[0]], hi[others[0]]):
+        for b in (lo[others[1]], hi[others[1]]):
+            point = pivot_obj.copy()
+            point[others[0]], point[others[1]] = a, b
+            edges.append(OBJECT_TO_WORLD @ point)
+    return edges
+
+
+def _same_motion(a: Hypothesis, b: Hypothesis) -> bool:
+    return a.type == b.type and np.allclose(a.axis, b.axis, atol=1e-6)
+
+
+def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSettings) -> RefineResult:
+    """The native joint-optimization stage on an assembled prior asset (see the module docstring)."""
+    timings: dict[str, float] = {}
+    prior = prior_hypotheses(asset, settings.include_fixed)
+    current = dict(prior)
+    candidates_report: dict[str, list[dict]] = {}
+    finest = settings.final[-1] if settings.final else settings.screen
+    loss_prior = scene.loss(prior, finest, settings.weights)
+    short = [replace(settings.screen, steps=settings.short_steps)]
+    tick = time.perf_counter()
+    if settings.refine_discrete:
+        for _ in range(settings.sweeps):
+            for name in list(current):
+                current[name], candidates_report[name] = _search_joint(asset, scene, current, name, prior[name],
+                                                                       short, settings)
+    timings["discrete_search"] = time.perf_counter() - tick
+    tick = time.perf_counter()
+    result: FitResult = fit(scene, current, list(current), settings.final, settings.weights,
+                            settings.lr_pivot, settings.lr_value)
+    timings["final_fit"] = time.perf_counter() - tick
+    final = {n: canonical_sign(h) for n, h in result.hypotheses.items()}
+    refined = asset.copy()
+    for name, hyp in final.items():
+        set_joint(refined, name, hyp.type, hyp.axis, hyp.value)
+        if hyp.type == "revolute":
+            apply_pivot_offset(refined, name, hyp.pivot_offset)
+    return RefineResult(refined, final, result.curve, candidates_report, timings, loss_prior, result.loss)
+
+
+def _search_joint(asset, scene, current, name, prior_hyp, short, settings):
+    """Screen and short-fit the candidates of one joint; returns the winner and a report."""
+    cands = candidate_hypotheses(asset, name, prior_hyp, settings.include_fixed)
+    screened = []
+    for cand in cands:
+        values = [cand.value] + [v for v in settings.screen_values.get(cand.type, ()) if v != cand.value]
+        losses = [(scene.loss({**current, name: replace(cand, value=v)}, settings.screen, settings.weights), v)
+                  for v in values]
+        loss, value = min(losses)
+        screened.append((loss, replace(cand, value=value)))
+    screened.sort(key=lambda item: item[0])
+    keep = [c for _, c in screened[: settings.top_k]]
+    if not any(_same_motion(c, prior_hyp) and not c.pivot_offset.any() for c in keep):
+        keep.append(next(c for c in cands if _same_motion(c, prior_hyp) and not c.pivot_offset.any()))
+    report = [{"candidate": c.tag, "screen_loss": round(s, 6)} for s, c in screened]
+    fitted = []
+    for cand in keep:
+        res = fit(scene, {**current, name: cand}, [name], short, settings.weights, settings.lr_pivot,
+                  settings.lr_value)
+        next(r for r in report if r["candidate"] == cand.tag)["fit_loss"] = round(res.loss, 6)
+        fitted.append((res.loss, res.hypotheses[name], _same_motion(cand, prior_hyp)))
+    best_loss, best, _ = min(fitted, key=lambda item: item[0])
+    prior_loss, prior_best, _ = min((f for f in fitted if f[2]), key=lambda item: item[0])
+    if best_loss > prior_loss - PRIOR_MARGIN:
+        best = prior_best
+    return best, report
+
+
+def joints_report(asset: ArticulatedAsset, hypotheses: dict[str, Hypothesis]) -> list[dict]:
+    """World-frame joints of ``asset`` for the movable hypotheses (case.json form)."""
+    return joint_summary(asset, list(hypotheses))

@@ -1,0 +1,170 @@
+"""A differentiable soft-silhouette renderer in plain torch, and an exact hard rasterizer to check it.
+
+Why this design. PyTorch3D and nvdiffrast cannot be installed here, so the renderer is written in torch
+and keeps their interface shape: a renderer object built from a camera and an image size, called on
+world-space vertices and faces, returning an (H, W) silhouette in [0, 1] (PyTorch3D's
+``SoftSilhouetteShader`` alpha channel, nvdiffrast's antialiased coverage). Either library can replace
+it behind :class:`SoftSilhouetteRenderer.render` without touching the optimizer.
+
+The model is SoftRas-style (Liu et al. 2019): each projected triangle ``f`` covers pixel ``p`` with
+probability ``D_f(p) = sigmoid(s_f(p) / tau)``, where ``s_f(p)`` is the signed Euclidean distance in
+pixels from the pixel centre to the triangle's boundary (positive inside), and the silhouette is the
+probabilistic union ``1 - prod_f (1 - D_f(p))``, computed in log space
+(``log(1 - sigmoid(x)) = -softplus(x)``) so that many layers stay stable. We use the signed *distance*
+rather than SoftRas's signed squared distance: its gradient does not vanish on the edge, so a tau of
+about one pixel gives an antialiased edge whose position moves smoothly with the vertices, which is
+what sub-pixel joint recovery needs.
+
+Speed on CPU comes from sparsity: ``D_f`` is negligible beyond ``cutoff * tau`` pixels from the
+triangle, so only the (pixel, triangle) pairs inside each triangle's padded bounding box are formed
+(a ragged list built with ``repeat_interleave``), evaluated, and scattered into the image with
+``index_add``. The cost is proportional to the total padded bounding-box area, not to
+``pixels x triangles``; with decimated part meshes at 64-128 px this is a few milliseconds per frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from spark_bench.spark.camera import Camera
+
+#: Nearest accepted depth in front of the camera; triangles with a vertex closer are dropped.
+NEAR = 1e-3
+
+
+def project_vertices(vertices: torch.Tensor, camera: Camera) -> tuple[torch.Tensor, torch.Tensor]:
+    """Pixel coordinates (N, 2) and depths (N,) of world-space vertices, differentiable.
+
+    :param vertices: (N, 3) world (benchmark frame) points
+    :param camera: the camera; its size is the image size
+    """
+    rotation = torch.as_tensor(camera.world_to_camera[:3, :3], dtype=vertices.dtype)
+    translation = torch.as_tensor(camera.world_to_camera[:3, 3], dtype=vertices.dtype)
+    cam = vertices @ rotation.T + translation
+    depth = cam[:, 2]
+    focal = torch.as_tensor(np.diag(camera.intrinsics)[:2].copy(), dtype=vertices.dtype)
+    centre = torch.as_tensor(camera.intrinsics[:2, 2].copy(), dtype=vertices.dtype)
+    uv = cam[:, :2] / depth.clamp_min(NEAR)[:, None] * focal + centre
+    return uv, depth
+
+
+def _pixel_pairs(tri: torch.Tensor, width: int, height: int, margin: float):
+    """(pixel index, triangle index, pixel centre) for pixels in each triangle's padded bounding box."""
+    with torch.no_grad():
+        lo = tri.min(dim=1).values - margin
+        hi = tri.max(dim=1).values + margin
+        x0 = torch.ceil(lo[:, 0] - 0.5).clamp(0, width).long()
+        x1 = torch.floor(hi[:, 0] - 0.5).clamp(-1, width - 1).long()
+        y0 = torch.ceil(lo[:, 1] - 0.5).clamp(0, height).long()
+        y1 = torch.floor(hi[:, 1] - 0.5).clamp(-1, height - 1).long()
+        w = (x1 - x0 + 1).clamp_min(0)
+        h = (y1 - y0 + 1).clamp_min(0)
+        counts = w * h
+        face = torch.repeat_interleave(torch.arange(len(tri)), counts)
+        starts = torch.cumsum(counts, 0) - counts
+        local = torch.arange(int(counts.sum())) - starts[face]
+        px = x0[face] + local % w[face]
+        py = y0[face] + torch.div(local, w[face], rounding_mode="floor")
+    return py * width + px, face, px, py
+
+
+def signed_distance(points: torch.Tensor, tri: torch.Tensor) -> torch.Tensor:
+    """Signed distance (positive inside) from 2D points (P, 2) to triangles (P, 3, 2), pairwise.
+
+    Degenerate (zero-area) triangles are never inside.
+    """
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    orient = torch.sign(area2).detach()
+    dist2 = None
+    inside = None
+    for start, end in ((a, b), (b, c), (c, a)):
+        edge = end - start
+        rel = points - start
+        cross = edge[:, 0] * rel[:, 1] - edge[:, 1] * rel[:, 0]
+        side = (cross * orient) > 0
+        inside = side if inside is None else inside & side
+        t = ((rel * edge).sum(-1) / (edge * edge).sum(-1).clamp_min(1e-12)).clamp(0.0, 1.0)
+        d2 = ((rel - t[:, None] * edge) ** 2).sum(-1)
+        dist2 = d2 if dist2 is None else torch.minimum(dist2, d2)
+    dist = torch.sqrt(dist2 + 1e-12)
+    return torch.where(inside & (orient != 0), dist, -dist)
+
+
+class SoftSilhouetteRenderer:
+    """Soft silhouettes of triangle meshes from one camera (see the module docstring).
+
+    :param camera: the view (any size; it is rescaled to ``size``)
+    :param size: image width and height in pixels
+    :param tau: edge softness in pixels (the sigmoid's scale)
+    :param cutoff: pairs farther than ``cutoff * tau`` pixels outside a triangle are skipped
+    :param aggregate: ``halo`` (default, see the module docstring) or ``softras`` (SoftRas's union of
+        per-triangle sigmoids of the signed distance, kept for comparison)
+    """
+
+    def __init__(self, camera: Camera, size: int, tau: float = 0.7, cutoff: float = 8.0,
+                 aggregate: str = "halo"):
+        if aggregate not in ("halo", "softras"):
+            raise ValueError(f"aggregate must be 'halo' or 'softras', got {aggregate!r}")
+        self.aggregate = aggregate
+        self.camera = camera.resized(size)
+        self.size = int(size)
+        self.tau = float(tau)
+        self.cutoff = float(cutoff)
+
+    def render(self, vertices: torch.Tensor, faces: torch.Tensor) -> torch.Tensor:
+        """The (size, size) soft silhouette of the mesh, differentiable w.r.t. ``vertices``.
+
+        :param vertices: (N, 3) world-space vertices (float32 or float64)
+        :param faces: (F, 3) int64 vertex indices
+        """
+        uv, depth = project_vertices(vertices, self.camera)
+        faces = faces.long()
+        visible = (depth[faces] > NEAR).all(dim=1)
+        tri = uv[faces[visible]]
+        n = self.size
+        pixel, face, px, py = _pixel_pairs(tri, n, n, self.cutoff * self.tau)
+        centres = torch.stack([px, py], dim=1).to(vertices.dtype) + 0.5
+        sd = signed_distance(centres, tri[face])
+        if self.aggregate == "softras":
+            log_empty = torch.zeros(n * n, dtype=vertices.dtype).index_add(0, pixel, -F.softplus(sd / self.tau))
+            return (1.0 - torch.exp(log_empty)).reshape(n, n)
+        empty = torch.full((n * n,), -1e4, dtype=vertices.dtype)
+        nearest = empty.scatter_reduce(0, pixel, sd.clamp_max(0.0), reduce="amax", include_self=True)
+        return (2.0 * torch.sigmoid(nearest / self.tau)).reshape(n, n)
+
+    __call__ = render
+
+
+def rasterize_mask(vertices: np.ndarray, faces: np.ndarray, camera: Camera, supersample: int = 4) -> np.ndarray:
+    """Exact hard coverage mask (H, W) in [0, 1], by point-in-triangle tests on a supersampled grid.
+
+    The reference against which the soft renderer is checked, and a way to make test targets with
+    an independent rasterizer. Coverage is the fraction of the ``supersample**2`` sub-pixel samples
+    that fall inside any triangle.
+
+    :param vertices: (N, 3) world-space vertices
+    :param faces: (F, 3) vertex indices
+    :param camera: the view; the mask has its size
+    :param supersample: samples per pixel along each axis
+    """
+    fine = camera.resized(camera.width * supersample, camera.height * supersample)
+    uv, depth = fine.project(np.asarray(vertices, float))
+    faces = np.asarray(faces)[(depth[np.asarray(faces)] > NEAR).all(axis=1)]
+    tri = torch.as_tensor(uv[faces], dtype=torch.float64)
+    covered = torch.zeros(fine.width * fine.height, dtype=torch.bool)
+    pixel, face, px, py = _pixel_pairs(tri, fine.width, fine.height, 0.0)
+    if len(pixel):
+        centres = torch.stack([px, py], dim=1).double() + 0.5
+        inside = signed_distance(centres, tri[face]) > 0
+        covered[pixel[inside]] = True
+    mask = covered.reshape(fine.height, fine.width).double().numpy()
+    return mask.reshape(camera.height, supersample, camera.width, supersample).mean(axis=(1, 3))
+
+
+def downsample_mask(mask: np.ndarray, size: int) -> np.ndarray:
+    """Area-average a (H, W) mask to (size, size): antialiased coverage, like the soft renderer's edges."""
+    tensor = torch.as_tensor(np.asarray(mask, dtype=np.float64))[None, None]
+    return F.adaptive_avg_pool2d(tensor, (size, size))[0, 0].numpy()

@@ -1,0 +1,106 @@
+"""A tiny articulated cabinet built in code: the known asset of the joint-optimization tests and benchmark.
+
+A box carcass, a door on a vertical hinge along its left front edge (opening outwards, axis ``down`` in
+the paper's convention) and a drawer sliding out of the front, in the PartNet-Mobility layout and the
+benchmark frame, with a camera like the dataset's (40 degree field of view, 4 units away).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from spark_bench.asset.model import ArticulatedAsset
+from spark_bench.spark.assemble import assemble_asset
+from spark_bench.spark.camera import Camera, look_at_camera
+from spark_bench.spark.geometry import PartGeometry
+from spark_bench.spark.structure import OBJECT_TO_WORLD, PriorJoint, PriorLink, PriorStructure
+
+
+def _box(lo, hi) -> trimesh.Trimesh:
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    box = trimesh.creation.box(extents=hi - lo)
+    box.apply_translation((lo + hi) / 2)
+    box.apply_transform(np.block([[OBJECT_TO_WORLD, np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]]))
+    return box
+
+
+def toy_cabinet(door_angle: float = 1.2, drawer_travel: float = 0.45) -> ArticulatedAsset:
+    """The cabinet; its joints' upper limits are the open values ``door_angle`` and ``drawer_travel``.
+
+    Object frame (y up, front +z): carcass ``[-0.6, 0.6] x [-1, 1] x [-0.5, 0.4]``, door on the upper
+    front with its hinge at ``x = -0.6, z = 0.4`` (where it meets the carcass), drawer in the lower front.
+    """
+    geometry = PartGeometry(
+        meshes={
+            "body": _box((-0.6, -1.0, -0.5), (0.6, 1.0, 0.4)),
+            "door": _box((-0.6, -0.1, 0.4), (0.6, 1.0, 0.47)),
+            "drawer": _box((-0.55, -0.95, -0.4), (0.55, -0.2, 0.47)),
+        },
+        labels={"body": "body", "door": "door", "drawer": "drawer"},
+        source="toy",
+    )
+    prior = PriorStructure(
+        links=[PriorLink("body", "body"), PriorLink("door", "door"), PriorLink("drawer", "drawer")],
+        joints=[
+            PriorJoint("joint_0", "revolute", "body", "door", axis="down", origin=[-0.6, 0.45, 0.40],
+                       upper=door_angle),
+            PriorJoint("joint_1", "prismatic", "body", "drawer", axis="front", origin=[0.0, -0.575, 0.47],
+                       upper=drawer_travel),
+        ],
+        source="toy",
+    )
+    asset = assemble_asset(prior, geometry, name="toy_cabinet", category="StorageFurniture")
+    asset.links["door"].label, asset.links["drawer"].label = "door", "drawer"
+    return asset
+
+
+def toy_camera(size: int = 256) -> Camera:
+    """A view from the front-left, above (world: front is -X, up is +Z), 4 units from the center."""
+    direction = np.array([-0.80, 0.45, 0.40])
+    return look_at_camera(4.0 * direction / np.linalg.norm(direction), size=size, fov_deg=40.0)
+
+
+def write_toy_case(case_dir, asset: ArticulatedAsset | None = None, camera: Camera | None = None,
+                   case_id: str = "toy_cabinet") -> None:
+    """A benchmark case folder (docs/formats.md) for ``asset`` (default: :func:`toy_cabinet`).
+
+    Masks come from the exact rasterizer; ``input.png``/``open.png`` are the masks drawn grey on white
+    (enough for the offline backends, which read ``open_seg.png``).
+    """
+    import json
+    from pathlib import Path
+
+    from PIL import Image
+
+    from spark_bench.asset.urdf import write_object_folder
+    from spark_bench.spark.render import rasterize_mask
+
+    case_dir = Path(case_dir)
+    case_dir.mkdir(parents=True, exist_ok=True)
+    asset = asset or toy_cabinet()
+    camera = camera or toy_camera(256)
+    write_object_folder(asset, case_dir / "gt")
+    for stem, q in (("input", asset.rest_configuration()), ("open", asset.open_configuration())):
+        mesh = asset.mesh(q)
+        mask = rasterize_mask(mesh.vertices, mesh.faces, camera, supersample=1) >= 0.5
+        Image.fromarray(mask.astype(np.uint16)).save(case_dir / f"{stem}_seg.png")
+        Image.fromarray(np.where(mask, 120, 255).astype(np.uint8)).convert("RGB").save(case_dir / f"{stem}.png")
+    joints = []
+    frames = asset.joint_frames()
+    for joint in asset.movable_joints():
+        point, direction = frames[joint.name]
+        joints.append({"name": joint.name, "type": joint.type, "parent": joint.parent, "child": joint.child,
+                       "axis": direction.tolist(), "origin": point.tolist(), "lower": joint.lower,
+                       "upper": joint.upper, "label": asset.links[joint.child].label})
+    case = {"id": case_id, "category": asset.category, "source": "toy", "links": list(asset.links),
+            "joints": joints, "normalization": {"center": [0, 0, 0], "scale": 1.0},
+            "image_size": camera.width, "view_seed": 0}
+    (case_dir / "case.json").write_text(json.dumps(case, indent=1))
+    focal = float(camera.intrinsics[0, 0])
+    (case_dir / "camera.json").write_text(json.dumps({
+        "width": camera.width, "height": camera.height,
+        "fov_deg": float(np.degrees(2 * np.arctan(camera.height / 2 / focal))), "distance": 4.0,
+        "intrinsics": camera.intrinsics.tolist(), "world_to_camera": camera.world_to_camera.tolist(),
+        "camera_to_world": np.linalg.inv(camera.world_to_camera).tolist(),
+        "position": np.linalg.inv(camera.world_to_camera)[:3, 3].tolist(), "convention": "opencv"}))

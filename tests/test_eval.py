@@ -1,0 +1,256 @@
+"""The eval runner on a tiny benchmark written here: oracle, external predictions and commands, failed
+cases, the ``--json`` document, worker pools, and resuming a killed run."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spark_bench.asset import normalize_asset, write_object_folder
+from spark_bench.bench.runner import EvalOptions, bench_cases, run_eval
+from spark_bench.bench.store import ResultsStore
+from spark_bench.cli import main
+from spark_bench.envs.cabinet import procedural_cabinet
+from spark_bench.generators import MethodSpec
+
+FAST = EvalOptions(sim=False, n_samples=5000)
+
+
+def write_case(folder: Path, case_id: str, asset, category: str = "StorageFurniture") -> Path:
+    """One case in the format of docs/formats.md (renders from the software renderer)."""
+    from spark_bench.bench.render import default_camera, render_asset
+
+    case_dir = folder / "cases" / case_id
+    normalized, center, scale = normalize_asset(asset)
+    normalized.category = category
+    write_object_folder(normalized, case_dir / "gt")
+    frames = normalized.joint_frames()
+    joints = [{"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
+               "axis": frames[j.name][1].tolist(), "origin": frames[j.name][0].tolist(), "lower": j.lower,
+               "upper": j.upper, "label": normalized.links[j.child].label} for j in normalized.movable_joints()]
+    case = {"id": case_id, "category": category, "source": "procedural", "links": list(normalized.links),
+            "joints": joints, "normalization": {"center": center.tolist(), "scale": scale}, "image_size": 64,
+            "view_seed": 0}
+    (case_dir / "case.json").write_text(json.dumps(case))
+    camera = default_camera(64)
+    (case_dir / "camera.json").write_text(json.dumps(camera))
+    render_asset(normalized, camera, size=64).save(case_dir / "input.png")
+    render_asset(normalized, camera, normalized.open_configuration(), size=64).save(case_dir / "open.png")
+    return case_dir
+
+
+def make_tiny_bench(root: Path, n: int = 3, name: str = "tiny") -> Path:
+    """A benchmark folder of ``n`` procedural cabinets (a drawer and a door each)."""
+    folder = root / name
+    ids = [f"cab{k}" for k in range(n)]
+    for k, case_id in enumerate(ids):
+        write_case(folder, case_id, procedural_cabinet(seed=k), "StorageFurniture" if k % 2 == 0 else "Table")
+    (folder / "manifest.json").write_text(json.dumps({"name": name, "convention": "spark-bench-conv-1",
+                                                      "cases": ids, "failed": {}, "created": 0}))
+    return folder
+
+
+def copy_object(source: Path, target: Path) -> Path:
+    """Copy an object folder so that the copy stands on its own."""
+    import shutil
+
+    from spark_bench.baselines.oracle import relocate_mesh_paths
+
+    shutil.copytree(source, target)
+    relocate_mesh_paths(target, source)
+    return target
+
+
+@pytest.fixture
+def tiny_bench(tmp_path) -> Path:
+    return make_tiny_bench(tmp_path)
+
+
+def test_oracle_scores_zero_articulation_error(tiny_bench, tmp_path):
+    summary = run_eval(MethodSpec.create("oracle"), str(tiny_bench), FAST, db=tmp_path / "r.sqlite",
+                       workers=0, runs_root=tmp_path / "runs", progress=False)
+    assert summary.n_cases == 3 and summary.n_failed == 0
+    m = summary.metrics
+    assert m["axis_err"] == 0.0 and m["pivot_err"] == 0.0 and m["type_err"] == 0.0
+    assert m["cd"] < 1e-3 and m["fscore@0.1"] == 1.0 and m["fscore@0.5"] == 1.0
+    assert m["sim_pass_rate"] is None  # --no-sim
+    with ResultsStore(tmp_path / "r.sqlite") as store:
+        rows = store.rows(bench="tiny")
+    assert len(rows) == 3
+    row = rows[0]
+    assert row["label"] == "oracle" and row["regime"] == "ground truth" and row["convention"] == "spark-bench-conv-1"
+    assert row["metrics"]["n_gt_joints"] == 2 and set(row["timings"]) >= {"generate", "metrics"}
+    assert {r["category"] for r in rows} == {"StorageFurniture", "Table"}
+
+
+def test_geometry_baseline_runs_and_is_plausible(tiny_bench, tmp_path):
+    summary = run_eval(MethodSpec.create("geometry"), str(tiny_bench), FAST, db=tmp_path / "r.sqlite",
+                       workers=0, runs_root=tmp_path / "runs", progress=False)
+    assert summary.n_failed == 0
+    m = summary.metrics
+    assert m["cd"] is None  # its geometry is the ground truth's: n/a, never zero
+    assert m["type_err"] == 0.0  # a drawer and a door: both kinds found
+    assert m["axis_err"] < 0.05 and m["pivot_err"] < 0.1
+
+
+def test_failed_case_is_recorded_and_run_goes_on(tiny_bench, tmp_path):
+    (tiny_bench / "cases" / "cab1" / "gt" / "mobility.urdf").write_text("<robot><link name='a'>")  # broken XML
+    summary = run_eval(MethodSpec.create("oracle"), str(tiny_bench), FAST, db=tmp_path / "r.sqlite",
+                       workers=0, runs_root=tmp_path / "runs", progress=False)
+    assert summary.n_failed == 1 and summary.n_cases == 3
+    reason = summary.failures["cab1"]
+    assert "malformed XML" in reason and "\n" not in reason
+    assert summary.metrics["type_err"] == 0.0  # the two good cases
+
+
+def test_predictions_folder_and_missing_case(tiny_bench, tmp_path):
+    predictions = tmp_path / "preds"
+    for case_id in ("cab0", "cab2"):
+        copy_object(tiny_bench / "cases" / case_id / "gt", predictions / case_id)
+    summary = run_eval(MethodSpec.create("predictions", predictions=str(predictions), label="copy"),
+                       str(tiny_bench), FAST, db=tmp_path / "r.sqlite", workers=0, runs_root=tmp_path / "runs",
+                       progress=False)
+    assert summary.run.label == "copy" and summary.n_failed == 1
+    assert "no prediction folder" in summary.failures["cab1"]
+    assert summary.metrics["axis_err"] == 0.0
+
+
+def _methods_file(tmp_path: Path, script: str, timeout: float = 60) -> Path:
+    program = tmp_path / "method.py"
+    program.write_text(textwrap.dedent(script))
+    methods = tmp_path / "methods.toml"
+    methods.write_text(f'[methods.copier]\ncommand = [{json.dumps(sys.executable)}, {json.dumps(str(program))}, '
+                       f'"{{image}}", "{{out}}", "{{case_id}}"]\ntimeout = {timeout}\nversion = "0.1"\n')
+    return methods
+
+
+def test_command_method_runs_without_shell_and_times_out(tiny_bench, tmp_path):
+    # the external program sees the image path and the output folder; here it copies a fixed object
+    source = tiny_bench / "cases" / "cab0" / "gt"
+    methods = _methods_file(tmp_path, f"""
+        import shutil, sys, time
+        from pathlib import Path
+        from spark_bench.baselines.oracle import relocate_mesh_paths
+        image, out, case_id = sys.argv[1:4]
+        assert image.endswith("input.png"), image
+        if case_id == "cab2":
+            time.sleep(30)
+        shutil.copytree({str(source)!r}, out + "/obj", dirs_exist_ok=True)
+        relocate_mesh_paths(Path(out + "/obj"), Path({str(source)!r}))
+    """, timeout=3)
+    summary = run_eval(MethodSpec.create("copier", methods_file=str(methods)), str(tiny_bench), FAST,
+                       db=tmp_path / "r.sqlite", workers=0, runs_root=tmp_path / "runs", progress=False)
+    assert summary.run.label == "copier" and summary.run.version == "0.1"
+    assert summary.n_failed == 1 and "timed out" in summary.failures["cab2"]
+    with ResultsStore(tmp_path / "r.sqlite") as store:
+        ok = {r["case_id"]: r for r in store.rows(status="ok")}
+    assert ok["cab0"]["axis_err"] == 0.0  # its own object
+    assert ok["cab1"]["cd"] > 1e-3  # another cabinet's object: a real shape error
+
+
+def test_eval_json_output_and_pool(tiny_bench, tmp_path, capsys, isolated_home):
+    code = main(["eval", "--method", "oracle", "--bench", str(tiny_bench), "--no-sim", "--n-samples", "3000",
+                 "--workers", "2", "--json", "--no-progress"])
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert list(doc) == ["method", "bench", "n_cases", "n_failed", "metrics"]
+    assert doc["method"] == "oracle" and doc["bench"] == "tiny" and doc["n_cases"] == 3 and doc["n_failed"] == 0
+    assert list(doc["metrics"]) == ["cd", "fscore@0.1", "fscore@0.5", "axis_err", "pivot_err", "type_err",
+                                    "sim_pass_rate", "open_success_rate"]
+    assert (isolated_home / "results.sqlite").is_file()
+    # a second run finds everything done: nothing is generated again
+    main(["eval", "--method", "oracle", "--bench", str(tiny_bench), "--no-sim", "--n-samples", "3000", "--json",
+          "--no-progress"])
+    assert json.loads(capsys.readouterr().out)["metrics"] == doc["metrics"]
+    with ResultsStore(isolated_home / "results.sqlite") as store:
+        assert store.count() == 3
+
+
+def test_unknown_method_is_a_one_line_error(tiny_bench, capsys, isolated_home):
+    assert main(["eval", "--method", "nope", "--bench", str(tiny_bench), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown method 'nope'" in err and "oracle" in err
+
+
+@pytest.mark.slow
+def test_killed_run_resumes_with_one_result_per_case(tmp_path):
+    bench = make_tiny_bench(tmp_path, n=6)
+    db = tmp_path / "r.sqlite"
+    methods = _methods_file(tmp_path, f"""
+        import shutil, sys, time
+        from pathlib import Path
+        from spark_bench.baselines.oracle import relocate_mesh_paths
+        time.sleep(1.0)
+        shutil.copytree({str(bench / "cases" / "cab0" / "gt")!r}, sys.argv[2], dirs_exist_ok=True)
+        relocate_mesh_paths(Path(sys.argv[2]), Path({str(bench / "cases" / "cab0" / "gt")!r}))
+    """)
+    cmd = [sys.executable, "-m", "spark_bench.cli", "eval", "--method", "copier", "--methods-file", str(methods),
+           "--bench", str(bench), "--no-sim", "--n-samples", "2000", "--db", str(db), "--runs-dir",
+           str(tmp_path / "runs"), "--workers", "1", "--no-progress"]
+    env = {**os.environ, "SPARK_BENCH_HOME": str(tmp_path / "home")}
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    deadline = time.time() + 120
+    done_before = 0
+    while time.time() < deadline:
+        if db.is_file():
+            with ResultsStore(db) as store:
+                done_before = store.count()
+            if done_before >= 2:
+                break
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGKILL)  # the driver and its pool worker, mid-run
+    proc.wait()
+    assert 2 <= done_before < 6
+    with ResultsStore(db) as store:
+        before = {r["case_id"]: r["finished_at"] for r in store.rows()}
+    assert len(before) < 6
+    subprocess.run(cmd, env=env, check=True, timeout=300, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    with ResultsStore(db) as store:
+        rows = store.rows()
+    assert sorted(r["case_id"] for r in rows) == bench_cases(bench)  # exactly one result per case
+    assert all(r["status"] == "ok" for r in rows)
+    for r in rows:  # no finished case was repeated
+        if r["case_id"] in before:
+            assert r["finished_at"] == before[r["case_id"]]
+
+
+def test_variants_and_shape_validity_are_stored(tiny_bench, tmp_path, monkeypatch):
+    """A method that reports a variant (ours and its prior before joint optimization) gets two rows."""
+    from spark_bench import generators
+    from spark_bench.generators import Generation
+
+    class TwoOutputs:
+        name, version, inputs, regime = "two", "1", ("gt",), "image"
+
+        def label(self):
+            return "two"
+
+        def config(self):
+            return {"k": np.float64(1.5)}
+
+        def generate(self, case, out_dir):
+            return {"folder": case.gt_dir, "variants": {"w/o joint opt.": case.gt_dir},
+                    "shape_metrics_valid": False, "prior": "annotation"}
+
+    generators.register("two", lambda options: TwoOutputs(), overwrite=True)
+    try:
+        summary = run_eval(MethodSpec.create("two"), str(tiny_bench), FAST, db=tmp_path / "r.sqlite", workers=0,
+                           runs_root=tmp_path / "runs", progress=False)
+    finally:
+        generators._REGISTRY.pop("two")
+    assert summary.metrics["cd"] is None and summary.metrics["axis_err"] == 0.0
+    with ResultsStore(tmp_path / "r.sqlite") as store:
+        rows = store.rows()
+    assert sorted({r["variant"] for r in rows}) == ["", "w/o joint opt."] and len(rows) == 6
+    assert all(not r["shape_metrics_valid"] for r in rows)
+    assert rows[0]["info"]["prior"] == "annotation" and rows[0]["config"]["method_config"] == {"k": 1.5}

@@ -1,0 +1,144 @@
+"""The leaderboard: aggregation, best / second-best marks, n/a for invalid shape metrics, variants,
+every format, and the HTML page rendered in headless Chromium."""
+
+from __future__ import annotations
+
+import csv
+import io
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+from test_eval import FAST, make_tiny_bench
+
+from spark_bench.bench.leaderboard import build_leaderboard, render, to_csv, to_latex, to_markdown
+from spark_bench.bench.store import ResultsStore
+
+CHROMIUM = Path("/usr/bin/chromium")
+
+
+def _row(label: str, case_id: str, regime: str = "image", variant: str = "", **metrics) -> dict:
+    out = {"bench": "b", "case_id": case_id, "category": "Cab" if case_id < "c2" else "Oven", "method": label,
+           "label": label, "variant": variant, "regime": regime, "config_hash": "h", "status": "ok",
+           "finished_at": 1.0, "sim_pass": True, "open_success": 1.0}
+    out.update(metrics)
+    return out
+
+
+@pytest.fixture
+def store(tmp_path):
+    with ResultsStore(tmp_path / "r.sqlite") as s:
+        s.put([_row("oracle", c, regime="ground truth", cd=0.0, fscore_01=1.0, fscore_05=1.0, axis_err=0.0,
+                    pivot_err=0.0, type_err=0.0) for c in ("c1", "c2")])
+        s.put([_row("A", "c1", cd=0.2, fscore_01=0.5, fscore_05=0.9, axis_err=0.1, pivot_err=0.2, type_err=0.0),
+               _row("A", "c2", cd=0.4, fscore_01=0.3, fscore_05=0.7, axis_err=0.3, pivot_err=0.4, type_err=0.5,
+                    sim_pass=False, open_success=0.0)])
+        s.put([_row("B", "c1", cd=0.1, fscore_01=0.6, fscore_05=0.95, axis_err=0.5, pivot_err=0.1, type_err=0.0),
+               {**_row("B", "c2"), "status": "failed", "stage": "generate", "reason": "boom", "sim_pass": None}])
+        s.put([_row("ours", c, regime="image + gt prior", shape_metrics_valid=False, cd=0.0, fscore_01=1.0,
+                    fscore_05=1.0, axis_err=0.05, pivot_err=0.05, type_err=0.0) for c in ("c1", "c2")])
+        s.put([_row("ours", c, regime="image + gt prior", variant="w/o joint opt.", shape_metrics_valid=False,
+                    cd=0.0, axis_err=0.2, pivot_err=0.3, type_err=0.25) for c in ("c1", "c2")])
+        yield s
+
+
+def test_aggregation_and_marks(store):
+    board = build_leaderboard(store)
+    by_name = {e.name: e for e in board.entries}
+    assert list(by_name) == ["oracle", "A", "B", "ours", "ours (w/o joint opt.)"]  # references first
+    a, b = by_name["A"], by_name["B"]
+    assert a.metrics["cd"] == pytest.approx(0.3) and a.metrics["type_err"] == pytest.approx(0.25)
+    assert a.metrics["sim_pass_rate"] == 0.5 and a.metrics["open_success_rate"] == 0.5
+    assert b.n_failed == 1 and b.metrics["cd"] == pytest.approx(0.1)  # mean over its ok case
+    assert b.metrics["sim_pass_rate"] == 0.5  # the failed case counts as not passed
+    assert by_name["ours"].metrics["cd"] is None  # ground-truth geometry: n/a, never 0
+    shape, articulation, sim = board.tables()
+    ranks = shape.ranks()
+    names = [e.name for e in shape.entries]
+    # B has the best CD among ranked rows, A the second; the oracle (reference) and ours (n/a) are not ranked
+    assert ranks[(names.index("B"), "cd")] == 1 and ranks[(names.index("A"), "cd")] == 2
+    assert (names.index("oracle"), "cd") not in ranks and (names.index("ours"), "cd") not in ranks
+    art = articulation.ranks()
+    assert art[(names.index("ours"), "axis_err")] == 1 and art[(names.index("A"), "axis_err")] == 2
+
+
+def test_markdown_latex_csv(store):
+    board = build_leaderboard(store)
+    md = to_markdown(board, per_category=True)
+    assert "| ours | image + gt prior | n/a | n/a | n/a |" in md
+    assert "| B | image | **0.1000** | **0.6000** | **0.9500** |" in md
+    assert "| A | image | _0.3000_ |" in md and "ours (w/o joint opt.)" in md
+    assert "## Cab" in md and "## Oven" in md
+    tex = to_latex(board)
+    assert r"\cellcolor{Palette5}{0.1000}" in tex and r"\cellcolor{Palette4}{0.3000}" in tex
+    assert r"\providecolor{Palette5}{RGB}{253,207,158}" in tex and r"AxisErr$\downarrow$" in tex
+    assert r"ours (w/o joint opt.) & image + gt prior & n/a" in tex
+    lines = list(csv.DictReader(io.StringIO(to_csv(board))))
+    ours = next(r for r in lines if r["label"] == "ours" and r["variant"] == "")
+    assert ours["cd"] == "n/a" and float(ours["axis_err"]) == pytest.approx(0.05)
+
+
+def test_leaderboard_command_every_format(tmp_path, capsys, isolated_home):
+    from spark_bench.bench.runner import run_eval
+    from spark_bench.cli import main
+    from spark_bench.generators import MethodSpec
+
+    bench = make_tiny_bench(tmp_path, n=2)
+    for method in ("oracle", "geometry"):
+        run_eval(MethodSpec.create(method), str(bench), FAST, workers=0, progress=False)
+    assert main(["leaderboard"]) == 0
+    md = capsys.readouterr().out
+    assert "| oracle | ground truth | 0.0000 | 1.0000 | 1.0000 |" in md
+    assert "| geometry (AnyMesh-style) | part meshes | n/a | n/a | n/a |" in md
+    for fmt in ("latex", "csv"):
+        assert main(["leaderboard", "--format", fmt]) == 0
+        assert "geometry (AnyMesh-style)" in capsys.readouterr().out
+    out = tmp_path / "board" / "index.html"
+    assert main(["leaderboard", "--format", "html", "--out", str(out), "--per-category"]) == 0
+    page = out.read_text()
+    assert page.count("<img") >= 2 + 2 * (2 + 2 * 2)  # charts + per case: input, gt and 2 methods x 2 states
+    files = sorted(p.name for p in (tmp_path / "board" / "index_files").iterdir())
+    assert "chart_articulation.png" in files and "case000_input.png" in files and "case000_m1_open.png" in files
+    assert main(["leaderboard", "--format", "html"]) == 2  # HTML needs a file
+
+
+def test_renders_differ_between_rest_and_open(tmp_path):
+    import numpy as np
+    from PIL import Image
+
+    from spark_bench.bench.render import read_camera, render_folder
+
+    bench = make_tiny_bench(tmp_path, n=1)
+    case = bench / "cases" / "cab0"
+    rest = np.asarray(render_folder(case / "gt", read_camera(case / "camera.json"), "rest", 96))
+    opened = np.asarray(render_folder(case / "gt", read_camera(case / "camera.json"), "open", 96))
+    assert rest.shape == (96, 96, 3)
+    assert (rest != 255).any(axis=2).mean() > 0.05  # the object covers part of the image
+    assert np.abs(rest.astype(int) - opened).sum() > 0  # the door and drawer moved
+    assert Image.open(case / "input.png").size == (64, 64)
+
+
+@pytest.mark.skipif(not CHROMIUM.is_file(), reason="headless Chromium not installed (/usr/bin/chromium); "
+                                                  "CI installs it with apt-get install -y chromium")
+def test_html_page_renders_in_headless_chromium(tmp_path, store):
+    import numpy as np
+    from PIL import Image
+
+    board = build_leaderboard(store)
+    out = tmp_path / "page" / "index.html"
+    out.parent.mkdir()
+    out.write_text(render(board, "html", out=out))
+    shot = tmp_path / "shot.png"
+    cmd = [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+           "--disable-background-networking", "--disable-component-update", "--disable-sync",
+           f"--user-data-dir={tmp_path / 'profile'}", f"--screenshot={shot}", "--window-size=1280,2000",
+           out.as_uri()]
+    subprocess.run(cmd, check=True, timeout=120, capture_output=True)
+    image = np.asarray(Image.open(shot).convert("RGB")).astype(int)
+    assert image.shape[:2] == (2000, 1280)
+    # the page drew something: text and the best-value colour of the paper (Palette5)
+    assert (image.sum(axis=2) < 200).mean() > 0.001
+    palette5 = np.all(np.abs(image - np.array([253, 207, 158])) <= 3, axis=2)
+    assert palette5.sum() > 100
+    shutil.rmtree(tmp_path / "profile", ignore_errors=True)

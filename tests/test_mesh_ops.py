@@ -1,0 +1,100 @@
+"""Mesh operations of the SPARK appendix: merge, pitch, watertight remesh, surface sampling."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from spark_bench.asset.mesh import make_watertight, merge_meshes, sample_surface, voxel_pitch, voxelize_surface
+
+
+def test_merge_is_plain_vertex_face_concatenation():
+    a = trimesh.creation.box(extents=(1, 1, 1))
+    b = trimesh.creation.box(extents=(1, 1, 1))
+    b.apply_translation((0.5, 0, 0))  # overlapping: nothing is repaired or welded
+    merged = merge_meshes([a, b])
+    assert len(merged.vertices) == 16 and len(merged.faces) == 24
+    np.testing.assert_array_equal(merged.faces[12:], b.faces + 8)
+    assert len(merge_meshes([]).faces) == 0
+
+
+def test_pitch_follows_resolution_thin_axis_and_memory_cap():
+    assert voxel_pitch([2.0, 1.0, 1.0], resolution=200, n_min=3) == pytest.approx(0.01)
+    # a 3 mm thick door needs at least 3 voxels across: the thin-axis pitch wins
+    assert voxel_pitch([1.0, 1.0, 0.003], resolution=200, n_min=3) == pytest.approx(0.001)
+    # a flat part (zero thickness) keeps the resolution pitch
+    assert voxel_pitch([1.0, 1.0, 0.0], resolution=100, n_min=3) == pytest.approx(0.01)
+    capped = voxel_pitch([1.0, 1.0, 1.0], resolution=1000, n_min=3, memory_cap=1e6)
+    assert np.prod(np.ceil(1.0 / capped) + 2) <= 1.01e6
+
+
+def test_voxelize_marks_every_cell_the_surface_crosses():
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    occupancy, origin = voxelize_surface(box, 0.1)
+    # 10 cells across plus the half-pitch margins; the six faces form a closed shell of cells
+    assert occupancy.shape == (12, 12, 12)
+    np.testing.assert_allclose(origin, [-0.55, -0.55, -0.55])
+    from scipy.ndimage import binary_fill_holes
+
+    filled = binary_fill_holes(occupancy)
+    # the shell is closed, so the interior fills: 11^3 cells span the box, none outside it
+    assert filled.sum() == 11**3 and occupancy.sum() == 11**3 - 9**3
+
+
+def test_open_mesh_becomes_watertight_with_original_extents():
+    box = trimesh.creation.box(extents=(0.4, 0.3, 0.2))
+    open_box = trimesh.Trimesh(box.vertices, box.faces[2:], process=False)  # one face missing
+    assert not open_box.is_watertight
+    shell, report = make_watertight(open_box, resolution=60)
+    assert report.method == "voxel" and report.watertight and shell.is_watertight
+    np.testing.assert_allclose(shell.extents, open_box.extents, atol=1e-9)
+    np.testing.assert_allclose(shell.bounds.mean(0), open_box.bounds.mean(0), atol=1e-9)
+    assert shell.volume > 0
+
+
+def test_flat_mesh_gets_a_thin_closed_shell():
+    plane = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    shell, report = make_watertight(plane, resolution=50)
+    assert shell.is_watertight and report.method == "voxel"
+    np.testing.assert_allclose(shell.extents[:2], [1, 1], atol=1e-9)
+
+
+def test_watertight_input_takes_the_cleanup_path_and_keeps_all_pieces():
+    a = trimesh.creation.box(extents=(1, 1, 1))
+    b = trimesh.creation.box(extents=(0.2, 0.2, 0.2))
+    b.apply_translation((2, 0, 0))  # a separate closed piece (a handle) must survive
+    shell, report = make_watertight(merge_meshes([a, b]))
+    assert report.method == "cleanup" and report.pitch is None
+    assert len(shell.faces) == 24 and shell.volume == pytest.approx(1.008)
+
+
+def test_voxel_path_drops_floating_fragments():
+    a = trimesh.creation.box(extents=(1, 1, 1))
+    speck = trimesh.creation.box(extents=(0.05, 0.05, 0.05))
+    speck.apply_translation((1.5, 0, 0))
+    torn = merge_meshes([trimesh.Trimesh(a.vertices, a.faces[1:]), speck])
+    shell, _ = make_watertight(torn, resolution=60)
+    assert shell.bounds[1, 0] < 0.6  # the speck is gone, the box stays
+
+
+def test_sampling_is_uniform_by_area_and_seeded():
+    # two unit squares, one 3x larger in area: it should get ~3/4 of the samples
+    small = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    big = trimesh.Trimesh([[0, 0, 5], [3, 0, 5], [3, 1, 5], [0, 1, 5]], [[0, 1, 2], [0, 2, 3]])
+    mesh = merge_meshes([small, big])
+    points = sample_surface(mesh, 40_000, seed=3)
+    assert abs((points[:, 2] > 2).mean() - 0.75) < 0.01
+    np.testing.assert_array_equal(points, sample_surface(mesh, 40_000, seed=3))
+    assert not np.array_equal(points, sample_surface(mesh, 40_000, seed=4))
+    # points lie on the surface, inside each square
+    top = points[points[:, 2] > 2]
+    assert top[:, 0].min() >= 0 and top[:, 0].max() <= 3 and np.allclose(top[:, 2], 5)
+
+
+def test_sampling_refuses_empty_and_degenerate_meshes():
+    with pytest.raises(ValueError, match="empty"):
+        sample_surface(trimesh.Trimesh(np.zeros((0, 3)), np.zeros((0, 3), int)), 10)
+    degenerate = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[0, 1, 2]], process=False)
+    with pytest.raises(ValueError, match="zero"):
+        sample_surface(degenerate, 10)
