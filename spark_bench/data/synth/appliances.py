@@ -110,7 +110,7 @@ def oven(rng: np.random.Generator) -> ObjectSpec:
             r = rng.uniform(0.06, 0.1)
             burners.append(cylinder((sx * w, h + 0.004, sz * d), r, 0.01, Y, palette.DARK, METAL))
     body.solids += burners
-    spec.params = {"size": [w, h, d], "storage_drawer": drawer, "knobs": len(spec.movable_parts())}
+    spec.params = {"size": [w, h, d], "storage_drawer": drawer, "movable_parts": len(spec.movable_parts())}
     return spec
 
 

@@ -7,7 +7,7 @@ import numpy as np
 from spark_bench.data.synth import palette
 from spark_bench.data.synth.cabinet import CabinetStyle, Cell, Column, add_cabinet
 from spark_bench.data.synth.common import X, Y, Z, choice, handle_style, legs, new_object, wood_style_colors
-from spark_bench.data.synth.handles import front_panel, handle_solids, place_on_face, rotary_knob
+from spark_bench.data.synth.handles import handle_solids, place_on_face, rotary_knob
 from spark_bench.data.synth.primitives import box, cylinder
 from spark_bench.data.synth.spec import JointSpec, ObjectSpec
 

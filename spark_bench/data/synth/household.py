@@ -153,7 +153,9 @@ def faucet(rng: np.random.Generator) -> ObjectSpec:
     reach = rng.uniform(0.03, 0.05)
     xh = rc + reach + rng.uniform(0.02, 0.035)
     plate_w = xh + reach + 0.02 if kind == "two_handle" else rc + 0.03
-    body.solids.append(box((-plate_w, 0, -0.04), (plate_w, 0.012, 0.04), metal, METAL))
+    plate_c = palette.contrasting(rng, metal, {"black": palette.PLASTIC["black"], "white": palette.CERAMIC["white"],
+                                                "grey": palette.PLASTIC["grey"]}, 0.15)
+    body.solids.append(box((-plate_w, 0, -0.04), (plate_w, 0.012, 0.04), plate_c, METAL))
     handle_top = 0.014 + 0.045 + 0.012
     swivel = kind == "two_handle" and hc - 0.02 - arm_r - nozzle > handle_top + 0.02
     arm_y = hc - 0.02 if kind == "two_handle" else hc - 0.045
@@ -173,7 +175,9 @@ def faucet(rng: np.random.Generator) -> ObjectSpec:
             x = sx * xh
             parts = [cylinder((x, 0.014 + 0.0225, 0), 0.012, 0.045, Y, metal, METAL),
                      box((x - reach, 0.014 + 0.045 - 0.001, -0.007), (x + reach, handle_top, 0.007), metal, METAL),
-                     box((x - 0.007, 0.014 + 0.045 - 0.001, -reach), (x + 0.007, handle_top, reach), metal, METAL)]
+                     box((x - 0.007, 0.014 + 0.045 - 0.001, -reach), (x + 0.007, handle_top, reach), metal, METAL),
+                     cylinder((x, handle_top + 0.002, 0), 0.006, 0.005, Y,
+                              palette.rgba((0.8, 0.1, 0.1) if sx < 0 else (0.1, 0.25, 0.8)), PLASTIC)]
             spec.add("handle", "switch", parts, "body", JointSpec("continuous", (x, 0.014, 0), Y))
     else:
         lever = [cylinder((0, hc + 0.002 + 0.009, 0), rc, 0.018, Y, metal, METAL),
