@@ -28,12 +28,12 @@ from spark_bench.data.readers import load_object
 
 REAL_OBJECTS = Path(__file__).resolve().parents[1].parent / "shared" / "real_objects"
 REAL_IDS = ("41083", "40147", "45780", "7179", "47645", "102442", "3763")
-#: Steps of the watertight remesh whose cumulative time is reported: (file name part, function name).
+#: Steps of the watertight remesh whose cumulative time is reported: (file name part, function names).
 WATERTIGHT_PARTS = {
-    "voxelize (trimesh subdivide)": ("trimesh/base.py", "voxelized"),
-    "fill": ("trimesh/voxel/", "fill"),
-    "marching cubes": ("skimage/measure", "marching_cubes"),
-    "cleanup (weld, split, normals)": ("spark_bench/asset/mesh.py", "cleanup"),
+    "voxelize surface": ("spark_bench/asset/mesh.py", ("voxelize_surface",)),
+    "fill": ("scipy/ndimage", ("binary_fill_holes",)),
+    "marching cubes": ("skimage/measure", ("marching_cubes",)),
+    "cleanup (weld, dedupe, split)": ("spark_bench/asset/mesh.py", ("cleanup",)),
 }
 
 
@@ -47,7 +47,7 @@ def cumulative_by_part(profile: cProfile.Profile) -> dict[str, float]:
     out = dict.fromkeys(WATERTIGHT_PARTS, 0.0)
     for (filename, _, func), (_, _, _, cumulative, _) in stats.items():
         for part, (where, name) in WATERTIGHT_PARTS.items():
-            if func == name and where in filename.replace("\\", "/"):
+            if func in name and where in filename.replace("\\", "/"):
                 out[part] += cumulative
     return out
 
@@ -103,7 +103,7 @@ def main(argv=None) -> int:
             row = run_object(object_id, Path(tmp), options, args.peer_resolution)
             rows.append(row)
             s = row["seconds"]
-            print(f"  {object_id:>7} {row['category']:<17} total {sum(s.values()):7.1f} s  "
+            print(f"  {object_id:>7} {row['category']:<17} total {sum(s[k] for k in STAGES):7.1f} s  "
                   + "  ".join(f"{k} {s.get(k, 0.0):6.2f}" for k in STAGES), flush=True)
     wall = time.perf_counter() - start
 
@@ -113,7 +113,7 @@ def main(argv=None) -> int:
     totals = dict.fromkeys(STAGES, 0.0)
     for row in rows:
         s = row["seconds"]
-        total = sum(s.values())
+        total = sum(s[k] for k in STAGES)
         for k in STAGES:
             totals[k] += s.get(k, 0.0)
         ratio = s.get("watertight", 0.0) / max(row["peer_watertight"], 1e-9)
@@ -124,6 +124,9 @@ def main(argv=None) -> int:
     print(f"{'all':>7} {'':<17} {'':>9} {'':>10} {'':>7} " + " ".join(f"{totals[k]:>15.2f}" for k in STAGES)
           + f" {grand:>8.1f}")
     print("share of the total: " + ", ".join(f"{k} {totals[k] / grand:.0%}" for k in STAGES))
+    scene = sum(r["seconds"].get("render.scene", 0.0) for r in rows)
+    print(f"inside the render stage: building the MuJoCo scene {scene:.1f} s "
+          f"({scene / max(totals['render'], 1e-9):.0%}), rendering and PNG writing the rest")
     parts = {p: sum(r["parts"][p] for r in rows) for p in WATERTIGHT_PARTS}
     print("\ninside the watertight stage (cProfile cumulative, all objects; profiling adds overhead):")
     for part, seconds in parts.items():

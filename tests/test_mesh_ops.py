@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from spark_bench.asset.mesh import make_watertight, merge_meshes, sample_surface, voxel_pitch, voxelize_surface
+from spark_bench.asset.mesh import (
+    make_watertight,
+    merge_meshes,
+    sample_surface,
+    voxel_pitch,
+    voxelize_surface,
+)
 
 
 def test_merge_is_plain_vertex_face_concatenation():
@@ -98,3 +104,26 @@ def test_sampling_refuses_empty_and_degenerate_meshes():
     degenerate = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [2, 0, 0]], [[0, 1, 2]], process=False)
     with pytest.raises(ValueError, match="zero"):
         sample_surface(degenerate, 10)
+
+
+def test_sliver_in_watertight_mesh_keeps_the_cleanup_path():
+    box = trimesh.creation.box(extents=(1, 1, 1))
+    # put vertex m on edge (a, b) of triangle (a, b, c), split that triangle, and close the edge with
+    # the zero-area face (a, b, m): still closed, but cleanup would drop the sliver and open it
+    a, b, c = box.faces[0]
+    m = len(box.vertices)
+    vertices = np.vstack([box.vertices, (box.vertices[a] + box.vertices[b]) / 2])
+    faces = np.vstack([box.faces[1:], [[a, m, c], [m, b, c], [b, a, m]]])
+    sliver = trimesh.Trimesh(vertices, faces, process=False)
+    assert sliver.is_watertight
+    shell, report = make_watertight(sliver, resolution=50)
+    assert report.method == "cleanup" and shell.is_watertight and len(shell.faces) <= 14
+
+
+def test_simplify_keeps_shell_watertight_and_close():
+    open_box = trimesh.creation.box(extents=(0.4, 0.3, 0.2))
+    open_box = trimesh.Trimesh(open_box.vertices, open_box.faces[2:], process=False)
+    full, report = make_watertight(open_box, resolution=80)
+    small, _ = make_watertight(open_box, resolution=80, simplify=0.5)
+    assert small.is_watertight and len(small.faces) < len(full.faces) / 20
+    np.testing.assert_allclose(small.extents, full.extents, atol=report.pitch)

@@ -96,7 +96,7 @@ def test_real_objects_prepare_and_failures_are_recorded(real_bench):
     assert read_manifest(bench) == manifest
     assert manifest["options"]["resolution"] == 24 and manifest["convention"]
     timed = {r.case_id: r.seconds for r in results if r.reason is None}
-    assert set(timed) == set(REAL_IDS) and all(set(s) == set(STAGES) for s in timed.values())
+    assert set(timed) == set(REAL_IDS) and all(set(s) == {*STAGES, "render.scene"} for s in timed.values())
     assert not list((bench / "cases").glob(".*"))  # no partial folders left behind
     sheet = Image.open(bench / "contact_sheet.png")
     assert sheet.width > 2 * 192 and sheet.height > 192
@@ -219,6 +219,22 @@ def test_killed_run_leftovers_are_rebuilt(tmp_path):
         prepare_benchmark(src, bench, ids=["nope"], options=FAST, progress=False)
 
 
+def test_process_pool_gives_the_same_cases(tmp_path):
+    src = tmp_path / "src"
+    write_tiny_object(src / "a")
+    write_tiny_object(src / "b", shift=0.05)
+    write_broken_objects(src)
+    serial = prepare_benchmark(src, tmp_path / "serial", options=FAST, progress=False, contact_sheet=False)
+    pooled = prepare_benchmark(src, tmp_path / "pooled", options=FAST, workers=2, progress=False,
+                               contact_sheet=False)
+    assert pooled["cases"] == serial["cases"] == ["a", "b"]
+    assert set(pooled["failed"]) == set(serial["failed"]) == {"broken", "empty"}
+    for case_id in ("a", "b"):
+        for stem in ("input_seg", "open_seg"):
+            np.testing.assert_array_equal(read_segmentation(tmp_path / "serial" / "cases" / case_id / f"{stem}.png"),
+                                          read_segmentation(tmp_path / "pooled" / "cases" / case_id / f"{stem}.png"))
+
+
 def test_single_object_folder_and_cli(tmp_path, capsys):
     from spark_bench.cli import main
 
@@ -271,6 +287,12 @@ def test_named_benchmark_builds_once(isolated_home, monkeypatch):
     stamp = (folder / benchmarks.BUILT_MARKER).stat().st_mtime_ns
     assert benchmarks.ensure_benchmark("synth-tiny", progress=False) == folder
     assert (folder / benchmarks.BUILT_MARKER).stat().st_mtime_ns == stamp
+    # a build of other settings is stale: rebuilt, not reused
+    marker = json.loads((folder / benchmarks.BUILT_MARKER).read_text())
+    (folder / benchmarks.BUILT_MARKER).write_text(json.dumps({**marker, "generator_version": "old"}))
+    assert not benchmarks.is_built(folder, spec) and benchmarks.is_built(folder)
+    benchmarks.ensure_benchmark("synth-tiny", progress=False)
+    assert benchmarks.is_built(folder, spec)
     with pytest.raises(SparkBenchError, match="unknown benchmark"):
         benchmarks.ensure_benchmark("nope")
     assert benchmarks.BENCHMARKS["synth-v1"].n_objects == 50

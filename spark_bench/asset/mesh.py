@@ -116,8 +116,8 @@ class WatertightReport:
 
 
 def make_watertight(mesh: trimesh.Trimesh, resolution: int = 200, n_min: int = 3,
-                    memory_cap: float = VOXEL_MEMORY_CAP, target_faces: int = 0
-                    ) -> tuple[trimesh.Trimesh, WatertightReport]:
+                    memory_cap: float = VOXEL_MEMORY_CAP, target_faces: int = 0,
+                    simplify: float = 0.0) -> tuple[trimesh.Trimesh, WatertightReport]:
     """A watertight version of ``mesh`` following the SPARK appendix.
 
     :param mesh: input mesh (any quality)
@@ -125,6 +125,9 @@ def make_watertight(mesh: trimesh.Trimesh, resolution: int = 200, n_min: int = 3
     :param n_min: minimum voxels across the thinnest axis (N_min)
     :param memory_cap: voxel budget in bytes
     :param target_faces: quadric decimation target; 0 disables it (the paper's setting)
+    :param simplify: manifold-preserving simplification of the voxel shell (manifold3d), with this
+        tolerance in pitches; 0 disables it (the paper's setting). The shell stays watertight, while
+        marching cubes' staircase (hundreds of thousands of faces) shrinks to a few thousand.
     """
     if len(mesh.faces) == 0:
         raise ValueError("empty mesh")
@@ -132,11 +135,12 @@ def make_watertight(mesh: trimesh.Trimesh, resolution: int = 200, n_min: int = 3
         # a link made of several closed pieces (panels, a handle) is watertight as it is: the
         # largest-component filter is for voxel fragments, so it does not apply here
         cleaned = cleanup(mesh, keep_largest=False)
-        if cleaned.is_watertight:
-            return cleaned, WatertightReport("cleanup", None, True, len(cleaned.faces))
-    from skimage.measure import marching_cubes
-
+        if not cleaned.is_watertight:
+            # dropping a zero-area sliver can open a mesh that was closed: keep the input as it is
+            cleaned = trimesh.Trimesh(mesh.vertices.copy(), mesh.faces.copy(), process=False)
+        return cleaned, WatertightReport("cleanup", None, True, len(cleaned.faces))
     from scipy.ndimage import binary_fill_holes
+    from skimage.measure import marching_cubes
 
     extents = mesh.extents
     pitch = voxel_pitch(extents, resolution, n_min, memory_cap)
@@ -156,9 +160,23 @@ def make_watertight(mesh: trimesh.Trimesh, resolution: int = 200, n_min: int = 3
     shell = cleanup(shell, fix_normals=False)
     if shell.volume < 0:
         shell.invert()
+    if simplify > 0:
+        shell = simplify_manifold(shell, simplify * pitch)
     if target_faces and len(shell.faces) > target_faces:
         shell = shell.simplify_quadric_decimation(face_count=target_faces)
     return shell, WatertightReport("voxel", pitch, bool(shell.is_watertight), len(shell.faces))
+
+
+def simplify_manifold(mesh: trimesh.Trimesh, tolerance: float) -> trimesh.Trimesh:
+    """Simplify a watertight mesh within ``tolerance`` (world units) while keeping it a manifold."""
+    import manifold3d
+
+    solid = manifold3d.Manifold(manifold3d.Mesh(vert_properties=np.asarray(mesh.vertices, np.float32),
+                                                tri_verts=np.asarray(mesh.faces, np.uint32)))
+    out = solid.simplify(tolerance).to_mesh()
+    simplified = trimesh.Trimesh(np.asarray(out.vert_properties[:, :3], float), np.asarray(out.tri_verts),
+                                 process=False)
+    return simplified if simplified.is_watertight and len(simplified.faces) else mesh
 
 
 def sample_surface(mesh: trimesh.Trimesh, n: int, seed: int = 0) -> np.ndarray:

@@ -213,27 +213,17 @@ class ArticulatedAsset:
         return None
 
     def topological_joints(self) -> list[Joint]:
-        """Joints ordered so that each parent link is placed before its children."""
+        """Joints in breadth-first order from the root (parents before children, siblings in file order)."""
         by_parent: dict[str, list[Joint]] = {}
         for joint in self.joints.values():
             by_parent.setdefault(joint.parent, []).append(joint)
         order: list[Joint] = []
-        stack = [self.root]
-        while stack:
-            link = stack.pop()
-            for joint in reversed(by_parent.get(link, [])):
-                order.append(joint)
-                stack.append(joint.child)
-        # keep file order among siblings
-        order.sort(key=lambda j: (self._depth(j.child), list(self.joints).index(j.name)))
+        frontier = [self.root]
+        while frontier:
+            below = [j for link in frontier for j in by_parent.get(link, [])]
+            order.extend(below)
+            frontier = [j.child for j in below]
         return order
-
-    def _depth(self, link: str) -> int:
-        depth, joint = 0, self.joint_of_child(link)
-        while joint is not None:
-            depth += 1
-            joint = self.joint_of_child(joint.parent)
-        return depth
 
     def movable_joints(self) -> list[Joint]:
         """Revolute, continuous and prismatic joints, in file order."""

@@ -364,7 +364,8 @@ def write_urdf(asset: ArticulatedAsset, folder: str | Path, filename: str = "mob
     logger = logging.getLogger("yourdfpy")
     level, logger.level = logger.level, logging.CRITICAL
     try:
-        urdf = yourdfpy.URDF(robot=robot, build_scene_graph=False, load_meshes=False, mesh_dir=str(folder))
+        urdf = yourdfpy.URDF(robot=robot, build_scene_graph=False, load_meshes=False, mesh_dir=str(folder),
+                             filename_handler=yourdfpy.filename_handler_null)  # keep paths relative
         urdf.write_xml_file(str(out))
     finally:
         logger.setLevel(level)

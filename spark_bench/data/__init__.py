@@ -1,6 +1,34 @@
 """Datasets: readers for object folders, the procedural ``synth`` generator, rendering, and
-benchmark-case preparation."""
+benchmark-case preparation.
+
+Heavy pieces (MuJoCo rendering, preparation) are imported on first use of their names.
+"""
+
+from __future__ import annotations
+
+import importlib
 
 from spark_bench.data.readers import find_urdf, load_object
 
-__all__ = ["find_urdf", "load_object"]
+_LAZY = {
+    "prepare_case": "spark_bench.data.prepare",
+    "prepare_benchmark": "spark_bench.data.prepare",
+    "PrepareOptions": "spark_bench.data.prepare",
+    "read_case": "spark_bench.data.prepare",
+    "read_manifest": "spark_bench.data.prepare",
+    "read_segmentation": "spark_bench.data.prepare",
+    "ensure_benchmark": "spark_bench.data.benchmarks",
+    "CameraView": "spark_bench.data.camera",
+    "AssetRenderer": "spark_bench.data.render",
+    "render_asset": "spark_bench.data.render",
+    "generate_dataset": "spark_bench.data.synth",
+    "generate_object": "spark_bench.data.synth",
+}
+
+__all__ = ["find_urdf", "load_object", *_LAZY]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'spark_bench.data' has no attribute {name!r}")

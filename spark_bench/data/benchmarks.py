@@ -60,8 +60,40 @@ def benchmark_dir(name: str = DEFAULT_BENCHMARK) -> Path:
     return cache_dir("benchmarks") / name
 
 
-def is_built(folder: Path) -> bool:
-    return (Path(folder) / BUILT_MARKER).is_file()
+def expected_marker(spec: BenchmarkSpec) -> dict:
+    """What the built marker of ``spec`` must say; another content means a stale build."""
+    from spark_bench.data.synth import GENERATOR_VERSION
+
+    return {"name": spec.name, "n_objects": spec.n_objects, "seed": spec.seed,
+            "generator_version": GENERATOR_VERSION, "options": asdict(spec.options)}
+
+
+def is_built(folder: Path, spec: BenchmarkSpec | None = None) -> bool:
+    """Whether ``folder`` holds a finished build (of ``spec``, when given)."""
+    marker = Path(folder) / BUILT_MARKER
+    if not marker.is_file():
+        return False
+    if spec is None:
+        return True
+    try:
+        found = json.loads(marker.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        return False
+    return {k: found.get(k) for k in expected_marker(spec)} == expected_marker(spec)
+
+
+def _is_stale(spec: BenchmarkSpec, folder: Path) -> bool:
+    """A finished build of other settings, or generated objects of another generator version."""
+    if (folder / BUILT_MARKER).is_file():
+        return not is_built(folder, spec)
+    synth_manifest = folder / OBJECTS_DIR / "synth_manifest.json"
+    if synth_manifest.is_file():
+        try:
+            version = json.loads(synth_manifest.read_text()).get("version")
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            return True
+        return version != expected_marker(spec)["generator_version"]
+    return False
 
 
 def _generate_objects(spec: BenchmarkSpec, folder: Path, progress: bool) -> Path:
@@ -96,8 +128,7 @@ def build_benchmark(spec: BenchmarkSpec, folder: Path, workers: int = 1, progres
         raise SparkBenchError(f"benchmark {spec.name}: built {len(manifest['cases'])} cases over "
                               f"{len(categories)} categories, expected {spec.n_objects} over at least "
                               f"{spec.min_categories}")
-    marker = {"name": spec.name, "n_objects": spec.n_objects, "seed": spec.seed,
-              "categories": sorted(c for c in categories if c), "options": asdict(spec.options)}
+    marker = {**expected_marker(spec), "categories": sorted(c for c in categories if c)}
     (folder / BUILT_MARKER).write_text(json.dumps(marker, indent=1) + "\n")
     return folder
 
@@ -107,18 +138,18 @@ def ensure_benchmark(name: str = DEFAULT_BENCHMARK, rebuild: bool = False, worke
     """The folder of a named benchmark, built on first use and reused after.
 
     :param name: a key of :data:`BENCHMARKS`
-    :param rebuild: delete and rebuild it
+    :param rebuild: delete and rebuild it (a build of other settings or generator version is rebuilt anyway)
     :param workers: processes for the preparation
     :param progress: show progress bars while building
     """
     spec = benchmark_spec(name)
     folder = benchmark_dir(name)
-    if is_built(folder) and not rebuild:
+    if is_built(folder, spec) and not rebuild:
         return folder
     with bench_lock(folder.parent / f".{name}.build", wait=True):
-        if rebuild and folder.exists():
+        if folder.exists() and (rebuild or _is_stale(spec, folder)):
             shutil.rmtree(folder)
-        if not is_built(folder):  # another process may have finished it while we waited
+        if not is_built(folder, spec):  # another process may have finished it while we waited
             build_benchmark(spec, folder, workers=workers, progress=progress)
     read_manifest(folder)
     return folder

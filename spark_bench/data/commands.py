@@ -89,7 +89,7 @@ def run_build(args) -> int:
 
 
 def run_sheet(args) -> int:
-    from spark_bench.data.prepare import write_contact_sheet
+    from spark_bench.data.contact_sheet import write_contact_sheet
 
     print(write_contact_sheet(args.bench, args.out, thumb=args.thumb))
     return 0

@@ -28,7 +28,8 @@ CASES_DIR = "cases"
 MANIFEST = "manifest.json"
 CASE_FILE = "case.json"
 CONTACT_SHEET = "contact_sheet.png"
-#: Stages timed by :func:`prepare_case` (``benchmarks/bench_prepare.py`` reports them).
+#: Stages timed by :func:`prepare_case` (``benchmarks/bench_prepare.py`` reports them); the timer also
+#: holds ``render.scene``, the part of ``render`` spent building the MuJoCo scene.
 STAGES = ("load", "merge", "watertight", "normalize_write", "render")
 
 
@@ -147,26 +148,6 @@ def joint_records(asset: ArticulatedAsset) -> list[dict]:
     return out
 
 
-def relative_mesh_paths(urdf: Path) -> None:
-    """Rewrite absolute mesh paths inside the URDF's folder as relative ones, in place.
-
-    The case is built in a temporary folder and renamed, and a benchmark folder may be moved or
-    shared: the ground truth must not name the place it was written in.
-    """
-    from lxml import etree
-
-    folder = urdf.parent.resolve()
-    tree = etree.parse(str(urdf), etree.XMLParser(resolve_entities=False, no_network=True))
-    changed = False
-    for mesh in tree.iter("mesh"):
-        name = mesh.get("filename", "")
-        if Path(name).is_absolute() and Path(name).resolve().is_relative_to(folder):
-            mesh.set("filename", Path(name).resolve().relative_to(folder).as_posix())
-            changed = True
-    if changed:
-        tree.write(str(urdf), xml_declaration=True, encoding="utf-8", pretty_print=True)
-
-
 # ----- images ----------------------------------------------------------------------------------
 def write_rgb(path: Path, rgb: np.ndarray) -> None:
     from PIL import Image
@@ -231,12 +212,14 @@ def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions 
         with timer("normalize_write"):
             gt, center, scale = normalize_asset(gt)
             gt.name = case_id
-            relative_mesh_paths(write_object_folder(gt, work / "gt"))
+            write_object_folder(gt, work / "gt")
         seed = view_seed(case_id, options.seed)
         view = CameraView.front(seed, options.distance, options.image_size, options.fov_deg)
         links = list(gt.links)
         with timer("render"):
-            with AssetRenderer(gt, options.image_size, links=links) as renderer:
+            with timer("render.scene"):  # a sub-stage: building the MuJoCo model (mesh processing)
+                renderer = AssetRenderer(gt, options.image_size, links=links)
+            with renderer:
                 for stem, q in (("input", gt.rest_configuration()), ("open", gt.open_configuration())):
                     image = renderer.render(view, q)
                     write_rgb(work / f"{stem}.png", image.rgb)
@@ -444,7 +427,7 @@ def _run(todo: dict[str, Path], cases: Path, options: PrepareOptions, workers: i
         bar.close()
 
 
-# ----- reading cases, contact sheet -----------------------------------------------------------
+# ----- reading cases -----------------------------------------------------------
 def read_case(case_dir: str | Path) -> dict:
     """A case's ``case.json``."""
     path = Path(case_dir) / CASE_FILE
@@ -458,37 +441,7 @@ def read_case(case_dir: str | Path) -> dict:
 
 def write_contact_sheet(bench: str | Path, path: str | Path | None = None, thumb: int = 192,
                         columns: int = 4) -> Path:
-    """A PNG grid of every case: input | open side by side, labelled with id and category.
+    """See :func:`spark_bench.data.contact_sheet.write_contact_sheet`."""
+    from spark_bench.data.contact_sheet import write_contact_sheet as write
 
-    :param bench: the benchmark folder
-    :param path: output file (default ``BENCH/contact_sheet.png``)
-    :param thumb: size of each image in pixels
-    :param columns: cases per row
-    """
-    from PIL import Image, ImageDraw, ImageFont
-
-    bench = Path(bench)
-    path = Path(path) if path else bench / CONTACT_SHEET
-    ids = complete_cases(bench)
-    if not ids:
-        raise SparkBenchError(f"{bench}: no complete cases for a contact sheet")
-    label_h, pad = 20, 6
-    columns = max(1, min(columns, len(ids)))
-    rows = -(-len(ids) // columns)
-    cell_w, cell_h = 2 * thumb + pad, thumb + label_h + pad
-    sheet = Image.new("RGB", (columns * cell_w + pad, rows * cell_h + pad), (255, 255, 255))
-    draw = ImageDraw.Draw(sheet)
-    try:
-        font = ImageFont.load_default(size=13)
-    except TypeError:  # Pillow < 10.1 has only the bitmap font
-        font = ImageFont.load_default()
-    for k, case_id in enumerate(ids):
-        case_dir = bench / CASES_DIR / case_id
-        x0, y0 = pad + (k % columns) * cell_w, pad + (k // columns) * cell_h
-        for j, stem in enumerate(("input", "open")):
-            with Image.open(case_dir / f"{stem}.png") as image:
-                sheet.paste(image.convert("RGB").resize((thumb, thumb), Image.LANCZOS), (x0 + j * thumb, y0))
-        category = read_case(case_dir).get("category", "")
-        draw.text((x0 + 2, y0 + thumb + 3), f"{case_id}  {category}  (input | open)", fill=(20, 20, 20), font=font)
-    sheet.save(path)
-    return path
+    return write(bench, path, thumb, columns)

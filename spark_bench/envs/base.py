@@ -31,6 +31,8 @@ TOUCH_THRESHOLD = 0.5
 #: Dense reward weights: reach, grasp, open progress, success; the sum is divided by their total.
 REWARD_WEIGHTS = (1.0, 1.0, 2.0, 1.0)
 OBS_SIZE = 19
+#: Every observation entry is clipped to [-OBS_BOUND, OBS_BOUND] (positions in m, velocities in m/s).
+OBS_BOUND = 10.0
 
 
 @lru_cache(maxsize=16)
@@ -87,7 +89,7 @@ class SparkArticulationEnv(gym.Env):
         self._renderer = None
         self._index()
         self.action_space = spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32)
-        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(OBS_SIZE,), dtype=np.float32)
+        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(OBS_SIZE,), dtype=np.float32)
         self._seed = seed
 
     # ----- indices ---------------------------------------------------------------------------
@@ -149,6 +151,7 @@ class SparkArticulationEnv(gym.Env):
         out[15] = d.qvel[self._joint_v] / self._span
         out[16:18] = np.minimum(d.sensordata[self._touch] / 10.0, 1.0)
         out[18] = np.linalg.norm(out[11:14])
+        np.clip(out, -OBS_BOUND, OBS_BOUND, out=out)
         return out
 
     def _reward_terms(self, obs: np.ndarray) -> dict[str, float]:
@@ -210,8 +213,8 @@ class SparkArticulationEnv(gym.Env):
             self._camera = mujoco.MjvCamera()
             box = self.scene.workspace
             self._camera.lookat[:] = 0.5 * (box[0] + box[1])
-            self._camera.distance = 1.6 * float(np.max(box[1] - box[0]))
-            self._camera.azimuth, self._camera.elevation = 215.0, -25.0
+            self._camera.distance = 1.25 * float(np.max(box[1] - box[0]))
+            self._camera.azimuth, self._camera.elevation = 30.0, -22.0  # from the front (-X), left, above
         self._renderer.update_scene(self.data, camera=self._camera)
         return self._renderer.render()
 

@@ -18,7 +18,7 @@ class SparkDrawerEnv(SparkArticulationEnv):
     m from the TCP's current position (world x, y, z; clipped to a workspace box around the object);
     ``a[3]`` commands the fingers: -1 fully open, +1 closed (each finger squeezes with at most 40 N).
 
-    **Observation space** ``Box(-inf, inf, (19,), float32)``:
+    **Observation space** ``Box(-10, 10, (19,), float32)`` (entries clipped to the bounds):
 
     ====== =====================================================================
     index  meaning

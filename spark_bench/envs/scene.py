@@ -94,8 +94,10 @@ def _quat(rotation: np.ndarray) -> np.ndarray:
 
 
 def primitive_spec(asset: ArticulatedAsset) -> mujoco.MjSpec:
-    """The object as an MjSpec from its own collision shapes (convex hulls of its visuals where it has
-    none), visual meshes in geom group 2; bodies named by link, joints by joint name, root welded."""
+    """The object as an MjSpec from its own collision shapes (each mesh as its convex hull, a flat one as a
+    thin box; each visual's hull for a link with none), visual meshes in geom group 2; bodies named by
+    link, joints by joint name, root welded. A fallback for when :mod:`spark_bench.sim` is absent: it
+    does no convex decomposition."""
     spec = mujoco.MjSpec()
     spec.compiler.degree = False
 
@@ -110,24 +112,34 @@ def primitive_spec(asset: ArticulatedAsset) -> mujoco.MjSpec:
             elif col.kind == "sphere":
                 body.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[col.size[0], 0, 0], pos=pos, quat=quat)
             else:
-                name = f"{link.name}_collision_{k}"
-                spec.add_mesh(name=name, uservert=col.mesh.vertices.reshape(-1).tolist(),
-                              userface=col.mesh.faces.reshape(-1).tolist())
-                body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name, pos=pos, quat=quat)
+                add_mesh_collision(body, f"{link.name}_collision_{k}", col.mesh, col.origin)
         if not link.collisions and link.has_geometry:
-            hull = link.merged_mesh().convex_hull
-            name = f"{link.name}_hull"
-            spec.add_mesh(name=name, uservert=hull.vertices.reshape(-1).tolist(),
-                          userface=hull.faces.reshape(-1).tolist())
-            body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name)
+            for k, vis in enumerate(link.visuals):
+                add_mesh_collision(body, f"{link.name}_hull_{k}", vis.mesh, np.eye(4))
         for k, vis in enumerate(link.visuals):
             if not len(vis.mesh.faces):
                 continue
             name = f"{link.name}_visual_{k}"
             spec.add_mesh(name=name, uservert=vis.mesh.vertices.reshape(-1).tolist(),
-                          userface=vis.mesh.faces.reshape(-1).tolist())
+                          userface=vis.mesh.faces.reshape(-1).tolist(),
+                          inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)  # massless, may be open
             body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name, contype=0, conaffinity=0,
                           group=2, density=0, rgba=list(vis.rgba))
+
+    def add_mesh_collision(body, name, mesh, origin):
+        """A mesh's convex hull, or its oriented box (at least 2 mm thick) when the mesh is flat."""
+        if len(mesh.vertices) < 4:
+            return
+        extents = mesh.bounding_box_oriented.primitive.extents
+        if np.min(extents) < 1e-3:
+            obb = mesh.bounding_box_oriented.primitive
+            pose = origin @ obb.transform
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=np.maximum(obb.extents, 2e-3) / 2,
+                          pos=pose[:3, 3], quat=_quat(pose[:3, :3]))
+            return
+        hull = mesh.convex_hull
+        spec.add_mesh(name=name, uservert=hull.vertices.reshape(-1).tolist(), userface=hull.faces.reshape(-1).tolist())
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name, pos=origin[:3, 3], quat=_quat(origin[:3, :3]))
 
     bodies = {asset.root: spec.worldbody.add_body(name=asset.root)}
     add_geoms(bodies[asset.root], asset.links[asset.root])
@@ -187,6 +199,9 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, 640)
     spec.visual.global_.offheight = max(spec.visual.global_.offheight, 480)
     workspace = workspace_box(asset)
+    spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
+    spec.visual.headlight.diffuse = [0.6, 0.6, 0.6]
+    spec.worldbody.add_light(pos=[-2.0, -1.0, 3.0], dir=[0.5, 0.25, -0.8], diffuse=[0.5, 0.5, 0.5])
     wrist = asset.joint_frames()[chosen.name][1] if chosen.is_rotational else None
     handles = add_gripper(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
                           workspace=workspace, config=gripper)

@@ -163,3 +163,32 @@ def open_with_ground_truth(env: gym.Env, seed: int | None = None, **kwargs) -> O
     """:func:`open_with_joint` with the environment's own (ground-truth) joint."""
     axis, pivot, joint_type = ground_truth_joint(env)
     return open_with_joint(env, axis, pivot, joint_type, seed=seed, **kwargs)
+
+
+def open_every_joint(asset, episodes: int = 1, seed: int = 0, max_episode_steps: int = 150) -> list[dict]:
+    """The scripted opener with ground-truth joints on every drawer (prismatic) and door (revolute)
+    of one object: one row per joint with its success rate and mean largest opening.
+
+    :param asset: anything the environments accept as ``asset``
+    :param episodes: episodes per joint (seeds ``seed ..``)
+    :param max_episode_steps: time limit per episode
+    """
+    from spark_bench.envs.assets import load_asset
+    from spark_bench.errors import InputError
+    from spark_bench.rl.rollout import make_env
+
+    loaded, key = load_asset(asset)
+    rows = []
+    for joint in loaded.movable_joints():
+        env_id = "SparkDrawer-v0" if joint.type == "prismatic" else "SparkDoor-v0"
+        try:
+            env = make_env(env_id, asset=key or loaded, joint=joint.name, max_episode_steps=max_episode_steps)
+        except InputError as exc:
+            rows.append({"joint": joint.name, "type": joint.type, "success_rate": 0.0, "error": str(exc)})
+            continue
+        results = [open_with_ground_truth(env, seed=seed + k) for k in range(episodes)]
+        rows.append({"joint": joint.name, "type": joint.type, "grasp": env.unwrapped.scene.grasp.source,
+                     "success_rate": float(np.mean([r.success for r in results])),
+                     "max_fraction": float(np.mean([r.max_fraction for r in results]))})
+        env.close()
+    return rows

@@ -105,7 +105,8 @@ def plot_curve(rows: list[EvalRow], path: Path, title: str) -> Path:
     return path
 
 
-def _eval_callback(eval_env, every: int, episodes: int, out: Path, title: str, t0: float):
+def _eval_callback(eval_env, every: int, episodes: int, out: Path, title: str, t0: float,
+                   max_wall_s: float | None = None):
     from stable_baselines3.common.callbacks import BaseCallback
 
     from spark_bench.rl.rollout import ModelPolicy, run_episodes
@@ -136,7 +137,7 @@ def _eval_callback(eval_env, every: int, episodes: int, out: Path, title: str, t
             if self.num_timesteps >= self.next_eval:
                 self.next_eval += every
                 self.evaluate()
-            return True
+            return max_wall_s is None or time.perf_counter() - t0 < max_wall_s
 
     return SuccessRateCallback()
 
@@ -144,7 +145,7 @@ def _eval_callback(eval_env, every: int, episodes: int, out: Path, title: str, t
 def train(env_id: str, algo: str = "ppo", steps: int = 100_000, out: str | Path = "runs/train",
           asset=None, joint: str | None = None, n_envs: int = 8, seed: int = 0, eval_every: int | None = None,
           eval_episodes: int = 20, eval_asset=None, progress_bar: bool = True,
-          hyperparams: dict | None = None, verbose: int = 0) -> TrainResult:
+          hyperparams: dict | None = None, max_wall_s: float | None = None, verbose: int = 0) -> TrainResult:
     """Train ``algo`` on ``env_id``; evaluate periodically; save the model and the learning curve.
 
     :param env_id: ``SparkDrawer-v0`` or ``SparkDoor-v0``
@@ -160,6 +161,7 @@ def train(env_id: str, algo: str = "ppo", steps: int = 100_000, out: str | Path 
     :param eval_asset: after training, also evaluate on this object (transfer)
     :param progress_bar: show stable-baselines3's progress bar
     :param hyperparams: overrides of :data:`HYPERPARAMS`
+    :param max_wall_s: stop early after this much wall time (evaluations included)
     """
     from stable_baselines3.common.env_util import make_vec_env
 
@@ -180,7 +182,7 @@ def train(env_id: str, algo: str = "ppo", steps: int = 100_000, out: str | Path 
     t0 = time.perf_counter()
     title = f"{algo.upper()} on {env_id}"
     every = int(eval_every or max(steps // 10, 1))
-    callback = _eval_callback(eval_env, every, eval_episodes, out, title, t0)
+    callback = _eval_callback(eval_env, every, eval_episodes, out, title, t0, max_wall_s)
     model.learn(total_timesteps=int(steps), callback=callback, progress_bar=progress_bar)
     if not callback.rows or callback.rows[-1].steps < model.num_timesteps:
         callback.evaluate()

@@ -1,0 +1,143 @@
+"""The opening environments: registration, Gymnasium conformity, determinism, grasp points, errors."""
+
+from __future__ import annotations
+
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import spark_bench  # noqa: F401  (registers the environments)
+from spark_bench.envs.assets import asset_folder
+from spark_bench.envs.cabinet import procedural_cabinet
+from spark_bench.envs.grasp import find_grasp
+from spark_bench.errors import InputError
+
+ENV_IDS = ("SparkDrawer-v0", "SparkDoor-v0")
+
+
+def test_import_registers_both_environments():
+    for env_id in ENV_IDS:
+        assert env_id in gym.registry
+        assert gym.registry[env_id].max_episode_steps == 100
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_check_env_on_procedural_cabinet(env_id):
+    env = gym.make(env_id, asset="procedural:0")
+    check_env(env.unwrapped, skip_render_check=True)
+    assert env.observation_space.shape == (19,)
+    assert env.action_space.shape == (4,)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_reset_and_step_are_deterministic(env_id):
+    env_a, env_b = gym.make(env_id, asset="procedural:1"), gym.make(env_id, asset="procedural:1")
+    obs_a, _ = env_a.reset(seed=7)
+    obs_b, _ = env_b.reset(seed=7)
+    np.testing.assert_array_equal(obs_a, obs_b)
+    actions = np.random.default_rng(0).uniform(-1, 1, size=(30, 4)).astype(np.float32)
+    for action in actions:
+        obs_a, reward_a, *_ = env_a.step(action)
+        obs_b, reward_b, *_ = env_b.step(action)
+    np.testing.assert_array_equal(obs_a, obs_b)
+    assert reward_a == reward_b
+    other, _ = env_a.reset(seed=8)
+    assert not np.allclose(other[:3], env_b.reset(seed=7)[0][:3])
+
+
+def test_start_state_is_in_front_of_the_handle():
+    env = gym.make("SparkDrawer-v0", asset="procedural:0")
+    obs, info = env.reset(seed=0)
+    tcp, grasp = obs[0:3], obs[8:11]
+    # the cabinet's front faces -X: the gripper starts ~0.1 m in front of (smaller x than) the handle
+    assert 0.06 < grasp[0] - tcp[0] < 0.14
+    assert obs[14] == pytest.approx(0.0, abs=1e-9) and obs[4] == pytest.approx(1.0, abs=1e-6)
+    assert not info["is_success"] and 0.0 < info["reach"] < 1.0
+
+
+def test_grasp_point_is_the_handle_bar_on_the_procedural_cabinet():
+    asset = procedural_cabinet(0)
+    poses = asset.link_poses()
+    drawer = find_grasp(asset, "joint_0")
+    bar = asset.links["link_0"].collisions[5]  # the drawer's bar handle
+    bar_center = (poses["link_0"] @ bar.origin)[:3, 3]
+    assert np.linalg.norm(drawer.point - bar_center) < 0.01
+    np.testing.assert_allclose(drawer.outward, [-1, 0, 0], atol=1e-6)
+    assert abs(drawer.long_axis[1]) > 0.99  # a horizontal bar: fingers close vertically
+    door = find_grasp(asset, "joint_1")
+    bar = asset.links["link_1"].collisions[1]
+    assert np.linalg.norm(door.point - (poses["link_1"] @ bar.origin)[:3, 3]) < 0.01
+    assert abs(door.long_axis[2]) > 0.99 and door.source == "geometry"
+
+
+def test_grasp_points_match_partnet_handle_annotations(real_object):
+    """Found from geometry alone, the grasp point lies on the annotated handle (PartNet result.json)."""
+    from spark_bench.asset.transforms import transform_points
+    from spark_bench.data import load_object
+
+    folder = real_object("41083")
+    tree = json.loads((folder / "result.json").read_text())
+
+    def handle_objs(nodes, inside=False):
+        out = []
+        for node in nodes:
+            here = inside or node.get("name") == "handle"
+            if here:
+                out += node.get("objs", [])
+            out += handle_objs(node.get("children", []), here)
+        return out
+
+    names = {f"textured_objs/{name}.obj" for name in handle_objs(tree)}
+    asset = load_object(folder)
+    poses = asset.link_poses()
+    for joint in asset.movable_joints():
+        link = asset.links[joint.child]
+        points = np.concatenate([transform_points(poses[link.name], v.mesh.vertices)
+                                 for v in link.visuals if v.source in names])
+        grasp = find_grasp(asset, joint.name)
+        assert np.all(grasp.point > points.min(0) - 0.02) and np.all(grasp.point < points.max(0) + 0.02), joint.name
+
+
+def test_unknown_joint_and_wrong_kind_fail_at_make():
+    with pytest.raises(InputError, match="no joint named 'nope'"):
+        gym.make("SparkDrawer-v0", asset="procedural:0", joint="nope")
+    with pytest.raises(InputError, match="is revolute, this task needs a prismatic joint"):
+        gym.make("SparkDrawer-v0", asset="procedural:0", joint="joint_1")
+    doorless = procedural_cabinet(0)
+    del doorless.joints["joint_1"], doorless.links["link_1"]
+    with pytest.raises(InputError, match="no revolute joint"):
+        gym.make("SparkDoor-v0", asset=doorless)
+
+
+def test_case_folder_maps_to_its_ground_truth(tmp_path):
+    (tmp_path / "case.json").write_text("{}")
+    with pytest.raises(InputError, match="no gt/"):
+        asset_folder(tmp_path)
+    (tmp_path / "gt").mkdir()
+    assert asset_folder(tmp_path) == tmp_path / "gt"
+    with pytest.raises(InputError, match="no such"):
+        asset_folder(tmp_path / "absent")
+
+
+def test_sparse_reward_and_rgb_render():
+    env = gym.make("SparkDoor-v0", asset="procedural:0", reward_type="sparse", render_mode="rgb_array",
+                   width=160, height=120)
+    env.reset(seed=0)
+    _, reward, *_ = env.step(env.action_space.sample())
+    assert reward == 0.0
+    frame = env.render()
+    assert frame.shape == (120, 160, 3) and frame.dtype == np.uint8 and frame.std() > 5
+    env.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("object_id,env_ids", [("41083", ENV_IDS), ("45780", ("SparkDoor-v0",))])
+def test_check_env_on_real_objects(real_object, object_id, env_ids):
+    folder = real_object(object_id)
+    for env_id in env_ids:
+        env = gym.make(env_id, asset=str(folder))
+        check_env(env.unwrapped, skip_render_check=True)
+        env.close()
