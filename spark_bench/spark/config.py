@@ -121,6 +121,7 @@ class OptimizeConfig:
     lr_pivot: float = 0.01
     lr_value: float = 0.03
     include_fixed: bool = False
+    sweeps: int = 2
     max_faces: int = 600
     threads: int = 1
 

@@ -220,7 +220,8 @@ def fit(scene: OpenStateScene, hypotheses: dict[str, Hypothesis], active: list[s
     for stage in stages:
         target = scene.target(stage.size, stage.tau)
         for step in range(stage.steps):
-            decay = 0.1 + 0.9 * 0.5 * (1 + np.cos(np.pi * step / max(stage.steps, 1)))
+            # finer pixels, finer steps: the step shrinks with the pixel size (1 at 32 px), and decays
+            decay = min(1.0, 32.0 / stage.size) * (0.1 + 0.9 * 0.5 * (1 + np.cos(np.pi * step / max(stage.steps, 1))))
             for group, lr in zip(optimizer.param_groups, base_lrs):
                 group["lr"] = lr * decay
             optimizer.zero_grad()

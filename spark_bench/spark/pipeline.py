@@ -47,7 +47,7 @@ def refine_settings(config: SparkConfig, discrete: bool) -> RefineSettings:
         screen=Stage(opt.screen_size, opt.screen_tau, 0), short_steps=opt.short_steps, top_k=opt.top_k,
         final=[Stage(s, t, n) for s, t, n in zip(opt.final_sizes, opt.final_taus, opt.final_steps)],
         weights=LossWeights(opt.w_edge, opt.lambda_t, opt.lambda_theta), refine_discrete=discrete,
-        include_fixed=opt.include_fixed, max_faces=opt.max_faces, lr_pivot=opt.lr_pivot, lr_value=opt.lr_value)
+        include_fixed=opt.include_fixed, sweeps=opt.sweeps, max_faces=opt.max_faces, lr_pivot=opt.lr_pivot, lr_value=opt.lr_value)
 
 
 @contextmanager

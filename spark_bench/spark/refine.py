@@ -48,7 +48,8 @@ class RefineSettings:
     :param weights: loss weights
     :param refine_discrete: try other types and axes (False: continuous fit of the prior's only)
     :param include_fixed: also try ``fixed`` (a part that does not move)
-    :param sweeps: passes of the discrete search over the joints
+    :param sweeps: most passes of the discrete search over the joints (another pass runs only when a
+        joint's type or axis changed in the last one, since that changes what the others must explain)
     :param max_faces: per-link face budget for rendering
     :param lr_pivot: Adam step for pivot offsets
     :param lr_value: Adam step for open values
@@ -62,7 +63,7 @@ class RefineSettings:
     weights: LossWeights = field(default_factory=LossWeights)
     refine_discrete: bool = True
     include_fixed: bool = False
-    sweeps: int = 1
+    sweeps: int = 2
     max_faces: int = 600
     lr_pivot: float = 0.01
     lr_value: float = 0.03
@@ -172,13 +173,22 @@ def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSetti
     short = [replace(settings.screen, steps=settings.short_steps)]
     tick = time.perf_counter()
     if settings.refine_discrete:
-        for _ in range(settings.sweeps):
+        for sweep in range(settings.sweeps):
+            changed = False
             for name in list(current):
-                current[name], candidates_report[name] = _search_joint(asset, scene, current, name, prior[name],
-                                                                       short, settings)
+                reference = prior[name] if sweep == 0 else current[name]
+                found, candidates_report[name] = _search_joint(asset, scene, current, name, reference, short,
+                                                               settings)
+                changed |= not _same_motion(found, current[name])
+                current[name] = found
+            if not changed:  # a later sweep helps only when a joint's motion changed under the others
+                break
     timings["discrete_search"] = time.perf_counter() - tick
     tick = time.perf_counter()
-    result: FitResult = fit(scene, current, list(current), settings.final, settings.weights,
+    stages = list(settings.final)
+    if not settings.refine_discrete:  # no short fits ran: start coarse
+        stages = [replace(settings.screen, steps=2 * settings.short_steps)] + stages
+    result: FitResult = fit(scene, current, list(current), stages, settings.weights,
                             settings.lr_pivot, settings.lr_value)
     timings["final_fit"] = time.perf_counter() - tick
     final = {n: canonical_sign(h) for n, h in result.hypotheses.items()}

@@ -55,9 +55,16 @@ def toy_cabinet(door_angle: float = 1.2, drawer_travel: float = 0.45) -> Articul
     return asset
 
 
-def toy_camera(size: int = 256) -> Camera:
-    """A view from the front-left, above (world: front is -X, up is +Z), 4 units from the center."""
-    direction = np.array([-0.80, 0.45, 0.40])
+#: A view from the front-right and well above: the door's swing is seen from the top, so its hinge is
+#: determined by the silhouette. From low views a hinge shifted along the viewing direction, with a
+#: slightly different opening angle, gives nearly the same silhouette (measured: 0.05 units of pivot for
+#: 1e-4 of loss at 128 px from the direction (-0.80, 0.45, 0.40)).
+HIGH_VIEW = (-0.55, -0.35, 0.75)
+
+
+def toy_camera(size: int = 256, direction=HIGH_VIEW) -> Camera:
+    """A camera 4 units from the center looking at it from ``direction`` (world: front -X, up +Z)."""
+    direction = np.asarray(direction, dtype=float)
     return look_at_camera(4.0 * direction / np.linalg.norm(direction), size=size, fov_deg=40.0)
 
 

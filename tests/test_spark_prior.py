@@ -1,0 +1,104 @@
+"""Coarse-URDF parsing, the annotation noise model, the file prior and the pipeline config."""
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from spark_bench.errors import InputError
+from spark_bench.spark.config import SparkConfig
+from spark_bench.spark.diagnostics import PAPER_PRIOR_ERRORS, calibrate_noise
+from spark_bench.spark.prior import NoiseModel, annotation_prior, file_prior, ground_truth_structure
+from spark_bench.spark.structure import parse_structure
+from spark_bench.spark.toy import toy_cabinet
+
+
+def test_ground_truth_structure_of_the_toy():
+    structure = ground_truth_structure(toy_cabinet())
+    assert [link.name for link in structure.links] == ["body", "door", "drawer"]
+    door, drawer = structure.joints
+    assert (door.type, door.axis, drawer.type, drawer.axis) == ("revolute", "down", "prismatic", "front")
+    np.testing.assert_allclose(door.origin, [-0.6, 0.45, 0.4], atol=1e-9)
+
+
+def test_noise_model_is_seeded_per_case_and_hits_its_rates():
+    gt = toy_cabinet()
+    noise = NoiseModel()
+    a = annotation_prior(gt, "case_a", noise).to_dict()
+    assert a == annotation_prior(gt, "case_a", noise).to_dict()
+    assert a != annotation_prior(gt, "case_b", noise).to_dict() or a != annotation_prior(
+        gt, "case_c", noise).to_dict()
+    truth = ground_truth_structure(gt)
+    flips = axes = 0
+    offsets = []
+    n = 400
+    for k in range(n):
+        for pj, tj in zip(annotation_prior(gt, f"c{k}", noise).joints, truth.joints):
+            flips += pj.type != tj.type
+            axes += abs(float(np.dot(pj.axis_vector, tj.axis_vector))) < 0.5
+            offsets.append(np.subtract(pj.origin, tj.origin))
+    assert flips / (2 * n) == pytest.approx(0.2, abs=0.04)
+    assert axes / (2 * n) == pytest.approx(0.2, abs=0.04)
+    assert np.std(np.concatenate(offsets)) == pytest.approx(0.19, abs=0.02)
+
+
+def test_calibration_moves_towards_the_targets():
+    gts = [(f"toy{k}", toy_cabinet()) for k in range(3)]
+    target = {"axis_err": 0.6, "pivot_err": 0.1, "type_err": 0.4}
+    noise, measured = calibrate_noise(gts, NoiseModel(), target, iterations=3, seeds=range(8))
+    assert noise.p_axis > 0.25 and noise.p_type > 0.25 and noise.sigma_origin < 0.15
+    assert set(measured) == set(PAPER_PRIOR_ERRORS)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda d: d["joints"][0].update(type="screw"), "type 'screw'"),
+    (lambda d: d["joints"][0].update(axis=[0.5, 0.5, 0]), "not a canonical direction"),
+    (lambda d: d["joints"][0].update(child="ghost"), "not a declared link"),
+    (lambda d: d["joints"][0].update(origin=[0, 0]), "origin must be 3"),
+    (lambda d: d["joints"][0].update(lower=0.3), "lower limit must be 0"),
+    (lambda d: d["joints"][1].update(child="door"), "child of two joints"),
+    (lambda d: d.pop("links"), '"links" and "joints"'),
+])
+def test_parse_structure_rejects_bad_answers(edit, message):
+    data = json.loads(json.dumps(ground_truth_structure(toy_cabinet()).to_dict()))
+    edit(data)
+    with pytest.raises(InputError, match=message):
+        parse_structure(data, "answer.json")
+
+
+def test_vector_axes_and_continuous_are_accepted():
+    data = ground_truth_structure(toy_cabinet()).to_dict()
+    data["joints"][0].update(axis=[0, -1, 0], type="continuous")
+    assert parse_structure(data).joints[0].axis == "down"
+    assert parse_structure(data).joints[0].type == "revolute"
+
+
+def test_file_prior(tmp_path):
+    data = ground_truth_structure(toy_cabinet()).to_dict()
+    (tmp_path / "c1.json").write_text(json.dumps(data))
+    assert file_prior(tmp_path, "c1").joints[1].axis == "front"
+    with pytest.raises(InputError, match="no prior answer file"):
+        file_prior(tmp_path, "c2")
+    (tmp_path / "c3.json").write_text("{oops")
+    with pytest.raises(InputError, match="malformed JSON"):
+        file_prior(tmp_path, "c3")
+
+
+def test_config_files_overrides_and_label(tmp_path):
+    assert SparkConfig().label() == "prior=annotation,geometry=annotation,open=dataset,opt=native"
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps({"prior": {"backend": "file", "file_dir": "x", "noise": {"p_axis": 0.3}},
+                                "optimize": {"enabled": False}}))
+    config = SparkConfig.from_file(path)
+    assert config.prior.noise.p_axis == 0.3 and config.label().endswith("opt=none")
+    config = config.with_overrides(["optimize.enabled=true", "optimize.refine=none", "vlm.model=my-model"])
+    assert config.label() == "prior=file,geometry=annotation,open=dataset,opt=native+none"
+    assert config.vlm.model == "my-model"
+    assert SparkConfig.from_dict(config.to_dict()) == config
+    with pytest.raises(InputError, match="unknown setting"):
+        SparkConfig.from_dict({"prior": {"backnd": "vlm"}}, "c.toml")
+    with pytest.raises(InputError, match="is not one of"):
+        SparkConfig.from_dict({"geometry": {"backend": "dreams"}})
+    with pytest.raises(InputError, match="needs prior.file_dir"):
+        replace(SparkConfig(), prior=replace(SparkConfig().prior, backend="file")).validate()
