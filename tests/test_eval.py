@@ -63,10 +63,7 @@ def copy_object(source: Path, target: Path) -> Path:
     """Copy an object folder so that the copy stands on its own."""
     import shutil
 
-    from spark_bench.baselines.oracle import relocate_mesh_paths
-
     shutil.copytree(source, target)
-    relocate_mesh_paths(target, source)
     return target
 
 
@@ -139,13 +136,11 @@ def test_command_method_runs_without_shell_and_times_out(tiny_bench, tmp_path):
     methods = _methods_file(tmp_path, f"""
         import shutil, sys, time
         from pathlib import Path
-        from spark_bench.baselines.oracle import relocate_mesh_paths
         image, out, case_id = sys.argv[1:4]
         assert image.endswith("input.png"), image
         if case_id == "cab2":
             time.sleep(30)
         shutil.copytree({str(source)!r}, out + "/obj", dirs_exist_ok=True)
-        relocate_mesh_paths(Path(out + "/obj"), Path({str(source)!r}))
     """, timeout=3)
     summary = run_eval(MethodSpec.create("copier", methods_file=str(methods)), str(tiny_bench), FAST,
                        db=tmp_path / "r.sqlite", workers=0, runs_root=tmp_path / "runs", progress=False)
@@ -188,10 +183,8 @@ def test_killed_run_resumes_with_one_result_per_case(tmp_path):
     methods = _methods_file(tmp_path, f"""
         import shutil, sys, time
         from pathlib import Path
-        from spark_bench.baselines.oracle import relocate_mesh_paths
         time.sleep(1.0)
         shutil.copytree({str(bench / "cases" / "cab0" / "gt")!r}, sys.argv[2], dirs_exist_ok=True)
-        relocate_mesh_paths(Path(sys.argv[2]), Path({str(bench / "cases" / "cab0" / "gt")!r}))
     """)
     cmd = [sys.executable, "-m", "spark_bench.cli", "eval", "--method", "copier", "--methods-file", str(methods),
            "--bench", str(bench), "--no-sim", "--n-samples", "2000", "--db", str(db), "--runs-dir",
@@ -227,7 +220,6 @@ def test_killed_run_resumes_with_one_result_per_case(tmp_path):
 def test_variants_and_shape_validity_are_stored(tiny_bench, tmp_path, monkeypatch):
     """A method that reports a variant (ours and its prior before joint optimization) gets two rows."""
     from spark_bench import generators
-    from spark_bench.generators import Generation
 
     class TwoOutputs:
         name, version, inputs, regime = "two", "1", ("gt",), "image"
@@ -254,3 +246,30 @@ def test_variants_and_shape_validity_are_stored(tiny_bench, tmp_path, monkeypatc
     assert sorted({r["variant"] for r in rows}) == ["", "w/o joint opt."] and len(rows) == 6
     assert all(not r["shape_metrics_valid"] for r in rows)
     assert rows[0]["info"]["prior"] == "annotation" and rows[0]["config"]["method_config"] == {"k": 1.5}
+
+
+def test_a_case_that_kills_its_worker_fails_alone(tiny_bench, tmp_path):
+    from spark_bench import generators
+
+    class Crasher:
+        name, version, inputs, regime = "crasher", "1", ("gt",), "image"
+
+        def label(self):
+            return "crasher"
+
+        def config(self):
+            return {}
+
+        def generate(self, case, out_dir):
+            if case.case_id == "cab1":
+                os._exit(3)  # a segfault in native code looks like this to the pool
+            return {"folder": case.gt_dir}
+
+    generators.register("crasher", lambda options: Crasher(), overwrite=True)
+    try:  # the pool's workers are forked: they see the registration
+        summary = run_eval(MethodSpec.create("crasher"), str(tiny_bench), FAST, db=tmp_path / "r.sqlite",
+                           workers=2, runs_root=tmp_path / "runs", progress=False)
+    finally:
+        generators._REGISTRY.pop("crasher")
+    assert summary.n_failed == 1 and "worker process died" in summary.failures["cab1"]
+    assert summary.metrics["axis_err"] == 0.0

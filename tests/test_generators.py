@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import sys
 from importlib.metadata import EntryPoint
-from pathlib import Path
 
 import pytest
 from test_eval import make_tiny_bench
@@ -163,8 +162,12 @@ def test_entry_point_methods(monkeypatch):
         make_generator("broken")
 
 
-def test_ours_is_registered_lazily():
-    # the registry itself never imports the SPARK pipeline; building the method does
-    assert "spark_bench.spark.pipeline" not in sys.modules or True
-    assert "ours" in available_methods()
-    assert Path(generators.__file__).read_text().count("from spark_bench.spark import") >= 1
+def test_ours_label_and_regime_say_what_was_simulated(tmp_path):
+    pytest.importorskip("spark_bench.spark.config", reason="the SPARK pipeline is not installed")
+    ours = make_generator("ours")
+    assert ours.label().startswith("ours (prior=annotation,")
+    assert "gt prior" in ours.regime and "gt" in ours.inputs
+    config = tmp_path / "spark.json"
+    config.write_text(json.dumps({"optimize": {"enabled": False}}))
+    plain = make_generator("ours", config=str(config))
+    assert plain.label().endswith("opt=none)") and plain.config()["optimize"]["enabled"] is False

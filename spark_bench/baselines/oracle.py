@@ -34,18 +34,4 @@ class Oracle:
         :param out_dir: the output folder (empty)
         """
         shutil.copytree(case.gt_dir, out_dir, dirs_exist_ok=True)
-        relocate_mesh_paths(Path(out_dir), case.gt_dir)
         return Generation(Path(out_dir), {"source": str(case.gt_dir)})
-
-
-def relocate_mesh_paths(folder: Path, source: Path) -> None:
-    """Make mesh paths of a copied object folder's URDFs that point into ``source`` relative, so the copy
-    stands on its own (a URDF written with absolute paths would otherwise still read the original)."""
-    prefixes = {f"{Path(source)}/", f"{Path(source).resolve()}/"}
-    for urdf in Path(folder).glob("*.urdf"):
-        text = urdf.read_text()
-        fixed = text
-        for prefix in prefixes:
-            fixed = fixed.replace(f'filename="{prefix}', 'filename="')
-        if fixed != text:
-            urdf.write_text(fixed)

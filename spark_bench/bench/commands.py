@@ -71,12 +71,12 @@ def run_eval_command(args) -> int:
     from spark_bench.bench.runner import EvalOptions, run_eval
     from spark_bench.generators import MethodSpec
 
-    spec = MethodSpec.create(args.method, predictions=args.predictions, methods_file=args.methods_file,
-                             entry=args.entry, config=args.config, label=args.label, regime=args.regime)
-    for key in ("predictions", "methods_file", "config"):
-        value = dict(spec.options).get(key)
-        if value:
-            spec = MethodSpec.create(args.method, **{**spec.option_dict, key: str(Path(value).expanduser().resolve())})
+    def absolute(path: str | None) -> str | None:  # workers may run elsewhere: no relative paths
+        return str(Path(path).expanduser().resolve()) if path else None
+
+    spec = MethodSpec.create(args.method, predictions=absolute(args.predictions),
+                             methods_file=absolute(args.methods_file), entry=args.entry,
+                             config=absolute(args.config), label=args.label, regime=args.regime)
     options = EvalOptions(sim=args.sim, rl=args.rl, n_samples=args.n_samples, seed=args.seed, align=args.align,
                           rl_timesteps=args.rl_timesteps)
     cases = [c for c in args.cases.split(",") if c] if args.cases else None

@@ -143,8 +143,8 @@ def _entries(rows: list[dict]) -> list[Entry]:
     for (label, variant), (_, chash) in latest.items():
         run_rows = runs[(label, variant, chash)]
         first = run_rows[0]
-        sim = any(r.get("sim_pass") is not None for r in run_rows)
-        metrics = summarize(run_rows, sim=sim, extra=("cd_open", "rl_success_rate"))
+        # a rate whose stage never ran in this run is None (n/a) on its own
+        metrics = summarize(run_rows, sim=True, extra=("cd_open", "rl_success_rate"))
         out.append(Entry(label, variant, first["regime"], first["method"], first["method_version"], chash,
                          len(run_rows), sum(r["status"] == "failed" for r in run_rows), metrics, run_rows))
     # references first, then by label; a variant right after its method

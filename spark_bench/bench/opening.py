@@ -3,7 +3,8 @@ the *ground-truth* object (:func:`spark_bench.rl.scripted.open_with_joint`).
 
 Each ground-truth drawer (prismatic) and door (revolute) is opened once in its environment
 (``SparkDrawer-v0`` / ``SparkDoor-v0``), with the parameters of the predicted joint it was matched with
-by the metrics (Hungarian matching on parts). The predicted axis line is carried from the prediction's
+by the metrics (Hungarian matching on parts). A joint the opener cannot open even with the
+ground-truth parameters tests the opener, not the prediction: it is left out (``success`` None). The predicted axis line is carried from the prediction's
 frame into the ground truth's: prediction world -> its benchmark frame (-> the ICP alignment, when the
 metrics aligned) -> ground-truth world. An unmatched joint counts as not opened. Continuous joints
 (knobs, caps) have no opening task and are left out.
@@ -52,7 +53,7 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     """
     from spark_bench.data import load_object
     from spark_bench.rl.rollout import make_env
-    from spark_bench.rl.scripted import open_with_joint
+    from spark_bench.rl.scripted import open_with_ground_truth, open_with_joint
 
     gt = load_object(gt_folder)
     pred = load_object(pred_folder)
@@ -77,6 +78,11 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
             joints[joint.name] = {"success": None, "why": f"no opening task: {' '.join(str(exc).split())[:200]}"}
             continue
         try:
+            reference = open_with_ground_truth(env, seed=seed, max_steps=max_steps)
+            if not reference.success:  # the opener cannot open it even knowing the joint: no test
+                joints[joint.name] = {"success": None, "why": "the scripted opener fails with the ground-truth "
+                                      f"joint too (max fraction {reference.max_fraction:.2f})"}
+                continue
             result = open_with_joint(env, axis, pivot, pred_type, seed=seed, max_steps=max_steps)
         finally:
             env.close()

@@ -16,6 +16,7 @@ import json
 import os
 import shutil
 import socket
+import sys
 import time
 import traceback
 from collections.abc import Callable, Iterable
@@ -425,41 +426,69 @@ def _progress():
                     console=Console(stderr=True))
 
 
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the OS reports it)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def _limit_threads(threads: int) -> None:
+    """Pool-worker initializer: at most ``threads`` BLAS/OpenMP/torch threads per worker, so that
+    ``workers`` processes do not oversubscribe the cores."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        pass
+    else:
+        threadpool_limits(threads)
+    if "torch" in sys.modules:
+        sys.modules["torch"].set_num_threads(threads)
+
+
+def _run_isolated(task: CaseTask) -> list[dict]:
+    """One case in a process of its own: a crash there is that case's."""
+    with ProcessPoolExecutor(max_workers=1) as pool:
+        try:
+            return pool.submit(evaluate_case, task).result()
+        except BrokenProcessPool:
+            return _failed_rows(task, "the worker process died on this case (a crash in native code?)")
+
+
 def _execute_local(tasks: list[CaseTask], workers: int, on_rows: Callable[[list[dict]], None]) -> None:
-    """Run tasks in a process pool (inline for ``workers == 0``); a pool broken by a crashing
-    case is rebuilt, and a case that crashes its worker :data:`MAX_CRASHES` times is failed."""
+    """Run tasks in a process pool (inline for ``workers == 0``).
+
+    A worker that dies (a crash in native code) breaks the whole pool, and which case killed it is
+    unknown: the unfinished cases are run again in a fresh pool, and after a second crash one at a
+    time, each in its own process, so that the crashing case is found and failed alone.
+    """
     if workers <= 0:
         for task in tasks:
             on_rows(evaluate_case(task))
         return
-    pending = list(tasks)
-    crashes: dict[str, int] = {}
-    while pending:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+    pending, crashes = list(tasks), 0
+    while pending and crashes < MAX_CRASHES:
+        with ProcessPoolExecutor(max_workers=workers, initializer=_limit_threads,
+                                 initargs=(max(1, usable_cores() // workers),)) as pool:
             futures = {pool.submit(evaluate_case, t): t for t in pending}
             pending = []
-            broken = False
-            while futures:
-                done, _ = wait(futures, return_when=FIRST_COMPLETED)
-                for future in done:
-                    task = futures.pop(future)
-                    try:
-                        on_rows(future.result())
-                    except BrokenProcessPool:
-                        broken = True
-                        crashes[task.case_id] = crashes.get(task.case_id, 0) + 1
-                        if crashes[task.case_id] >= MAX_CRASHES:
-                            on_rows(_failed_rows(task, "the worker process died on this case "
-                                                       f"{MAX_CRASHES} times (a crash in native code?)"))
-                        else:
-                            pending.append(task)
-                if broken:  # every other future of a broken pool fails too: requeue them
-                    for future, task in futures.items():
-                        if future.done() and not future.exception():
-                            on_rows(future.result())
-                        else:
-                            pending.append(task)
-                    futures = {}
+            for future in _as_completed(futures):
+                try:
+                    rows = future.result()
+                except BrokenProcessPool:
+                    pending.append(futures[future])
+                    continue
+                on_rows(rows)
+        crashes += bool(pending)
+    for task in pending:
+        on_rows(_run_isolated(task))
+
+
+def _as_completed(futures):
+    remaining = set(futures)
+    while remaining:
+        done, remaining = wait(remaining, return_when=FIRST_COMPLETED)
+        yield from done
 
 
 def _execute_ray(tasks: list[CaseTask], workers: int, on_rows: Callable[[list[dict]], None],
@@ -510,7 +539,7 @@ def run_eval(spec: MethodSpec, bench: str | None = None, options: EvalOptions | 
         from spark_bench.paths import cache_dir
 
         runs_root = cache_dir("runs")
-    threads = max(1, (os.cpu_count() or 1) // max(1, workers))
+    threads = max(1, usable_cores() // max(1, workers))
     all_ids = list(cases) if cases is not None else bench_cases(bench_dir)
     start = time.perf_counter()
     with ResultsStore(db or default_db()) as store:
