@@ -12,7 +12,7 @@ from spark_bench.spark.geometry import annotation_geometry
 from spark_bench.spark.optimize import OpenStateScene
 from spark_bench.spark.prior import ground_truth_structure
 from spark_bench.spark.refine import RefineSettings, refine
-from spark_bench.spark.render import rasterize_mask
+from spark_bench.spark.render import rasterize_labels, rasterize_mask
 from spark_bench.spark.toy import toy_cabinet, toy_camera
 
 
@@ -27,12 +27,25 @@ def problem():
     return gt, camera, target, truth
 
 
-def _solve(gt, camera, target, edit, discrete):
+def _open_segmentation(asset, camera):
+    """The open state's per-link visible masks (what a case's open_seg.png holds), exact z-buffer."""
+    meshes = asset.link_meshes(asset.open_configuration())
+    names = list(meshes)
+    offsets = np.cumsum([0] + [len(meshes[n].vertices) for n in names])
+    labels = rasterize_labels(np.concatenate([meshes[n].vertices for n in names]),
+                              np.concatenate([meshes[n].faces + o for n, o in zip(names, offsets)]),
+                              np.concatenate([np.full(len(meshes[n].faces), k + 1) for k, n in enumerate(names)]),
+                              camera)
+    return {n: (labels == k + 1).astype(float) for k, n in enumerate(names)}
+
+
+def _solve(gt, camera, target, edit, discrete, part_masks=None):
     structure = ground_truth_structure(gt)
     for joint in structure.joints:
         edit(joint)
     prior = assemble_asset(structure, annotation_geometry(gt))
-    result = refine(prior, OpenStateScene(prior, camera, target), RefineSettings(refine_discrete=discrete))
+    scene = OpenStateScene(prior, camera, target, part_masks=part_masks)
+    result = refine(prior, scene, RefineSettings(refine_discrete=discrete))
     assert result.loss_final < result.loss_prior
     assert len(result.curve) > 10
     return {j["name"]: j for j in joint_summary(result.asset, ["joint_0", "joint_1"])}, result
@@ -75,9 +88,9 @@ def test_discrete_refinement_fixes_type_axis_and_pivot(problem):
             joint.type = "revolute"
             joint.upper = float(np.pi / 2)
 
-    found, result = _solve(gt, camera, target, edit, discrete=True)
+    found, result = _solve(gt, camera, target, edit, discrete=True, part_masks=_open_segmentation(gt, camera))
     _assert_recovered(found, truth)
-    assert {"candidate", "screen_loss"} <= set(result.candidates["joint_0"][0])
+    assert {"candidate", "screen_loss", "sweep"} <= set(result.candidates["joint_0"][0])
 
 
 def test_no_motion_hypothesis_change_without_evidence(problem):
@@ -85,5 +98,34 @@ def test_no_motion_hypothesis_change_without_evidence(problem):
     gt, camera, target, truth = problem
     found, result = _solve(gt, camera, target, lambda joint: None, discrete=True)
     _assert_recovered(found, truth)
-    assert all(h.tag.endswith(("/prior", "/edge0", "/edge1", "/edge2", "/edge3")) for h in result.hypotheses.values())
+    assert [h.tag.split("/")[:2] for h in result.hypotheses.values()] == [["revolute", "down"], ["prismatic", "front"]]
     assert replace(result.hypotheses["joint_0"]).type == "revolute"
+
+
+@pytest.mark.xfail(strict=True, reason="known open issue: the door (0.83 rad) comes back with the reversed axis "
+                   "hinged 0.33 away (type and axis line kept); the drawer stays a drawer")
+def test_a_correct_prior_stays_correct():
+    """Right types and axes, pivots off by about 0.1 and the large default ranges (as the annotation prior
+    gives): a drawer pulled out 0.38 (not a door tipped down) and a door opened 0.83 rad (not a lid) must
+    keep their type and axis, and get their pivot and open values fitted."""
+    gt = toy_cabinet(door_angle=0.83, drawer_travel=0.38)
+    camera = toy_camera(512)
+    opened = gt.mesh(gt.open_configuration())
+    target = rasterize_mask(opened.vertices, opened.faces, camera, supersample=1)
+    truth = {j["name"]: j for j in joint_summary(gt, ["joint_0", "joint_1"])}
+
+    def edit(joint):
+        joint.origin = [joint.origin[0] + 0.06, joint.origin[1] - 0.05, joint.origin[2] + 0.08]
+        joint.upper = float(np.pi / 2) if joint.type == "revolute" else 0.5
+
+    found, result = _solve(gt, camera, target, edit, discrete=True, part_masks=_open_segmentation(gt, camera))
+    # the metrics' view (DESIGN.md: the axis sign is ignored); the opening direction is not checked here:
+    # the door may come back as the reversed axis (a known open issue, see the SPARK report)
+    for name in ("joint_0", "joint_1"):
+        assert found[name]["type"] == truth[name]["type"], name
+        assert np.degrees(axis_error(found[name]["axis"], truth[name]["axis"])) < 2.0, name
+    door, true_door = found["joint_0"], truth["joint_0"]
+    assert line_distance(door["origin"], door["axis"], true_door["origin"], true_door["axis"]) < 0.02
+    assert abs(found["joint_1"]["upper"] - truth["joint_1"]["upper"]) < 0.02
+    chosen = {n: r for n, rows in result.candidates.items() for r in rows if "seg_score" in r}
+    assert set(chosen) == {"joint_0", "joint_1"}  # both joints went through the discrete search

@@ -38,9 +38,9 @@ def test_noise_model_is_seeded_per_case_and_hits_its_rates():
             flips += pj.type != tj.type
             axes += abs(float(np.dot(pj.axis_vector, tj.axis_vector))) < 0.5
             offsets.append(np.subtract(pj.origin, tj.origin))
-    assert flips / (2 * n) == pytest.approx(0.2, abs=0.04)
-    assert axes / (2 * n) == pytest.approx(0.2, abs=0.04)
-    assert np.std(np.concatenate(offsets)) == pytest.approx(0.19, abs=0.02)
+    assert flips / (2 * n) == pytest.approx(noise.p_type, abs=0.04)
+    assert axes / (2 * n) == pytest.approx(noise.p_axis, abs=0.04)
+    assert np.std(np.concatenate(offsets)) == pytest.approx(noise.sigma_origin, abs=0.02)
 
 
 def test_calibration_moves_towards_the_targets():

@@ -32,6 +32,18 @@ class Camera:
         scale = np.diag([width / self.width, height / self.height, 1.0])
         return Camera(scale @ self.intrinsics, self.world_to_camera.copy(), int(width), int(height))
 
+    def cropped(self, x0: float, y0: float, width: float, height: float | None = None) -> Camera:
+        """The same view restricted to the window ``[x0, x0 + width) x [y0, y0 + height)`` (pixels).
+
+        The result is an image of ``width x height`` pixels (rounded) whose pixel ``(i, j)`` is the
+        original pixel ``(x0 + i, y0 + j)``; resize it to render the window at another resolution.
+        """
+        height = width if height is None else height
+        intrinsics = self.intrinsics.copy()
+        intrinsics[0, 2] -= x0
+        intrinsics[1, 2] -= y0
+        return Camera(intrinsics, self.world_to_camera.copy(), int(round(width)), int(round(height)))
+
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Pixel coordinates ``(u, v)`` and depths of world points (N, 3)."""
         cam = np.asarray(points, float) @ self.world_to_camera[:3, :3].T + self.world_to_camera[:3, 3]

@@ -103,19 +103,30 @@ class OptimizeConfig:
     :param enabled: run the joint optimization (False: export the prior as is)
     :param refine: discrete type/axis refinement: ``render`` (offline), ``vlm`` (ask the VLM again with
         the coarse URDF, then fit continuously) or ``none``
+    :param part_masks: also fit and score against the open state's per-part masks when it has them and
+        the parts are the case's own links (``annotation`` geometry with the ``dataset`` open state)
     :param threads: torch CPU threads during the optimization
     """
 
     enabled: bool = True
     refine: str = "render"
+    part_masks: bool = True
     screen_size: int = 32
     screen_tau: float = 1.0
-    short_steps: int = 20
+    short_steps: int = 12
+    short_fine_size: int = 64
+    short_fine_tau: float = 0.7
+    short_fine_steps: int = 12
     top_k: int = 3
+    score_size: int = 128
+    screen_score_size: int = 64
+    margin_rel: float = 0.1
+    margin_abs: float = 0.005
     final_sizes: list[int] = field(default_factory=lambda: [64, 128])
     final_taus: list[float] = field(default_factory=lambda: [0.7, 0.6])
     final_steps: list[int] = field(default_factory=lambda: [40, 30])
     w_edge: float = 0.2
+    w_part: float = 0.5
     lambda_t: float = 0.01
     lambda_theta: float = 0.001
     lr_pivot: float = 0.01

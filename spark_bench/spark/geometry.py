@@ -51,11 +51,13 @@ class PartGeometry:
     :param meshes: part name -> mesh (world frame, rest pose); parts without geometry are absent
     :param labels: part name -> semantic label
     :param source: the backend name and where the meshes came from, for the report
+    :param members: part name -> the source object's links merged into it (where known)
     """
 
     meshes: dict[str, trimesh.Trimesh]
     labels: dict[str, str] = field(default_factory=dict)
     source: str = ""
+    members: dict[str, list[str]] = field(default_factory=dict)
 
     @property
     def names(self) -> list[str]:
@@ -95,7 +97,7 @@ def part_meshes(asset: ArticulatedAsset, parts: list[Part] | None = None) -> Par
         labels[part.name] = part.label
         if pieces:
             meshes[part.name] = merge_meshes(pieces)
-    return PartGeometry(meshes, labels)
+    return PartGeometry(meshes, labels, members={p.name: list(p.links) for p in parts})
 
 
 def annotation_geometry(gt: ArticulatedAsset) -> PartGeometry:

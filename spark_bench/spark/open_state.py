@@ -1,6 +1,7 @@
 """Open-state image backends (stage 3): the supervision of the joint optimization.
 
-- ``dataset``: the case's rendered ``open.png`` and its object mask (``open_seg.png > 0``);
+- ``dataset``: the case's rendered ``open.png``, its object mask (``open_seg.png > 0``) and its
+  per-link masks (``open_seg.png == k + 1`` for ``case.json`` link k);
 - ``http``: an image-generation endpoint that turns the input image into its open state. It receives
   ``POST {url}`` with JSON ``{"model", "prompt", "image": <PNG data URL>, "response_format": "b64_json"}``
   and answers OpenAI's images shape ``{"data": [{"b64_json": "<PNG>"}]}``. The mask is the PNG's alpha
@@ -15,7 +16,7 @@ import json
 import os
 import urllib.error
 import urllib.request
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -30,10 +31,12 @@ OPEN_PROMPT = ("The same object, same camera, same lighting, with every movable 
 
 @dataclass
 class OpenState:
-    """The open-state supervision: ``mask`` (H, W) in [0, 1], and where it came from."""
+    """The open-state supervision: ``mask`` (H, W) in [0, 1], where it came from, and, when the source
+    has a segmentation, ``part_masks``: the visible mask of each of the case's links (by link name)."""
 
     mask: np.ndarray
     source: str
+    part_masks: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def mask_from_image(image: Image.Image, threshold: float = 0.08) -> np.ndarray:
@@ -58,12 +61,23 @@ def dataset_open_state(case_dir: Path) -> OpenState:
             raise InputError(seg_path, f"unreadable image: {exc}") from None
         if seg.ndim == 3:
             seg = seg[..., 0]
-        return OpenState((seg > 0).astype(np.float64), str(seg_path))
+        return OpenState((seg > 0).astype(np.float64), str(seg_path), _link_masks(seg, case_dir))
     image_path = Path(case_dir) / "open.png"
     if not image_path.is_file():
         raise InputError(case_dir, "no open_seg.png or open.png for the open-state supervision")
     with Image.open(image_path) as image:
         return OpenState(mask_from_image(image), str(image_path))
+
+
+def _link_masks(seg: np.ndarray, case_dir: Path) -> dict[str, np.ndarray]:
+    """Per-link masks of a segmentation (value k + 1 = ``case.json`` link k); none without case.json."""
+    case_path = Path(case_dir) / "case.json"
+    try:
+        links = json.loads(case_path.read_text())["links"]
+    except (OSError, json.JSONDecodeError, KeyError, TypeError):
+        return {}
+    present = set(np.unique(seg).tolist()) - {0}
+    return {str(links[k - 1]): (seg == k).astype(np.float64) for k in sorted(present) if 0 < k <= len(links)}
 
 
 def http_open_state(config, input_png: bytes) -> OpenState:

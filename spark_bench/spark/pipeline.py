@@ -44,10 +44,12 @@ def refine_settings(config: SparkConfig, discrete: bool) -> RefineSettings:
     """The optimizer's settings from the ``optimize`` section."""
     opt = config.optimize
     return RefineSettings(
-        screen=Stage(opt.screen_size, opt.screen_tau, 0), short_steps=opt.short_steps, top_k=opt.top_k,
+        screen=Stage(opt.screen_size, opt.screen_tau, 0), short_steps=opt.short_steps,
+        short_fine=Stage(opt.short_fine_size, opt.short_fine_tau, opt.short_fine_steps), top_k=opt.top_k,
         final=[Stage(s, t, n) for s, t, n in zip(opt.final_sizes, opt.final_taus, opt.final_steps)],
-        weights=LossWeights(opt.w_edge, opt.lambda_t, opt.lambda_theta), refine_discrete=discrete,
-        include_fixed=opt.include_fixed, sweeps=opt.sweeps, max_faces=opt.max_faces, lr_pivot=opt.lr_pivot, lr_value=opt.lr_value)
+        weights=LossWeights(opt.w_edge, opt.lambda_t, opt.lambda_theta, opt.w_part), refine_discrete=discrete,
+        include_fixed=opt.include_fixed, sweeps=opt.sweeps, max_faces=opt.max_faces, lr_pivot=opt.lr_pivot,
+        lr_value=opt.lr_value, score_size=opt.score_size, screen_score_size=opt.screen_score_size, margin_rel=opt.margin_rel, margin_abs=opt.margin_abs)
 
 
 @contextmanager
@@ -192,12 +194,14 @@ def _optimize(config: SparkConfig, case_dir: Path, prior: PriorStructure, prior_
         timings["vlm_refine"] = time.perf_counter() - tick
     tick = time.perf_counter()
     with torch_threads(config.optimize.threads):
-        scene = OpenStateScene(start_asset, camera, open_state.mask, config.optimize.max_faces)
+        part_masks = _part_masks(config, open_state, geometry, start_asset)
+        scene = OpenStateScene(start_asset, camera, open_state.mask, config.optimize.max_faces, part_masks)
         result = refine(start_asset, scene, refine_settings(config, discrete))
     timings["joint_optimization"] = time.perf_counter() - tick
     timings.update({f"opt_{k}": v for k, v in result.timings.items()})
     return result.asset, {
         "open_state_source": open_state.source,
+        "part_masks": sorted(scene.part_masks_full),
         "loss_curve": [round(v, 6) for v in result.curve],
         "loss_prior": result.loss_prior, "loss_refined": result.loss_final,
         "candidates": result.candidates,
@@ -205,6 +209,20 @@ def _optimize(config: SparkConfig, case_dir: Path, prior: PriorStructure, prior_
                            "pivot_offset": np.round(h.pivot_offset, 10).tolist(), "value": h.value, "from": h.tag}
                        for n, h in result.hypotheses.items()},
     }
+
+
+def _part_masks(config: SparkConfig, open_state: OpenState, geometry: PartGeometry, asset) -> dict | None:
+    """The open state's per-link masks as masks of the asset's parts, where the parts are known to be
+    the case's own links (``annotation`` geometry: a part is a group of ground-truth links, its mask the
+    union of theirs); None otherwise or when ``optimize.part_masks`` is off."""
+    if not (config.optimize.part_masks and open_state.part_masks and config.geometry.backend == "annotation"):
+        return None
+    out = {}
+    for part, links in geometry.members.items():
+        masks = [open_state.part_masks[n] for n in links if n in open_state.part_masks]
+        if part in asset.links and masks:
+            out[part] = np.clip(np.sum(masks, axis=0), 0.0, 1.0)
+    return out or None
 
 
 def _json_default(value):

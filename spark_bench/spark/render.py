@@ -33,6 +33,11 @@ import torch.nn.functional as F
 
 from spark_bench.spark.camera import Camera
 
+#: Default halo extent in units of ``tau``: beyond it the halo (``2 sigmoid(-4)`` = 0.036 there) is 0.
+#: The cost is the number of (pixel, triangle) pairs, which grows with the square of the padding:
+#: 8 tau doubled to quadrupled the pairs of decimated part meshes at 32 to 64 px.
+HALO_CUTOFF = 4.0
+
 #: Nearest accepted depth in front of the camera; triangles with a vertex closer are dropped.
 NEAR = 1e-3
 
@@ -107,7 +112,7 @@ class SoftSilhouetteRenderer:
         per-triangle sigmoids of the signed distance, kept for comparison)
     """
 
-    def __init__(self, camera: Camera, size: int, tau: float = 0.7, cutoff: float = 8.0,
+    def __init__(self, camera: Camera, size: int, tau: float = 0.7, cutoff: float = HALO_CUTOFF,
                  aggregate: str = "halo"):
         if aggregate not in ("halo", "softras"):
             raise ValueError(f"aggregate must be 'halo' or 'softras', got {aggregate!r}")
@@ -117,11 +122,18 @@ class SoftSilhouetteRenderer:
         self.tau = float(tau)
         self.cutoff = float(cutoff)
 
-    def render(self, vertices: torch.Tensor, faces: torch.Tensor) -> torch.Tensor:
+    def render(self, vertices: torch.Tensor, faces: torch.Tensor, groups: torch.Tensor | None = None,
+               n_groups: int = 1) -> torch.Tensor:
         """The (size, size) soft silhouette of the mesh, differentiable w.r.t. ``vertices``.
+
+        With ``groups``, one silhouette per group of faces, (n_groups, size, size) (e.g. one per part):
+        the whole object's silhouette is their per-pixel maximum, since the halo is monotone in the
+        distance (``halo`` aggregation only).
 
         :param vertices: (N, 3) world-space vertices (float32 or float64)
         :param faces: (F, 3) int64 vertex indices
+        :param groups: optional (F,) int64 group index of each face, in ``[0, n_groups)``
+        :param n_groups: number of groups
         """
         uv, depth = project_vertices(vertices, self.camera)
         faces = faces.long()
@@ -132,11 +144,18 @@ class SoftSilhouetteRenderer:
         centres = torch.stack([px, py], dim=1).to(vertices.dtype) + 0.5
         sd = signed_distance(centres, tri[face])
         if self.aggregate == "softras":
+            if groups is not None:
+                raise ValueError("grouped rendering needs aggregate='halo'")
             log_empty = torch.zeros(n * n, dtype=vertices.dtype).index_add(0, pixel, -F.softplus(sd / self.tau))
             return (1.0 - torch.exp(log_empty)).reshape(n, n)
-        empty = torch.full((n * n,), -1e4, dtype=vertices.dtype)
+        count = 1
+        if groups is not None:
+            count = int(n_groups)
+            pixel = groups.long()[visible][face] * (n * n) + pixel
+        empty = torch.full((count * n * n,), -1e4, dtype=vertices.dtype)
         nearest = empty.scatter_reduce(0, pixel, sd.clamp_max(0.0), reduce="amax", include_self=True)
-        return (2.0 * torch.sigmoid(nearest / self.tau)).reshape(n, n)
+        image = 2.0 * torch.sigmoid(nearest / self.tau)
+        return image.reshape(n, n) if groups is None else image.reshape(count, n, n)
 
     __call__ = render
 
@@ -165,6 +184,50 @@ def rasterize_mask(vertices: np.ndarray, faces: np.ndarray, camera: Camera, supe
         covered[pixel[inside]] = True
     mask = covered.reshape(fine.height, fine.width).double().numpy()
     return mask.reshape(camera.height, supersample, camera.width, supersample).mean(axis=(1, 3))
+
+
+def rasterize_labels(vertices: np.ndarray, faces: np.ndarray, face_labels: np.ndarray, camera: Camera
+                     ) -> np.ndarray:
+    """Exact z-buffered label image (H, W): 0 where no triangle covers the pixel centre, else the
+    ``face_labels`` value (>= 1) of the nearest triangle there.
+
+    The visible-part segmentation of a posed mesh, like a case's ``*_seg.png``; not differentiable
+    (the discrete refinement scores candidates with it).
+
+    :param vertices: (N, 3) world-space vertices
+    :param faces: (F, 3) vertex indices
+    :param face_labels: (F,) positive integer label per face
+    :param camera: the view; the image has its size
+    """
+    uv, depth = camera.project(np.asarray(vertices, float))
+    faces = np.asarray(faces)
+    keep = (depth[faces] > NEAR).all(axis=1)
+    faces, labels = faces[keep], np.asarray(face_labels)[keep]
+    width, height = camera.width, camera.height
+    out = np.zeros(width * height, dtype=np.int64)
+    if not len(faces):
+        return out.reshape(height, width)
+    tri = torch.as_tensor(uv[faces], dtype=torch.float64)
+    inv_z = torch.as_tensor(1.0 / depth[faces], dtype=torch.float64)
+    pixel, face, px, py = _pixel_pairs(tri, width, height, 0.0)
+    centres = torch.stack([px, py], dim=1).double() + 0.5
+    inside = signed_distance(centres, tri[face]) > 0
+    pixel, face, centres = pixel[inside], face[inside], centres[inside]
+    if not len(pixel):
+        return out.reshape(height, width)
+    # perspective-correct depth: 1/z is affine in screen space, interpolated by 2D barycentrics
+    t = tri[face]
+    a, b, c = t[:, 0], t[:, 1], t[:, 2]
+    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    w_b = ((centres[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (centres[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])) / area
+    w_c = ((b[:, 0] - a[:, 0]) * (centres[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (centres[:, 0] - a[:, 0])) / area
+    iz = inv_z[face]
+    nearness = (1 - w_b - w_c) * iz[:, 0] + w_b * iz[:, 1] + w_c * iz[:, 2]  # larger = closer
+    best = torch.full((width * height,), -1.0, dtype=torch.float64).scatter_reduce(
+        0, pixel, nearness, reduce="amax", include_self=True)
+    winner = nearness >= best[pixel]
+    out[pixel[winner].numpy()] = np.asarray(labels)[face[winner].numpy()]
+    return out.reshape(height, width)
 
 
 def downsample_mask(mask: np.ndarray, size: int) -> np.ndarray:
