@@ -1,0 +1,38 @@
+"""Simulation: asset -> MJCF (``mujoco.MjSpec``) with convex collision hulls, PyBullet loading, and
+the sim-readiness checks.
+
+- :func:`build_spec` ``(asset, options=None) -> mujoco.MjSpec``: the object, ready to compile or extend
+- :func:`convert` ``(src, out_dir, options=None) -> Path``: ``model.xml`` + ``model.urdf`` + meshes
+- :func:`run_checks` ``(src, options=None) -> CheckReport``: every check, a number and a verdict each
+- :class:`ConvertOptions`, :class:`CoacdParams`: every knob, with measured defaults
+
+Names are imported lazily (PEP 562), so that ``spark-bench --help`` and CoACD worker processes stay
+light.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+_EXPORTS = {
+    "build_spec": "spark_bench.sim.mjcf",
+    "prepare": "spark_bench.sim.mjcf",
+    "PreparedObject": "spark_bench.sim.mjcf",
+    "convert": "spark_bench.sim.converter",
+    "run_checks": "spark_bench.sim.checks",
+    "CheckReport": "spark_bench.sim.checks",
+    "CheckResult": "spark_bench.sim.checks",
+    "ConvertOptions": "spark_bench.sim.options",
+    "CoacdParams": "spark_bench.sim.options",
+    "write_pybullet_urdf": "spark_bench.sim.pybullet_io",
+    "load_in_pybullet": "spark_bench.sim.pybullet_io",
+    "render_check_strip": "spark_bench.sim.render",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module 'spark_bench.sim' has no attribute {name!r}")

@@ -1,0 +1,154 @@
+"""Cache of a link's final collision shapes, keyed by its geometry and the options that shape them.
+
+CoACD results are cached per mesh (:mod:`spark_bench.sim.decompose`); this second layer skips the
+whole per-link pipeline (welding, convexity tests, hull budget, erosion) on a repeated conversion, so a
+cached conversion costs reading the meshes and building the model. Files live in
+``<cache>/links/<key[:2]>/<key>.npz`` and are written atomically.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Sequence
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from spark_bench.sim.hulls import CollisionShape
+from spark_bench.sim.options import ConvertOptions
+
+#: Bumped whenever the same link and options would give other shapes.
+SHAPES_VERSION = "link-shapes-3"
+KINDS = ("box", "cylinder", "sphere", "mesh")
+
+
+def link_key(meshes: Sequence[trimesh.Trimesh], ready: Sequence[CollisionShape], options: ConvertOptions,
+             size: float) -> str:
+    """Key of a link's shapes: its element meshes, its given convex shapes, the geometry options and
+    the object's size (thicknesses and clearances are relative to it)."""
+    digest = hashlib.sha256(SHAPES_VERSION.encode())
+    geometry = {k: v for k, v in asdict(options).items()
+                if k in ("coacd", "convex_tolerance", "min_thickness", "clearance", "hull_budget",
+                         "max_hull_vertices", "decompose_visuals")}
+    digest.update(json.dumps(geometry, sort_keys=True).encode())
+    digest.update(np.round(np.float64(size), 9).tobytes())
+    for mesh in meshes:
+        digest.update(np.round(np.asarray(mesh.vertices, np.float64) * 1e9).astype(np.int64).tobytes())
+        digest.update(np.asarray(mesh.faces, np.int64).tobytes())
+    for shape in ready:
+        digest.update(shape.kind.encode())
+        for array in (shape.origin, shape.size, shape.vertices):
+            if array is not None:
+                digest.update(np.round(np.asarray(array, np.float64) * 1e9).astype(np.int64).tobytes())
+    return digest.hexdigest()
+
+
+def _path(cache: Path, key: str) -> Path:
+    return Path(cache) / "links" / key[:2] / f"{key}.npz"
+
+
+def store_shapes(cache: Path, key: str, shapes: Sequence[CollisionShape]) -> None:
+    """Write ``shapes`` under ``key`` (atomically)."""
+    path = _path(cache, key)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays: dict[str, np.ndarray] = {"methods": np.array(json.dumps([s.method for s in shapes]))}
+    for k, shape in enumerate(shapes):
+        arrays[f"{k}_kind"] = np.array(KINDS.index(shape.kind))
+        arrays[f"{k}_origin"] = np.asarray(shape.origin, np.float64)
+        arrays[f"{k}_size"] = np.asarray(shape.size, np.float64)
+        if shape.kind == "mesh":
+            arrays[f"{k}_vertices"] = np.asarray(shape.vertices, np.float64)
+            arrays[f"{k}_faces"] = np.asarray(shape.faces, np.int64)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp.npz")
+    os.close(fd)
+    try:
+        np.savez(tmp, **arrays)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def load_shapes(cache: Path, key: str) -> list[CollisionShape] | None:
+    """Shapes stored under ``key``, or None when absent or unreadable."""
+    path = _path(cache, key)
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path) as data:
+            methods = json.loads(str(data["methods"]))
+            out = []
+            for k, method in enumerate(methods):
+                kind = KINDS[int(data[f"{k}_kind"])]
+                out.append(CollisionShape(
+                    kind, method, origin=data[f"{k}_origin"].copy(), size=data[f"{k}_size"].copy(),
+                    vertices=data[f"{k}_vertices"].copy() if kind == "mesh" else None,
+                    faces=data[f"{k}_faces"].copy() if kind == "mesh" else None))
+            return out
+    except (OSError, ValueError, KeyError, IndexError):
+        return None
+
+
+# ----- whole-object contact resolution (exclusions and hinge relief) -------------------------------
+def object_key(prepared) -> str:
+    """Key of an object's contact resolution: every link's shapes before relief, the joints, and the
+    options that decide exclusions and relief."""
+    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-1".encode())
+    options = prepared.options
+    digest.update(json.dumps([options.exclude_overlap, options.clearance, list(options.base_quat)]).encode())
+    digest.update(np.round(np.float64(prepared.size), 9).tobytes())
+    for joint in prepared.asset.joints.values():
+        digest.update(json.dumps([joint.name, joint.type, joint.parent, joint.child]).encode())
+        for array in (joint.origin, joint.axis, [joint.lower, joint.upper]):
+            digest.update(np.round(np.asarray(array, np.float64) * 1e9).astype(np.int64).tobytes())
+    for name in sorted(prepared.shapes):
+        digest.update(name.encode())
+        for shape in prepared.shapes[name]:
+            digest.update(shape.kind.encode())
+            for array in (shape.origin, shape.size, shape.vertices):
+                if array is not None:
+                    digest.update(np.round(np.asarray(array, np.float64) * 1e9).astype(np.int64).tobytes())
+    return digest.hexdigest()
+
+
+def store_contacts(cache: Path, key: str, prepared) -> None:
+    """Store the resolved shapes, exclusions and relief cuts of ``prepared`` under ``key``."""
+    entry = {"excluded": [[a, b, d] for (a, b), d in prepared.excluded.items()],
+             "relief": [c.__dict__ for c in prepared.relief], "links": {}}
+    for name, shapes in prepared.shapes.items():
+        sub = hashlib.sha256(f"{key}/{name}".encode()).hexdigest()
+        store_shapes(cache, sub, shapes)
+        entry["links"][name] = sub
+    path = Path(cache) / "objects" / key[:2] / f"{key}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+    with os.fdopen(fd, "w") as handle:
+        json.dump(entry, handle)
+    os.replace(tmp, path)
+
+
+def load_contacts(cache: Path, key: str):
+    """``(shapes, excluded, relief)`` stored under ``key``, or None."""
+    from spark_bench.sim.relief import ReliefCut
+
+    path = Path(cache) / "objects" / key[:2] / f"{key}.json"
+    if not path.is_file():
+        return None
+    try:
+        entry = json.loads(path.read_text())
+        shapes = {}
+        for name, sub in entry["links"].items():
+            loaded = load_shapes(cache, sub)
+            if loaded is None:
+                return None
+            shapes[name] = loaded
+        excluded = {(a, b): float(d) for a, b, d in entry["excluded"]}
+        relief = [ReliefCut(**c) for c in entry["relief"]]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    return shapes, excluded, relief
