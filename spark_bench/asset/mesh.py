@@ -179,6 +179,26 @@ def simplify_manifold(mesh: trimesh.Trimesh, tolerance: float) -> trimesh.Trimes
     return simplified if simplified.is_watertight and len(simplified.faces) else mesh
 
 
+def drop_degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Drop zero-area faces and unused vertices (MuJoCo rejects degenerate meshes).
+
+    :returns: ``(vertices, faces)``, or None when nothing with an area (or nothing finite) is left
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
+    if len(faces) == 0 or not np.isfinite(vertices).all():
+        return None
+    tri = vertices[faces]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    faces = faces[area > 1e-14 * max(1.0, float(np.ptp(vertices, axis=0).max()) ** 2)]
+    if len(faces) == 0:
+        return None
+    used = np.unique(faces)
+    remap = np.full(len(vertices), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return vertices[used], remap[faces]
+
+
 def sample_surface(mesh: trimesh.Trimesh, n: int, seed: int = 0) -> np.ndarray:
     """``n`` points uniformly distributed over the surface area of ``mesh`` (seeded, float64).
 

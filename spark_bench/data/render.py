@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from spark_bench.asset.mesh import drop_degenerate_faces
 from spark_bench.asset.model import ArticulatedAsset, Configuration
 from spark_bench.data.camera import CameraView
 
@@ -63,20 +64,9 @@ def _mujoco():
 
 
 def _clean_for_mujoco(mesh: trimesh.Trimesh) -> trimesh.Trimesh | None:
-    """Drop faces with no area (MuJoCo rejects degenerate meshes); None when nothing is left."""
-    vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    faces = np.asarray(mesh.faces, dtype=np.int64)
-    if len(faces) == 0 or not np.isfinite(vertices).all():
-        return None
-    tri = vertices[faces]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    faces = faces[area > 1e-14 * max(1.0, float(np.ptp(vertices, axis=0).max()) ** 2)]
-    if len(faces) == 0:
-        return None
-    used = np.unique(faces)
-    remap = np.full(len(vertices), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    return trimesh.Trimesh(vertices[used], remap[faces], process=False)
+    """The mesh without zero-area faces (MuJoCo rejects degenerate meshes); None when nothing is left."""
+    cleaned = drop_degenerate_faces(mesh.vertices, mesh.faces)
+    return None if cleaned is None else trimesh.Trimesh(*cleaned, process=False)
 
 
 def _rotation_to_quat(rotation: np.ndarray) -> np.ndarray:

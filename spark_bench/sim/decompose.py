@@ -80,6 +80,18 @@ def load_cached(key: str, cache: Path) -> list[Hull] | None:
     return hulls
 
 
+def atomic_savez(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """``np.savez`` to a temporary file beside ``path``, then rename: readers never see half a file."""
+    fd, tmp = tempfile.mkstemp(dir=Path(path).parent, suffix=".tmp.npz")
+    os.close(fd)
+    try:
+        np.savez(tmp, **arrays)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
 def store_cached(key: str, cache: Path, hulls: Sequence[Hull]) -> None:
     """Write ``hulls`` under ``key``, atomically (write a temporary file, then rename)."""
     path = _cache_path(key, cache)
@@ -90,14 +102,7 @@ def store_cached(key: str, cache: Path, hulls: Sequence[Hull]) -> None:
         n_vertices=np.array([len(h[0]) for h in hulls], dtype=np.int64),
         n_faces=np.array([len(h[1]) for h in hulls], dtype=np.int64),
     )
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp.npz")
-    os.close(fd)
-    try:
-        np.savez(tmp, **arrays)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    atomic_savez(path, arrays)
 
 
 def _hull_of(points: np.ndarray) -> Hull:

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from spark_bench.asset.mesh import drop_degenerate_faces
 from spark_bench.asset.model import ArticulatedAsset, Link
 from spark_bench.errors import InputError
 from spark_bench.sim.contacts import add_contact_filters, geometric_parents, rest_overlaps
@@ -237,23 +238,6 @@ def _quat(rotation: np.ndarray) -> list[float]:
     return quat.tolist()
 
 
-def clean_mesh(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """Drop zero-area faces and unused vertices (MuJoCo rejects degenerate meshes)."""
-    vertices = np.asarray(vertices, dtype=np.float64)
-    faces = np.asarray(faces, dtype=np.int64)
-    if len(faces) == 0 or not np.isfinite(vertices).all():
-        return None
-    tri = vertices[faces]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    faces = faces[area > 1e-14 * max(1.0, float(np.ptp(vertices, axis=0).max()) ** 2)]
-    if len(faces) == 0:
-        return None
-    used = np.unique(faces)
-    remap = np.full(len(vertices), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    return vertices[used], remap[faces]
-
-
 def write_obj_file(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
     """A bare OBJ (``v`` and ``f`` lines), the format MuJoCo and PyBullet both read."""
     vertices = np.asarray(vertices, dtype=float)
@@ -267,7 +251,7 @@ def link_visual_mesh(link: Link) -> tuple[np.ndarray, np.ndarray, list[float]] |
     if not link.has_geometry:
         return None
     merged = link.merged_mesh()
-    cleaned = clean_mesh(merged.vertices, merged.faces)
+    cleaned = drop_degenerate_faces(merged.vertices, merged.faces)
     if cleaned is None:
         return None
     areas = np.array([max(float(v.mesh.area), 1e-12) for v in link.visuals])

@@ -13,8 +13,9 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
+from spark_bench.asset.mesh import drop_degenerate_faces
 from spark_bench.asset.transforms import matrix_to_rpy
-from spark_bench.sim.mjcf import PreparedObject, clean_mesh, link_visual_mesh, write_obj_file
+from spark_bench.sim.mjcf import PreparedObject, link_visual_mesh, write_obj_file
 from spark_bench.sim.physical import principal_inertia
 
 MESH_DIR = "meshes"
@@ -27,7 +28,7 @@ def _origin(parent: ET.Element, transform: np.ndarray) -> None:
 
 
 def _write_mesh(folder: Path, name: str, vertices, faces) -> str | None:
-    cleaned = clean_mesh(vertices, faces)
+    cleaned = drop_degenerate_faces(vertices, faces)
     if cleaned is None:
         return None
     path = folder / MESH_DIR / f"{name}.obj"

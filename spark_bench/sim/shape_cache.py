@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from spark_bench.sim.decompose import atomic_savez
 from spark_bench.sim.hulls import CollisionShape
 from spark_bench.sim.options import ConvertOptions
 
@@ -64,14 +65,7 @@ def store_shapes(cache: Path, key: str, shapes: Sequence[CollisionShape]) -> Non
         if shape.kind == "mesh":
             arrays[f"{k}_vertices"] = np.asarray(shape.vertices, np.float64)
             arrays[f"{k}_faces"] = np.asarray(shape.faces, np.int64)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp.npz")
-    os.close(fd)
-    try:
-        np.savez(tmp, **arrays)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    atomic_savez(path, arrays)
 
 
 def load_shapes(cache: Path, key: str) -> list[CollisionShape] | None:
