@@ -48,6 +48,48 @@ def test_reset_and_step_are_deterministic(env_id):
     assert not np.allclose(other[:3], env_b.reset(seed=7)[0][:3])
 
 
+def test_object_comes_from_the_sim_conversion():
+    """The object's geoms are spark_bench.sim's (named collision hulls in class ``collision``), and the
+    gripper's pads collide with them (contype 2 & conaffinity 1) but not with each other."""
+    env = gym.make("SparkDrawer-v0", asset="procedural:0")
+    model = env.unwrapped.model
+    names = [model.geom(i).name for i in range(model.ngeom)]
+    assert "link_0_collision_0" in names and "link_0_visual" in names
+    hull, pad = model.geom("link_0_collision_0"), model.geom("spark_gripper_pad_left")
+    assert (hull.contype & pad.conaffinity) or (pad.contype & hull.conaffinity)
+    other = model.geom("spark_gripper_pad_right")
+    assert not (pad.contype & other.conaffinity) and not (other.contype & pad.conaffinity)
+    assert model.geom("link_0_visual").contype == 0
+
+
+def test_grasp_picks_one_of_several_labelled_knobs():
+    """A handle link holding two knobs (a wide drawer) is grasped at one knob, not between them."""
+    from spark_bench.asset.model import Collision, Link, Visual
+
+    asset = procedural_cabinet(0)
+    drawer = asset.links["link_0"]
+    knobs = []
+    for y in (-0.15, 0.15):
+        origin = np.eye(4)
+        origin[:3, 3] = (-0.03, y, 0.0)
+        knobs.append((trimesh_box(origin), Collision(kind="box", origin=origin, size=np.full(3, 0.03))))
+    drawer.visuals, drawer.collisions = drawer.visuals[:5], drawer.collisions[:5]  # no bar
+    asset.links["knobs"] = Link(name="knobs", visuals=[Visual(mesh=m) for m, _ in knobs],
+                                collisions=[c for _, c in knobs], label="handle")
+    from spark_bench.asset.model import Joint
+
+    asset.joints["knobs_fixed"] = Joint("knobs_fixed", "fixed", "link_0", "knobs", origin=np.eye(4))
+    grasp = find_grasp(asset, "joint_0")
+    knob_y = asset.link_poses()["link_0"][1, 3] + np.array([-0.15, 0.15])
+    assert grasp.source == "label" and np.min(np.abs(grasp.point[1] - knob_y)) < 0.01
+
+
+def trimesh_box(origin):
+    import trimesh
+
+    return trimesh.creation.box(extents=(0.03, 0.03, 0.03), transform=origin)
+
+
 def test_start_state_is_in_front_of_the_handle():
     env = gym.make("SparkDrawer-v0", asset="procedural:0")
     obs, info = env.reset(seed=0)

@@ -172,7 +172,8 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0) -> GraspTarge
     labelled = _handle_links(asset, links)
     if labelled:
         handle_pts = sample_surface(asset.mesh(links=labelled), 4000, seed=seed)
-        groups = [np.arange(len(handle_pts))]
+        # one link may hold several pieces (a wide drawer's two knobs): grasp one of them, not between
+        groups = [g for g in clusters(handle_pts) if len(g) >= 20] or [np.arange(len(handle_pts))]
         source = "label"
     else:
         proud = np.flatnonzero(depth > face + HANDLE_MIN_PROUD)
@@ -181,11 +182,8 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0) -> GraspTarge
         groups = [g for g in clusters(handle_pts) if len(g) >= min_size]
         source = "geometry"
     if groups:
-        if source == "geometry":
-            scores = [lateral_score(handle_pts[g]) for g in groups]
-            best = handle_pts[groups[int(np.argmin(scores))]]
-        else:
-            best = handle_pts
+        scores = [lateral_score(handle_pts[g]) for g in groups]
+        best = handle_pts[groups[int(np.argmin(scores))]]
         uv = best @ basis.T
         lateral = 0.5 * (uv.min(0) + uv.max(0))
         along = float(np.median(best @ n))
