@@ -27,7 +27,8 @@ def add_commands(subparsers) -> None:
                    help="run sim-readiness checks and the scripted opener (default: on)")
     p.add_argument("--rl", action="store_true", help="also train a short opening policy per case")
     p.add_argument("--rl-timesteps", type=int, default=20_000, help="policy training steps with --rl")
-    p.add_argument("--workers", type=int, default=1, help="worker processes (0: in this process)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes (0: in this process; default: one per usable core)")
     p.add_argument("--executor", choices=("local", "ray"), default="local")
     p.add_argument("--ray-address", help="Ray cluster address (default: a local Ray)")
     p.add_argument("--n-samples", type=int, default=100_000, help="surface samples per shape")
@@ -68,7 +69,7 @@ def _db(args) -> Path:
 
 
 def run_eval_command(args) -> int:
-    from spark_bench.bench.runner import EvalOptions, run_eval
+    from spark_bench.bench.runner import EvalOptions, run_eval, usable_cores
     from spark_bench.generators import MethodSpec
 
     def absolute(path: str | None) -> str | None:  # workers may run elsewhere: no relative paths
@@ -80,7 +81,8 @@ def run_eval_command(args) -> int:
     options = EvalOptions(sim=args.sim, rl=args.rl, n_samples=args.n_samples, seed=args.seed, align=args.align,
                           rl_timesteps=args.rl_timesteps)
     cases = [c for c in args.cases.split(",") if c] if args.cases else None
-    summary = run_eval(spec, args.bench, options, db=_db(args), workers=args.workers, executor=args.executor,
+    workers = usable_cores() if args.workers is None else args.workers
+    summary = run_eval(spec, args.bench, options, db=_db(args), workers=workers, executor=args.executor,
                        runs_root=Path(args.runs_dir).expanduser() if args.runs_dir else None,
                        progress=not args.no_progress, ray_address=args.ray_address, cases=cases)
     if args.json:
