@@ -27,6 +27,7 @@ from pathlib import Path
 
 from spark_bench import CONVENTION_VERSION, __version__
 from spark_bench.bench.store import METRIC_COLUMNS, ResultsStore, config_hash, now
+from spark_bench.data.readers import read_case
 from spark_bench.errors import InputError, SparkBenchError
 from spark_bench.generators import (
     GENERATION_MARKER,
@@ -165,20 +166,6 @@ def _manifest(folder: Path) -> dict:
 def bench_cases(folder: Path) -> list[str]:
     """The case ids of a benchmark folder, in manifest order."""
     return [str(c) for c in _manifest(folder)["cases"]]
-
-
-def read_case(case_dir: Path) -> dict:
-    """``case.json`` of a case folder."""
-    path = Path(case_dir) / "case.json"
-    if not path.is_file():
-        raise InputError(path, "case file not found")
-    try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"malformed JSON: {exc}") from None
-    if not isinstance(data, dict):
-        raise InputError(path, "expected a JSON object")
-    return data
 
 
 # ----- one case -----------------------------------------------------------------------------------

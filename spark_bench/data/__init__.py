@@ -14,7 +14,7 @@ _LAZY = {
     "prepare_case": "spark_bench.data.prepare",
     "prepare_benchmark": "spark_bench.data.prepare",
     "PrepareOptions": "spark_bench.data.prepare",
-    "read_case": "spark_bench.data.prepare",
+    "read_case": "spark_bench.data.readers",
     "read_manifest": "spark_bench.data.prepare",
     "read_segmentation": "spark_bench.data.prepare",
     "ensure_benchmark": "spark_bench.data.benchmarks",

@@ -197,11 +197,7 @@ class CameraView:
 
     @classmethod
     def load(cls, path: str | Path) -> CameraView:
+        from spark_bench.data.readers import read_json
+
         path = Path(path)
-        try:
-            data = json.loads(path.read_text())
-        except FileNotFoundError:
-            raise InputError(path, "camera file not found") from None
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise InputError(path, f"malformed JSON: {exc}") from None
-        return cls.from_json(data, source=path)
+        return cls.from_json(read_json(path, missing="camera file not found"), source=path)

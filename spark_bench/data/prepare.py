@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset, Link, Visual
+from spark_bench.data.readers import read_case, read_json  # noqa: F401  (read_case: re-exported)
 from spark_bench.errors import InputError, SparkBenchError
 
 CASES_DIR = "cases"
@@ -288,12 +289,7 @@ def _prepare_one(src: Path, case_dir: Path, options: PrepareOptions) -> CaseResu
 def read_manifest(bench: str | Path) -> dict:
     """``BENCH/manifest.json`` (InputError when absent or malformed)."""
     path = Path(bench) / MANIFEST
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise InputError(path, "benchmark manifest not found (run `spark-bench data prepare`)") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"malformed JSON: {exc}") from None
+    data = read_json(path, missing="benchmark manifest not found (run `spark-bench data prepare`)")
     if not isinstance(data, dict) or not isinstance(data.get("cases"), list):
         raise InputError(path, 'expected an object with a "cases" list')
     return data
@@ -428,17 +424,6 @@ def _run(todo: dict[str, Path], cases: Path, options: PrepareOptions, workers: i
 
 
 # ----- reading cases -----------------------------------------------------------
-def read_case(case_dir: str | Path) -> dict:
-    """A case's ``case.json``."""
-    path = Path(case_dir) / CASE_FILE
-    try:
-        return json.loads(path.read_text())
-    except FileNotFoundError:
-        raise InputError(path, "case file not found (incomplete case?)") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"malformed JSON: {exc}") from None
-
-
 def write_contact_sheet(bench: str | Path, path: str | Path | None = None, thumb: int = 192,
                         columns: int = 4) -> Path:
     """See :func:`spark_bench.data.contact_sheet.write_contact_sheet`."""

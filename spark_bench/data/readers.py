@@ -54,14 +54,30 @@ def read_semantics(path: Path) -> dict[str, tuple[str, str]]:
     return out
 
 
-def read_json(path: Path, default):
-    """A JSON side file, or ``default`` when it is absent; malformed JSON is an input error."""
+REQUIRED = object()
+
+
+def read_json(path: Path, default=REQUIRED, missing: str = "file not found"):
+    """A JSON file; when absent, ``default`` if one is given, else an input error saying ``missing``.
+    Malformed JSON is always an input error naming the file."""
+    path = Path(path)
     if not path.is_file():
+        if default is REQUIRED:
+            raise InputError(path, missing)
         return default
     try:
         return json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise InputError(path, f"malformed JSON: {exc}") from None
+
+
+def read_case(case_dir: str | Path) -> dict:
+    """A benchmark case's ``case.json`` (docs/formats.md)."""
+    path = Path(case_dir) / "case.json"
+    case = read_json(path, missing="case file not found (incomplete case?)")
+    if not isinstance(case, dict) or "id" not in case:
+        raise InputError(path, 'expected an object with an "id"')
+    return case
 
 
 def load_object(path: str | Path, variant: str = "mobility", load_meshes: bool = True) -> ArticulatedAsset:
