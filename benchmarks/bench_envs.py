@@ -102,19 +102,110 @@ def scripted_study(n_synth: int, out: Path) -> tuple[list[dict], list[dict]]:
     return synth, real
 
 
-def training(minutes: float, out: Path) -> list[dict]:
+def training(minutes: float, out: Path, algos: tuple[str, ...] = ("ppo", "sac")) -> list[dict]:
+    """Train each algorithm on the default drawer for ``minutes`` of wall time (one after another)."""
     from spark_bench.rl.train import train
 
+    for algo in algos:
+        n_envs = 8 if algo == "ppo" else 1
+        train("SparkDrawer-v0", algo=algo, steps=50_000_000, out=out / algo, n_envs=n_envs, seed=0,
+              eval_every=20_000 if algo == "ppo" else 5_000, eval_episodes=20,
+              max_wall_s=minutes * 60, progress_bar=True)
+    return training_rows(out, algos)
+
+
+def training_rows(out: Path, algos: tuple[str, ...] = ("ppo", "sac")) -> list[dict]:
+    """One summary row per trained algorithm found under ``out`` (its ``train.json`` and ``curve.csv``)."""
+    import csv
+
     rows = []
-    for algo, n_envs in (("ppo", 8), ("sac", 1)):
-        result = train("SparkDrawer-v0", algo=algo, steps=50_000_000, out=out / algo, n_envs=n_envs, seed=0,
-                       eval_every=20_000 if algo == "ppo" else 5_000, eval_episodes=20,
-                       max_wall_s=minutes * 60, progress_bar=True)
-        best = max(result.curve, key=lambda r: r.success_rate)
-        rows.append({"algo": algo, "final_success": result.final["success_rate"], "steps": result.final["steps"],
-                     "wall_s": result.wall_s, "best_success": best.success_rate, "best_at_steps": best.steps,
-                     "best_at_wall_s": best.wall_s, "curve": str(out / algo / "curve.png")})
+    for algo in algos:
+        meta_path, curve_path = out / algo / "train.json", out / algo / "curve.csv"
+        if not meta_path.is_file() or not curve_path.is_file():
+            continue
+        meta = json.loads(meta_path.read_text())
+        curve = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(curve_path.open())]
+        best = max(curve, key=lambda r: r["success_rate"])
+        first80 = next((r for r in curve if r["success_rate"] >= 0.8), None)
+        rows.append({"algo": algo, "n_envs": meta["n_envs"], "final_success": meta["final"]["success_rate"],
+                     "steps": meta["steps"], "wall_s": meta["wall_s"], "best_success": best["success_rate"],
+                     "best_at_steps": int(best["steps"]), "best_at_wall_s": best["wall_s"],
+                     "first_80_steps": None if first80 is None else int(first80["steps"]),
+                     "first_80_wall_s": None if first80 is None else first80["wall_s"],
+                     "curve": str(out / algo / "curve.png"), "evaluations": len(curve)})
     return rows
+
+
+def write_training_md(rows: list[dict], results: Path, note: str = "") -> Path:
+    """``envs_training.md`` (and the learning-curve PNGs beside it) in ``results``."""
+    import shutil
+
+    results.mkdir(parents=True, exist_ok=True)
+    lines = ["# Training on the default drawer (SparkDrawer-v0, no kwargs)", "",
+             "Produced by `python benchmarks/bench_envs.py` (training part), on the 2 shared CPU cores",
+             f"({os.cpu_count()} visible; other jobs were running). Evaluation: 20 episodes with the",
+             "deterministic policy every 20k (PPO) / 5k (SAC) environment steps; wall time includes evaluations.",
+             *([note] if note else []), "",
+             "| algo | n_envs | env steps | wall time | final success | best success (at steps, wall) "
+             "| first >= 80% (steps, wall) |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        first = "never" if r["first_80_steps"] is None else f"{r['first_80_steps']:,}, {r['first_80_wall_s']:.0f} s"
+        lines.append(f"| {r['algo'].upper()} | {r['n_envs']} | {r['steps']:,} | {r['wall_s']:.0f} s | "
+                     f"{r['final_success']:.2f} | {r['best_success']:.2f} ({r['best_at_steps']:,}, "
+                     f"{r['best_at_wall_s']:.0f} s) | {first} |")
+        png = results / f"envs_training_{r['algo']}.png"
+        shutil.copyfile(r["curve"], png)
+    lines += [""] + [f"![{r['algo'].upper()} learning curve](envs_training_{r['algo']}.png)" for r in rows]
+    path = results / "envs_training.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _rate(rows: list[dict], kind: str) -> tuple[int, int]:
+    sel = [r for r in rows if (r["type"] == "prismatic") == (kind == "prismatic")]
+    return sum(r["success_rate"] >= 1.0 for r in sel), len(sel)
+
+
+def write_scripted_md(report: dict, n_synth: int, results: Path) -> Path:
+    """``envs_scripted.md`` in ``results``: the speed table, the scripted opener's success per kind on
+    the synth objects and per object on the real ones, and every joint it did not open."""
+    results.mkdir(parents=True, exist_ok=True)
+    lines = ["# Opening environments: speed and the scripted opener", "",
+             "Produced by `python benchmarks/bench_envs.py --skip-train --results benchmarks/results` on the 2",
+             "shared CPU cores (other jobs running).", "",
+             f"## Speed (control step = {N_SUBSTEPS} physics steps; random actions near the handle)", "",
+             "| env | env steps/s | unwrapped steps/s | raw mj_step steps/s | overhead (env / raw) |",
+             "|---|---|---|---|---|"]
+    for r in report["speed"]:
+        lines.append(f"| {r['env']} | {r['steps_per_s']:,.0f} | {r['unwrapped_steps_per_s']:,.0f} | "
+                     f"{r['raw_steps_per_s']:,.0f} | {r['overhead']:.2f}x |")
+    lines += ["", f"Reference (issue): Meta-World drawer-open-v3, about {METAWORLD_STEPS_PER_S:,.0f} steps/s at "
+              f"{METAWORLD_OVERHEAD:.0f}x its raw physics cost.", "",
+              "## Scripted opener with the ground-truth joint (one episode per joint, 150 steps, seed 0)", "",
+              "| objects | drawers (prismatic) opened | doors (revolute) opened |", "|---|---|---|"]
+    synth, real = report["scripted_synth"], report["scripted_real"]
+
+    def cell(rows, kind):
+        ok, n = _rate(rows, kind)
+        return f"{ok}/{n} ({100.0 * ok / n:.1f}%)" if n else "-"
+
+    lines.append(f"| synth StorageFurniture, {n_synth} objects (generate_dataset seed 0) | "
+                 f"{cell(synth, 'prismatic')} | {cell(synth, 'revolute')} |")
+    for object_id in sorted({r["object"] for r in real}):
+        rows = [r for r in real if r["object"] == object_id]
+        lines.append(f"| real {object_id} | {cell(rows, 'prismatic')} | {cell(rows, 'revolute')} |")
+    grips = {}
+    for r in synth + real:
+        grips[r.get("grasp", "error")] = grips.get(r.get("grasp", "error"), 0) + 1
+    lines += ["", "Grasps: " + ", ".join(f"{k} {v}" for k, v in sorted(grips.items())) +
+              " (label: an annotated handle link; geometry: a handle found proud of the front; notch: a "
+              "finger-pull notch, gripped from inside; face: no handle).", "", "Not opened:", ""]
+    failures = [r for r in synth + real if r["success_rate"] < 1.0]
+    lines += [f"- {r['object']} {r['joint']} ({r['type']}, grasp {r.get('grasp')}, largest opening "
+              f"{r.get('max_fraction', 0):.2f}) {r.get('error', '')}".rstrip() for r in failures] or ["- none"]
+    path = results / "envs_scripted.md"
+    path.write_text("\n".join(lines) + "\n")
+    return path
 
 
 def main() -> None:
@@ -122,12 +213,29 @@ def main() -> None:
     parser.add_argument("--synth", type=int, default=30, help="synth objects in the scripted study")
     parser.add_argument("--train-minutes", type=float, default=30.0, help="wall-time budget per algorithm")
     parser.add_argument("--skip-train", action="store_true")
+    parser.add_argument("--only-train", action="store_true", help="only the training part")
+    parser.add_argument("--algos", default="ppo,sac", help="algorithms to train (comma-separated)")
+    parser.add_argument("--summarize-train", type=Path, default=None,
+                        help="only write the training report from an earlier run's train folder")
+    parser.add_argument("--note", default="", help="a line added to the training report (how it was run)")
+    parser.add_argument("--results", type=Path, default=None,
+                        help="also write the markdown reports (envs_scripted.md, envs_training.md) here")
     parser.add_argument("--only-speed", action="store_true", help="only the speed measurement")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: a temporary one)")
     args = parser.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="bench_envs_"))
     out.mkdir(parents=True, exist_ok=True)
     report: dict = {}
+    algos = tuple(a.strip().lower() for a in args.algos.split(",") if a.strip())
+    if args.summarize_train is not None:
+        rows = training_rows(args.summarize_train, algos)
+        console.print(f"wrote {write_training_md(rows, args.results or out, args.note)}")
+        return
+    if args.only_train:
+        report["training"] = training(args.train_minutes, out / "train", algos)
+        (out / "bench_envs.json").write_text(json.dumps(report, indent=2, default=float))
+        console.print(report["training"])
+        return
 
     table = Table(title=f"Environment speed (control step = {N_SUBSTEPS} physics steps)")
     for col in ("env", "env steps/s", "unwrapped steps/s", "raw steps/s", "overhead", "vs Meta-World"):
@@ -159,12 +267,16 @@ def main() -> None:
                       f"largest opening {r.get('max_fraction', 0):.2f}) {r.get('error', '')}")
 
     if not args.skip_train:
-        report["training"] = training(args.train_minutes, out / "train")
+        report["training"] = training(args.train_minutes, out / "train", algos)
+        if args.results is not None:
+            write_training_md(report["training"], args.results, args.note)
         for row in report["training"]:
             console.print(f"{row['algo'].upper()}: success {row['final_success']:.2f} after {row['steps']} steps, "
                           f"{row['wall_s']:.0f} s (best {row['best_success']:.2f} at {row['best_at_steps']} steps, "
                           f"{row['best_at_wall_s']:.0f} s); curve {row['curve']}")
     (out / "bench_envs.json").write_text(json.dumps(report, indent=2, default=float))
+    if args.results is not None:
+        console.print(f"wrote {write_scripted_md(report, args.synth, args.results)}")
     console.print(f"report: {out / 'bench_envs.json'}")
 
 

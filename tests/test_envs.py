@@ -183,3 +183,53 @@ def test_check_env_on_real_objects(real_object, object_id, env_ids):
         env = gym.make(env_id, asset=str(folder))
         check_env(env.unwrapped, skip_render_check=True)
         env.close()
+
+
+NOTCH_WIDTH, NOTCH_DEPTH = 0.10, 0.028
+
+
+def notched_cabinet(seed: int = 0):
+    """The procedural cabinet with its handles replaced by finger-pull notches cut through the fronts:
+    one at the middle of the drawer front's top edge, one at the door's free edge."""
+    from spark_bench.envs.cabinet import WOOD, _box_part
+
+    asset = procedural_cabinet(seed)
+
+    def cut(link, panel, boxes):
+        parts = [_box_part(c, s, rgba) for c, s, rgba in boxes]
+        link.visuals = [p[0] for p in parts] + link.visuals[1:panel]
+        link.collisions = [p[1] for p in parts] + link.collisions[1:panel]
+
+    drawer, door = asset.links["link_0"], asset.links["link_1"]
+    (tx, w, h), (cx, _, _) = drawer.collisions[0].size, drawer.collisions[0].origin[:3, 3]
+    side = (w - NOTCH_WIDTH) / 2
+    cut(drawer, 5, [((cx, 0, -NOTCH_DEPTH / 2), (tx, w, h - NOTCH_DEPTH), WOOD),
+                    ((cx, -(NOTCH_WIDTH + side) / 2, h / 2 - NOTCH_DEPTH / 2), (tx, side, NOTCH_DEPTH), WOOD),
+                    ((cx, (NOTCH_WIDTH + side) / 2, h / 2 - NOTCH_DEPTH / 2), (tx, side, NOTCH_DEPTH), WOOD)])
+    (tx, dw, dh), (cx, _, _) = door.collisions[0].size, door.collisions[0].origin[:3, 3]
+    part = (dh - NOTCH_WIDTH) / 2
+    cut(door, 1, [((cx, (dw - NOTCH_DEPTH) / 2, 0), (tx, dw - NOTCH_DEPTH, dh), WOOD),
+                  ((cx, dw - NOTCH_DEPTH / 2, -(NOTCH_WIDTH + part) / 2), (tx, NOTCH_DEPTH, part), WOOD),
+                  ((cx, dw - NOTCH_DEPTH / 2, (NOTCH_WIDTH + part) / 2), (tx, NOTCH_DEPTH, part), WOOD)])
+    return asset
+
+
+def test_a_notch_in_a_front_is_found_and_gripped_from_inside():
+    asset = notched_cabinet(0)
+    poses = asset.link_poses()
+    drawer = find_grasp(asset, "joint_0")
+    assert drawer.source == "notch" and drawer.grip == "inside" and drawer.inside_grip
+    np.testing.assert_allclose(drawer.press, [0, 0, -1], atol=1e-6)  # the notch opens upwards
+    np.testing.assert_allclose(drawer.notch_size, (NOTCH_DEPTH, NOTCH_WIDTH), atol=0.004)
+    front = poses["link_0"] @ asset.links["link_0"].collisions[1].origin  # an upper piece of the front
+    top = front[2, 3] + NOTCH_DEPTH / 2
+    assert abs(drawer.point[1] - poses["link_0"][1, 3]) < 0.003  # centred across the drawer
+    assert abs(drawer.point[2] - (top - NOTCH_DEPTH / 2)) < 0.003
+    assert abs(drawer.closing[1]) > 0.99  # fingers open across the notch's width
+    door = find_grasp(asset, "joint_1")
+    assert door.source == "notch" and abs(door.closing[2]) > 0.99
+    assert door.press[1] < -0.99  # from the free edge towards the hinge
+    env = gym.make("SparkDrawer-v0", asset=asset)
+    pad = env.unwrapped.model.geom("spark_gripper_pad_left")
+    assert 2 * pad.size[2] <= NOTCH_DEPTH - 0.008  # pads low enough to enter the notch
+

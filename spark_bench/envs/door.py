@@ -28,7 +28,8 @@ class SparkDoorEnv(SparkArticulationEnv):
     3      wrist angle (rad)
     4      finger opening, 0 closed to 1 fully open
     5-7    TCP velocity (m/s)
-    8-10   grasp point on the door (its handle, else its front face near the free edge), world
+    8-10   grasp point on the door (its handle, else a finger-pull notch, else its front face
+           near the free edge), world
     11-13  grasp point minus TCP
     14     joint angle as a fraction of its range (0 closed, 1 fully open)
     15     joint velocity divided by the range

@@ -12,7 +12,8 @@ class SparkDrawerEnv(SparkArticulationEnv):
     converted to MuJoCo by :mod:`spark_bench.sim`; the agent is a physically simulated floating
     parallel-jaw gripper, moved by position servos on three world-aligned slide joints (nothing is welded
     to the handle and the joint is never set directly). The gripper faces the drawer's front, fingers
-    closing across the handle. Control runs at 25 Hz (10 physics steps of 4 ms).
+    closing across the handle (a front with a notch and no handle gets pads low enough to enter the
+    notch, closing across its width). Control runs at 25 Hz (10 physics steps of 4 ms).
 
     **Action space** ``Box(-1, 1, (4,), float32)``: ``a[0:3]`` moves the TCP target by ``0.02 * a[0:3]``
     m from the TCP's current position (world x, y, z; clipped to a workspace box around the object);
@@ -27,7 +28,8 @@ class SparkDrawerEnv(SparkArticulationEnv):
     3      wrist angle (rad; always 0 for drawers, which have a rigid wrist)
     4      finger opening, 0 closed to 1 fully open
     5-7    TCP velocity (m/s)
-    8-10   grasp point on the drawer (its handle, else its front face), world
+    8-10   grasp point on the drawer (its handle, else a finger-pull notch in its front, else
+           its front face), world
     11-13  grasp point minus TCP
     14     joint position as a fraction of its range (0 closed, 1 fully open)
     15     joint velocity divided by the range

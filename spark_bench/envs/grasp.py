@@ -6,8 +6,11 @@ project it on the part's outward direction (the pull direction of a drawer, the 
 door's far edge), take the front face as the densest level near the front, and keep what stands
 proud of it by more than :data:`HANDLE_MIN_PROUD`; the connected clusters of those points are handle
 candidates, and the chosen one is the central one (drawers) or the one farthest from the hinge (doors).
-A part with nothing proud of its front face gets its front face's center (drawers) or a point of the
-front face near its free edge (doors), with ``has_handle=False``.
+A part with nothing proud of its front face but a finger-pull notch cut into an edge of its front
+(found by rasterising the front face, :func:`find_notch`) gets an *inside grip*: the closed fingers enter
+the notch, the hand presses against the notch's inner wall and the fingers open against its sides
+(``inside_grip=True``, ``press`` the direction of that wall). Any other part gets its front face's
+center (drawers) or a point of the front face near its free edge (doors), with ``has_handle=False``.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
@@ -30,6 +34,14 @@ LEVEL_BIN = 0.002
 FACE_DENSITY = 0.1
 #: Surface samples per part.
 N_SAMPLES = 20000
+#: Cell size (m) of the front-face raster used to find a notch.
+NOTCH_CELL = 0.003
+#: Smallest notch extent (m) the closed fingers (pads 12 mm tall, 24 mm wide) can enter.
+NOTCH_MIN = 0.02
+#: Largest notch extent (m) along its open edge: beyond this it is a gap between parts, not a notch.
+NOTCH_MAX = 0.35
+#: How far (m) behind the front face the TCP goes in a notch: the fingertips reach 12 mm further.
+NOTCH_DEPTH = 0.004
 
 
 @dataclass
@@ -40,7 +52,12 @@ class GraspTarget:
     :param outward: unit direction out of the part's front (the gripper approaches along ``-outward``)
     :param long_axis: the handle's long direction (perpendicular to ``outward``); fingers close across it
     :param has_handle: whether a handle was found (label or geometry)
-    :param source: ``label``, ``geometry`` or ``face`` (no handle)
+    :param source: ``label``, ``geometry``, ``notch`` (a finger-pull notch) or ``face`` (no handle)
+    :param grip: ``pinch`` (fingers close across the handle) or ``inside`` (a notch: the closed fingers
+        enter it, the hand presses towards its inner wall, the fingers open against its sides)
+    :param press: for an ``inside`` grip, the unit direction (in the front plane) from the notch's open
+        edge to its inner wall, which the hand presses against while it opens the part
+    :param notch_size: for a notch, its extent across the fingers' closing direction and along it, m
     """
 
     point: np.ndarray
@@ -48,6 +65,14 @@ class GraspTarget:
     long_axis: np.ndarray
     has_handle: bool
     source: str
+    grip: str = "pinch"
+    press: np.ndarray | None = None
+    notch_size: tuple[float, float] | None = None
+
+    @property
+    def inside_grip(self) -> bool:
+        """Whether the grasp is from inside a notch (the fingers grip by opening)."""
+        return self.grip == "inside"
 
     @property
     def closing(self) -> np.ndarray:
@@ -140,6 +165,76 @@ def _long_axis(points: np.ndarray, basis: np.ndarray) -> np.ndarray:
     return _unit(evecs[:, 1] @ basis)
 
 
+@dataclass
+class Notch:
+    """A notch cut into an edge of a front, in the front plane's 2-D coordinates (``basis`` rows).
+
+    :param center: the notch's center, 2-D
+    :param press: unit 2-D direction from its open edge to its inner wall
+    :param depth: extent along ``press``, m
+    :param width: extent along the open edge, m
+    """
+
+    center: np.ndarray
+    press: np.ndarray
+    depth: float
+    width: float
+
+
+def rasterise_front(part, n: np.ndarray, basis: np.ndarray, face: float, cell: float = NOTCH_CELL
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The front face as a boolean image: cells of ``cell`` m in the plane ``basis`` spans, True where a
+    triangle facing ``n`` at level ``face`` covers the cell's center. Returns (image, 2-D origin)."""
+    from skimage.draw import polygon
+
+    tri = np.asarray(part.triangles)
+    level = tri.mean(1) @ n
+    keep = (part.face_normals @ n > 0.95) & (np.abs(level - face) < 2 * LEVEL_BIN)
+    uv = tri[keep] @ basis.T
+    if len(uv) == 0:
+        return np.zeros((0, 0), bool), np.zeros(2)
+    lo = uv.reshape(-1, 2).min(0)
+    shape = tuple(np.maximum(np.ceil((uv.reshape(-1, 2).max(0) - lo) / cell).astype(int), 1))
+    image = np.zeros(shape, bool)
+    for t in (uv - lo) / cell - 0.5:  # cell (i, j) has its center at lo + (i + 0.5, j + 0.5) * cell
+        rr, cc = polygon(t[:, 0], t[:, 1], shape)
+        image[rr, cc] = True
+    # close the one-cell cracks along shared triangle edges (padding keeps the border intact)
+    padded = np.pad(image, 2, constant_values=True)
+    image = ndimage.binary_closing(padded, structure=np.ones((3, 3)))[2:-2, 2:-2]
+    return image, lo
+
+
+def find_notch(image: np.ndarray, lo: np.ndarray, cell: float = NOTCH_CELL) -> list[Notch]:
+    """Notches of a rasterised front (:func:`rasterise_front`): uncovered regions that open onto one
+    edge of the front's bounding box, at least :data:`NOTCH_MIN` across both ways and at most
+    :data:`NOTCH_MAX` along that edge."""
+    if image.size == 0:
+        return []
+    labels, _ = ndimage.label(~image)
+    out = []
+    for k, region in enumerate(ndimage.find_objects(labels), start=1):
+        mask = labels[region] == k
+        extent = np.array([region[0].stop - region[0].start, region[1].stop - region[1].start]) * cell
+        if extent.min() < NOTCH_MIN or mask.mean() < 0.7:  # too small, or not a rectangle-like cut
+            continue
+        # the edge it opens onto: the one border of the image it touches (a corner cut touches two)
+        touches = {(0, -1): region[0].start == 0, (0, 1): region[0].stop == image.shape[0],
+                   (1, -1): region[1].start == 0, (1, 1): region[1].stop == image.shape[1]}
+        sides = [key for key, hit in touches.items() if hit]
+        if len(sides) != 1:
+            continue
+        axis, sign = sides[0]
+        if extent[1 - axis] > NOTCH_MAX:
+            continue
+        press = np.zeros(2)
+        press[axis] = -sign
+        cells = np.argwhere(labels == k)
+        center = lo + (0.5 * (cells.min(0) + cells.max(0)) + 0.5) * cell
+        out.append(Notch(center=center, press=press, depth=float(extent[axis]), width=float(extent[1 - axis])))
+    return out
+
+
 def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0) -> GraspTarget:
     """The grasp on the part moved by ``joint``, at the asset's rest configuration.
 
@@ -190,6 +285,18 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0) -> GraspTarge
         point = lateral @ basis + along * n
         return GraspTarget(point=point, outward=n, long_axis=_long_axis(best, basis), has_handle=True,
                            source=source)
+
+    image, lo = rasterise_front(part, n, basis, face)
+    notches = find_notch(image, lo)
+    if notches:
+        def notch_score(notch: Notch) -> float:
+            return lateral_score(np.atleast_2d(notch.center @ basis + face * n))
+
+        notch = min(notches, key=notch_score)
+        press = notch.press @ basis
+        return GraspTarget(point=notch.center @ basis + (face - NOTCH_DEPTH) * n, outward=n, long_axis=press,
+                           has_handle=True, source="notch", grip="inside", press=press,
+                           notch_size=(notch.depth, notch.width))
 
     # no handle: a point of the front face, central (drawer) or near the free edge (door)
     front = points[np.abs(depth - face) < 2 * LEVEL_BIN]

@@ -28,6 +28,7 @@ class GripperConfig:
     :param finger_length: pad length along the approach direction, m
     :param tip_beyond_tcp: how far the fingertips reach past the TCP, m
     :param max_opening: finger travel per side, m (full opening is twice this)
+    :param pad_height: pad extent across the approach and closing directions, m (lower to fit a notch)
     :param kp: stiffness of the translation servos, N/m
     :param force_limit: force limit of each translation servo, N
     :param finger_kp: stiffness of each finger servo, N/m
@@ -43,6 +44,7 @@ class GripperConfig:
     finger_length: float = 0.05
     tip_beyond_tcp: float = 0.012
     max_opening: float = 0.045
+    pad_height: float = 0.024
     kp: float = 1500.0
     force_limit: float = 150.0
     finger_kp: float = 1000.0
@@ -156,10 +158,10 @@ def add_gripper(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
                        range=[0.0, cfg.max_opening], armature=0.001, damping=2.0)
         center = [tip - length / 2, sign * pad_half, 0]
         body.add_geom(name=f"{p}_pad_{side}", type=mujoco.mjtGeom.mjGEOM_BOX, pos=center,
-                      size=[length / 2, pad_half, 0.012], mass=0.05, rgba=color, contype=2, conaffinity=1,
+                      size=[length / 2, pad_half, cfg.pad_height / 2], mass=0.05, rgba=color, contype=2, conaffinity=1,
                       friction=[cfg.pad_friction, 0.02, 0.001], condim=4, priority=1)
         body.add_site(name=f"{p}_pad_{side}_site", type=mujoco.mjtGeom.mjGEOM_BOX, pos=center,
-                      size=[length / 2 + 0.002, pad_half + 0.002, 0.014], rgba=[0, 0, 0, 0])
+                      size=[length / 2 + 0.002, pad_half + 0.002, cfg.pad_height / 2 + 0.002], rgba=[0, 0, 0, 0])
         sensor = spec.add_sensor(name=f"{p}_touch_{side}", type=mujoco.mjtSensor.mjSENS_TOUCH,
                                  objtype=mujoco.mjtObj.mjOBJ_SITE, objname=f"{p}_pad_{side}_site")
         act = spec.add_actuator(name=f"{joint}_servo", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT)

@@ -27,6 +27,8 @@ N_SUBSTEPS = 10
 #: lets a pinched handle creep out of the pads under a steady pull (measured: 7 of 117 synth drawers
 #: slipped off at 55-70 % open); 10 makes the grip hold.
 IMPRATIO = 10.0
+#: Room (m) left between the pads and a notch's edges, across the closing direction.
+NOTCH_CLEARANCE = 0.014
 #: How far (m) around the object's box the gripper may move.
 WORKSPACE_MARGIN = 0.35
 
@@ -124,6 +126,9 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     spec.visual.headlight.diffuse = [0.6, 0.6, 0.6]
     spec.worldbody.add_light(pos=[-2.0, -1.0, 3.0], dir=[0.5, 0.25, -0.8], diffuse=[0.5, 0.5, 0.5])
     wrist = asset.joint_frames()[chosen.name][1] if chosen.is_rotational else None
+    if gripper is None and grasp.inside_grip and grasp.notch_size is not None:
+        # pads low enough to enter the notch with room to spare
+        gripper = GripperConfig(pad_height=float(np.clip(grasp.notch_size[0] - NOTCH_CLEARANCE, 0.008, 0.024)))
     handles = add_gripper(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
                           workspace=workspace, config=gripper)
     try:

@@ -51,10 +51,10 @@ class ScriptedPolicy:
         self._opener = None
 
     def reset(self, env: gym.Env) -> None:
-        from spark_bench.rl.scripted import ScriptedOpener, ground_truth_joint
+        from spark_bench.rl.scripted import ground_truth_joint, opener_for
 
         axis, pivot, joint_type = self.joint if self.joint is not None else ground_truth_joint(env)
-        self._opener = ScriptedOpener(axis, pivot, joint_type, env.unwrapped.scene.grasp.outward)
+        self._opener = opener_for(env, axis, pivot, joint_type)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         return self._opener(obs)

@@ -28,6 +28,10 @@ WAYPOINT_TOLERANCE = 0.008
 CLOSE_STEPS = 6
 #: Path length (m) the opening target leads the TCP by (the action saturates at 0.02 m per step).
 PULL_STEP = 0.03
+#: Inside grip (a notch): how far (m) past the notch's inner wall the TCP target lies, so the hand
+#: presses on it (about ``kp * PRESS_OFFSET`` = 15 N), and the steps spent pressing before the fingers open.
+PRESS_OFFSET = 0.01
+PRESS_STEPS = 5
 
 
 def _unit(v) -> np.ndarray:
@@ -45,14 +49,22 @@ def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: 
 class ScriptedOpener:
     """A four-phase controller: pre-grasp, approach, close, open along the given joint.
 
+    With ``inside_grip`` (a finger-pull notch instead of a handle) the fingers close *before* the
+    approach, enter the notch, the hand presses towards the notch's inner wall (``press``) and the
+    fingers then open against the notch's sides: gripping means opening. The press is kept while
+    opening (turned with the part for a door).
+
     :param axis: joint axis direction, world frame (opening = increasing joint value)
     :param pivot: a point on the joint axis, world frame (ignored for prismatic joints)
     :param joint_type: ``prismatic``, ``revolute`` or ``continuous``
     :param outward: the part's outward direction (the gripper approaches along its opposite)
     :param pull_step: path length per step while opening, m
+    :param inside_grip: grip from inside a notch (see above)
+    :param press: unit direction towards the notch's inner wall at rest, world frame (inside grip)
     """
 
-    def __init__(self, axis, pivot, joint_type: str, outward, pull_step: float = PULL_STEP):
+    def __init__(self, axis, pivot, joint_type: str, outward, pull_step: float = PULL_STEP,
+                 inside_grip: bool = False, press=None):
         if joint_type not in ("prismatic", "revolute", "continuous"):
             raise ValueError(f"cannot open a {joint_type!r} joint")
         self.axis = _unit(axis)
@@ -60,18 +72,33 @@ class ScriptedOpener:
         self.rotational = joint_type != "prismatic"
         self.outward = _unit(outward)
         self.pull_step = float(pull_step)
+        self.inside_grip = bool(inside_grip)
+        if self.inside_grip and press is None:
+            raise ValueError("an inside grip needs a press direction")
+        self.press = _unit(press) if self.inside_grip else np.zeros(3)
         self.reset()
 
     def reset(self) -> None:
         """Back to the first phase (call at each episode start)."""
-        self.phase, self.phase_steps, self.radius = "pregrasp", 0, None
+        self.phase, self.phase_steps, self.radius, self.rest_grasp = "pregrasp", 0, None, None
 
     def _next(self, phase: str) -> None:
         self.phase, self.phase_steps = phase, 0
 
-    def _open_target(self, tcp: np.ndarray) -> np.ndarray:
+    def _turned(self, direction: np.ndarray, grasp: np.ndarray) -> np.ndarray:
+        """``direction`` (at rest) turned with the part: by the angle the grasp point has swung about the
+        planned axis since the episode began (unchanged for a prismatic joint)."""
         if not self.rotational:
-            return tcp + self.pull_step * self.axis
+            return direction
+        a, b = self.rest_grasp - self.pivot, grasp - self.pivot
+        a, b = a - np.dot(a, self.axis) * self.axis, b - np.dot(b, self.axis) * self.axis
+        angle = np.arctan2(np.dot(self.axis, np.cross(a, b)), np.dot(a, b))
+        return rotate_about(direction, np.zeros(3), self.axis, angle)
+
+    def _open_target(self, tcp: np.ndarray, grasp: np.ndarray) -> np.ndarray:
+        press = PRESS_OFFSET * self._turned(self.press, grasp)
+        if not self.rotational:
+            return tcp + self.pull_step * self.axis + press
         v = tcp - self.pivot
         radial = v - np.dot(v, self.axis) * self.axis
         if self.radius is None:
@@ -79,27 +106,36 @@ class ScriptedOpener:
         center = self.pivot + np.dot(v, self.axis) * self.axis
         # keep the grasp on the planned circle: correct radial drift, then advance along the arc
         on_circle = center + radial / max(np.linalg.norm(radial), 1e-9) * self.radius
-        return rotate_about(on_circle, self.pivot, self.axis, self.pull_step / self.radius)
+        return rotate_about(on_circle, self.pivot, self.axis, self.pull_step / self.radius) + press
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         """The action for observation ``obs`` (the environments' layout)."""
         tcp, grasp = obs[0:3].astype(float), obs[8:11].astype(float)
+        if self.rest_grasp is None:
+            self.rest_grasp = grasp
         self.phase_steps += 1
-        grip = -1.0
+        # an inside grip travels with closed fingers and grips by opening them
+        travel, hold = (1.0, -1.0) if self.inside_grip else (-1.0, 1.0)
+        grip = travel
+        press = PRESS_OFFSET * self._turned(self.press, grasp)
         if self.phase == "pregrasp":
-            target = grasp + PREGRASP_OFFSET * self.outward
+            target = grasp + PREGRASP_OFFSET * self._turned(self.outward, grasp)
             if np.linalg.norm(target - tcp) < WAYPOINT_TOLERANCE or self.phase_steps > 30:
                 self._next("approach")
         elif self.phase == "approach":
             target = grasp
             if np.linalg.norm(target - tcp) < WAYPOINT_TOLERANCE or self.phase_steps > 20:
+                self._next("press" if self.inside_grip else "close")
+        elif self.phase == "press":
+            target = grasp + press
+            if self.phase_steps >= PRESS_STEPS:
                 self._next("close")
         elif self.phase == "close":
-            target, grip = grasp, 1.0
+            target, grip = grasp + press, hold
             if self.phase_steps >= CLOSE_STEPS:
                 self._next("open")
         else:
-            target, grip = self._open_target(tcp), 1.0
+            target, grip = self._open_target(tcp, grasp), hold
         action = np.empty(4, dtype=np.float32)
         action[:3] = np.clip((target - tcp) / MAX_STEP, -1.0, 1.0)
         action[3] = grip
@@ -131,6 +167,14 @@ def ground_truth_joint(env: gym.Env) -> tuple[np.ndarray, np.ndarray, str]:
     return axis, pivot, scene.joint.type
 
 
+def opener_for(env: gym.Env, axis, pivot, joint_type: str, pull_step: float = PULL_STEP) -> ScriptedOpener:
+    """A :class:`ScriptedOpener` for ``env``'s grasp (its outward direction, and its inside grip if the
+    part has a notch), planned from the given joint parameters."""
+    grasp = env.unwrapped.scene.grasp
+    return ScriptedOpener(axis, pivot, joint_type, grasp.outward, pull_step, inside_grip=grasp.inside_grip,
+                          press=grasp.press)
+
+
 def open_with_joint(env: gym.Env, axis, pivot, joint_type: str, seed: int | None = None,
                     max_steps: int = 200, stop_on_success: bool = True,
                     pull_step: float = PULL_STEP) -> OpenResult:
@@ -145,7 +189,7 @@ def open_with_joint(env: gym.Env, axis, pivot, joint_type: str, seed: int | None
     :param stop_on_success: end the episode as soon as the joint passes the target
     :param pull_step: path length per step while opening, m
     """
-    opener = ScriptedOpener(axis, pivot, joint_type, env.unwrapped.scene.grasp.outward, pull_step)
+    opener = opener_for(env, axis, pivot, joint_type, pull_step)
     obs, info = env.reset(seed=seed)
     total, best, success, steps = 0.0, env.unwrapped.joint_fraction, False, 0
     for steps in range(1, max_steps + 1):  # noqa: B007  (steps is reported)
