@@ -128,8 +128,23 @@ def case_dirs(bench: Path, limit: int | None) -> list[Path]:
     return cases[:limit] if limit else cases
 
 
-def run_case(case_dir: str, work: str, overrides: list[str], n_samples: int) -> dict:
-    """``run_ours`` on one case and the metrics of its prior and refined objects (cached)."""
+def code_version() -> str:
+    """A hash of the SPARK package's sources and the torch FK: a cached case is stale when they change
+    (the optimizer's settings are not all in the config)."""
+    import hashlib
+
+    import spark_bench.asset.torch_fk as torch_fk
+    import spark_bench.spark as spark
+
+    digest = hashlib.sha256()
+    for path in sorted(Path(spark.__file__).parent.glob("*.py")) + [Path(torch_fk.__file__)]:
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def run_case(case_dir: str, work: str, overrides: list[str], n_samples: int, code: str) -> dict:
+    """``run_ours`` on one case and the metrics of its prior and refined objects (cached; ``code`` is
+    :func:`code_version` when the run started, so that a source edited meanwhile does not pass as run)."""
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     import torch
 
@@ -143,7 +158,7 @@ def run_case(case_dir: str, work: str, overrides: list[str], n_samples: int) -> 
     config = SparkConfig().with_overrides(overrides)
     if cached.is_file():
         row = json.loads(cached.read_text())
-        if row.get("config") == config.to_dict():
+        if row.get("config") == config.to_dict() and row.get("code") == code:
             return row
     start = time.perf_counter()
     report = run_ours(case_dir, out, config)
@@ -154,18 +169,22 @@ def run_case(case_dir: str, work: str, overrides: list[str], n_samples: int) -> 
         metrics = compute_metrics(load_object(folder), gt, n_samples=n_samples, seed=0, workers=1).to_dict()
         scores[variant] = {k: metrics[k] for k in KEYS}
     row = {"case": case_dir.name, "category": json.loads((case_dir / "case.json").read_text())["category"],
-           "seconds": seconds, "timings": report["timings"], "scores": scores, "config": config.to_dict(),
+           "seconds": seconds, "timings": report["timings"], "scores": scores, "config": config.to_dict(), "code": code,
            "n_joints": len(report.get("movable_joints", []))}
     cached.write_text(json.dumps(row, indent=1))
     return row
 
 
+#: 1-minute load averages of the machine sampled as cases finished (the timings depend on what else ran)
+LOADS: list[float] = []
+
+
 def run_all(cases: list[Path], work: Path, overrides: list[str], n_samples: int, jobs: int, progress) -> list[dict]:
     """Every case, ``jobs`` at a time; failures are reported and skipped."""
     work.mkdir(parents=True, exist_ok=True)
-    rows = []
+    rows, code = [], code_version()
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = {pool.submit(run_case, str(c), str(work), overrides, n_samples): c.name for c in cases}
+        futures = {pool.submit(run_case, str(c), str(work), overrides, n_samples, code): c.name for c in cases}
         for future in as_completed(futures):
             try:
                 rows.append(future.result())
@@ -173,6 +192,7 @@ def run_all(cases: list[Path], work: Path, overrides: list[str], n_samples: int,
                 progress(f"{futures[future]}: failed: {exc!r}")
                 continue
             progress(f"{rows[-1]['case']}: {rows[-1]['seconds']:.1f} s")
+            LOADS.append(os.getloadavg()[0])
     return sorted(rows, key=lambda r: r["case"])
 
 
@@ -220,6 +240,9 @@ def markdown(rows: list[dict], title: str, notes: list[str]) -> str:
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "Paper, Table 4, \"w/o joint optimization\": AxisErr 0.3148, PivotErr 0.2388, TypeErr 0.20.", ""]
     lines += time_lines(rows)
+    if LOADS:
+        lines += ["", f"Machine: {os.cpu_count()} cores; 1-minute load average while cases finished in this run: "
+                  f"mean {np.mean(LOADS):.1f}, max {np.max(LOADS):.1f} (cases from the cache keep their own timings)."]
     return "\n".join(lines) + "\n"
 
 

@@ -121,7 +121,7 @@ class OptimizeConfig:
     score_size: int = 128
     screen_score_size: int = 64
     margin_rel: float = 0.1
-    margin_abs: float = 0.005
+    margin_abs: float = 0.01
     final_sizes: list[int] = field(default_factory=lambda: [64, 128])
     final_taus: list[float] = field(default_factory=lambda: [0.7, 0.6])
     final_steps: list[int] = field(default_factory=lambda: [40, 30])

@@ -19,6 +19,7 @@ within each stage.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -29,7 +30,13 @@ from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.asset.torch_fk import link_poses_torch
 from spark_bench.spark.camera import Camera
 from spark_bench.spark.geometry import decimate
-from spark_bench.spark.render import HALO_CUTOFF, SoftSilhouetteRenderer, downsample_mask, rasterize_labels
+from spark_bench.spark.render import (
+    HALO_CUTOFF,
+    SoftSilhouetteRenderer,
+    downsample_mask,
+    rasterize_labels,
+    rasterize_labels_depth,
+)
 
 
 @dataclass
@@ -125,6 +132,7 @@ class OpenStateScene:
         self._targets: dict[tuple, torch.Tensor] = {}
         self._part_targets: dict[int, tuple[torch.Tensor, torch.Tensor]] = {}
         self._labels: dict[int, np.ndarray] = {}
+        self._blurred: dict[tuple, np.ndarray] = {}
 
     @property
     def has_part_masks(self) -> bool:
@@ -223,28 +231,91 @@ class OpenStateScene:
         with torch.no_grad():
             return float(self.image_loss(hypotheses, stage, weights))
 
-    def seg_score(self, hypotheses: dict[str, Hypothesis], size: int) -> float:
-        """Exact segmentation mismatch in [0, 1] of fixed hypotheses at ``size`` px (lower is better).
+    def seg_score(self, hypotheses: dict[str, Hypothesis], size: int, blur: float = 0.0) -> float:
+        """Segmentation mismatch in [0, 1] of fixed hypotheses at ``size`` px (lower is better).
 
         The posed meshes are z-buffered into a label image (:func:`rasterize_labels`) and compared with
         :meth:`target_labels`: with part masks, the mean of ``1 - IoU`` over the whole object and every
         link that is visible in either image (so a small part weighs as much as a large one in its own
         joint's decision); without, ``1 - IoU`` of the object's silhouette.
+
+        :param blur: 0 for the exact IoU; otherwise both indicator images are blurred by a Gaussian of
+            this many pixels and compared by soft IoU (``sum min / sum max``), which stays low within
+            about ``blur`` pixels of motion (used to rank candidates from a coarse grid of open values)
         """
         with torch.no_grad():
             vertices = self.world_vertices(hypotheses).double().numpy()
         face_labels = self.face_groups.numpy() + 1
         rendered = rasterize_labels(vertices, self.faces.numpy(), face_labels, self.camera.resized(size))
+        return self._mismatch(rendered, size, blur)
+
+    def seg_scorer(self, hypotheses: dict[str, Hypothesis], joint: str, size: int, blur: float = 0.0
+                   ) -> Callable[[Hypothesis], float]:
+        """``h -> seg_score({**hypotheses, joint: h}, size, blur)``, for scoring many hypotheses of one
+        joint: the links that do not move with ``joint`` are z-buffered once, and each call rasterizes
+        only the moving ones and composes the two by depth."""
+        moving_links = self._moving_links(joint)
+        moving = torch.as_tensor([n in moving_links for n in self.link_names], dtype=torch.bool)
+        face_moving = moving[self.face_groups].numpy() if len(self.face_groups) else np.zeros(0, bool)
+        faces, face_labels = self.faces.numpy(), self.face_groups.numpy() + 1
+        camera = self.camera.resized(size)
+        with torch.no_grad():
+            vertices = self.world_vertices(hypotheses).double().numpy()
+        still_labels, still_depth = rasterize_labels_depth(vertices, faces[~face_moving], face_labels[~face_moving],
+                                                           camera)
+        moving_faces, moving_labels = faces[face_moving], face_labels[face_moving]
+
+        def score(hyp: Hypothesis) -> float:
+            with torch.no_grad():
+                posed = self.world_vertices({**hypotheses, joint: hyp}).double().numpy()
+            labels, depth = rasterize_labels_depth(posed, moving_faces, moving_labels, camera)
+            return self._mismatch(np.where(depth > still_depth, labels, still_labels), size, blur)
+
+        return score
+
+    def _moving_links(self, joint: str) -> set[str]:
+        """The links below ``joint`` (its child and everything under it)."""
+        out, stack = set(), [self.asset.joints[joint].child]
+        while stack:
+            link = stack.pop()
+            out.add(link)
+            stack.extend(j.child for j in self.asset.joints.values() if j.parent == link)
+        return out
+
+    def _mismatch(self, rendered: np.ndarray, size: int, blur: float) -> float:
+        """The score of :meth:`seg_score` for a rendered label image (1 + index into ``link_names``)."""
         target = self.target_labels(size)
-        errors = [1.0 - _iou(rendered > 0, target != 0)]
+        regions = [(rendered > 0, "object", target != 0)]
         if self.has_part_masks:
             for g, name in enumerate(self.link_names):
                 if name not in self.part_masks_full:
                     continue
                 mine, theirs = rendered == g + 1, target == g + 1
                 if mine.any() or theirs.any():
-                    errors.append(1.0 - _iou(mine, theirs))
+                    regions.append((mine, name, theirs))
+        if blur <= 0:
+            return float(np.mean([1.0 - _iou(mine, theirs) for mine, _, theirs in regions]))
+        errors = []
+        for mine, key, theirs in regions:
+            theirs_soft = self._blurred_target(size, blur, key, theirs)
+            errors.append(1.0 - _soft_iou(_blur(mine, blur), theirs_soft))
         return float(np.mean(errors))
+
+    def _blurred_target(self, size: int, blur: float, key: str, indicator: np.ndarray) -> np.ndarray:
+        if (size, blur, key) not in self._blurred:
+            self._blurred[(size, blur, key)] = _blur(indicator, blur)
+        return self._blurred[(size, blur, key)]
+
+
+def _blur(indicator: np.ndarray, sigma: float) -> np.ndarray:
+    from scipy.ndimage import gaussian_filter
+
+    return gaussian_filter(indicator.astype(np.float64), sigma, mode="constant", truncate=3.0)
+
+
+def _soft_iou(a: np.ndarray, b: np.ndarray) -> float:
+    union = np.maximum(a, b).sum()
+    return float(np.minimum(a, b).sum() / union) if union > 1e-9 else 1.0
 
 
 def _iou(a: np.ndarray, b: np.ndarray) -> float:

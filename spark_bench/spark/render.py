@@ -199,14 +199,23 @@ def rasterize_labels(vertices: np.ndarray, faces: np.ndarray, face_labels: np.nd
     :param face_labels: (F,) positive integer label per face
     :param camera: the view; the image has its size
     """
+    return rasterize_labels_depth(vertices, faces, face_labels, camera)[0]
+
+
+def rasterize_labels_depth(vertices: np.ndarray, faces: np.ndarray, face_labels: np.ndarray, camera: Camera
+                           ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`rasterize_labels` and its (H, W) z-buffer of inverse depths (``1/z``, 0 where empty):
+    two label images of disjoint face sets compose into the image of both by keeping the larger ``1/z``
+    per pixel (the discrete refinement rasterizes the parts that do not move once per joint)."""
     uv, depth = camera.project(np.asarray(vertices, float))
     faces = np.asarray(faces)
     keep = (depth[faces] > NEAR).all(axis=1)
     faces, labels = faces[keep], np.asarray(face_labels)[keep]
     width, height = camera.width, camera.height
     out = np.zeros(width * height, dtype=np.int64)
+    empty = (out.reshape(height, width), np.zeros((height, width)))
     if not len(faces):
-        return out.reshape(height, width)
+        return empty
     tri = torch.as_tensor(uv[faces], dtype=torch.float64)
     inv_z = torch.as_tensor(1.0 / depth[faces], dtype=torch.float64)
     pixel, face, px, py = _pixel_pairs(tri, width, height, 0.0)
@@ -214,7 +223,7 @@ def rasterize_labels(vertices: np.ndarray, faces: np.ndarray, face_labels: np.nd
     inside = signed_distance(centres, tri[face]) > 0
     pixel, face, centres = pixel[inside], face[inside], centres[inside]
     if not len(pixel):
-        return out.reshape(height, width)
+        return empty
     # perspective-correct depth: 1/z is affine in screen space, interpolated by 2D barycentrics
     t = tri[face]
     a, b, c = t[:, 0], t[:, 1], t[:, 2]
@@ -227,7 +236,7 @@ def rasterize_labels(vertices: np.ndarray, faces: np.ndarray, face_labels: np.nd
         0, pixel, nearness, reduce="amax", include_self=True)
     winner = nearness >= best[pixel]
     out[pixel[winner].numpy()] = np.asarray(labels)[face[winner].numpy()]
-    return out.reshape(height, width)
+    return out.reshape(height, width), best.clamp_min(0.0).numpy().reshape(height, width)
 
 
 def downsample_mask(mask: np.ndarray, size: int) -> np.ndarray:
