@@ -55,19 +55,9 @@ class Camera:
 def look_at_camera(position, target=(0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0), size: int = 128,
                    fov_deg: float = 40.0) -> Camera:
     """A camera at ``position`` looking at ``target`` (OpenCV axes), with ``fx = fy = (size/2)/tan(fov/2)``."""
-    position, target, up = (np.asarray(v, float) for v in (position, target, up))
-    forward = target - position
-    forward /= np.linalg.norm(forward)
-    right = np.cross(forward, up)
-    right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
-    rotation = np.stack([right, down, forward])  # rows: camera axes in world coordinates
-    world_to_camera = np.eye(4)
-    world_to_camera[:3, :3] = rotation
-    world_to_camera[:3, 3] = -rotation @ position
-    focal = (size / 2) / np.tan(np.radians(fov_deg) / 2)
-    intrinsics = np.array([[focal, 0, size / 2], [0, focal, size / 2], [0, 0, 1.0]])
-    return Camera(intrinsics, world_to_camera, size, size)
+    from spark_bench.data.camera import intrinsics_matrix, look_at
+
+    return Camera(intrinsics_matrix(size, size, fov_deg), look_at(position, target, up), size, size)
 
 
 def load_camera(path: str | Path) -> Camera:

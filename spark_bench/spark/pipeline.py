@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from spark_bench.data.readers import read_case
 from spark_bench.errors import InputError
 from spark_bench.spark.assemble import assemble_asset, joint_summary
 from spark_bench.spark.camera import load_camera
@@ -61,20 +62,6 @@ def torch_threads(n: int):
         yield
     finally:
         torch.set_num_threads(before)
-
-
-def read_case(case_dir: Path) -> dict:
-    """``case.json`` of a benchmark case."""
-    path = Path(case_dir) / "case.json"
-    try:
-        case = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise InputError(path, "case file not found") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"malformed JSON: {exc}") from None
-    if not isinstance(case, dict) or "id" not in case:
-        raise InputError(path, 'expected an object with an "id"')
-    return case
 
 
 def load_ground_truth(case_dir: Path):
