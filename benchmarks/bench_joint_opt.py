@@ -41,7 +41,7 @@ from spark_bench.spark.geometry import annotation_geometry
 from spark_bench.spark.optimize import OpenStateScene
 from spark_bench.spark.prior import NoiseModel, annotation_prior
 from spark_bench.spark.refine import RefineSettings, prior_hypotheses, refine
-from spark_bench.spark.render import rasterize_labels
+from spark_bench.spark.render import asset_label_image, open_part_masks
 from spark_bench.spark.toy import toy_cabinet, toy_camera
 
 
@@ -56,14 +56,8 @@ def toy_problems(n: int):
 
 def open_state_masks(gt, camera):
     """The open state's object mask and per-link masks (a case's ``open_seg.png``), exact z-buffer."""
-    meshes = gt.link_meshes(gt.open_configuration())
-    names = list(meshes)
-    offsets = np.cumsum([0] + [len(meshes[n].vertices) for n in names])
-    labels = rasterize_labels(np.concatenate([meshes[n].vertices for n in names]),
-                              np.concatenate([meshes[n].faces + o for n, o in zip(names, offsets)]),
-                              np.concatenate([np.full(len(meshes[n].faces), k + 1) for k, n in enumerate(names)]),
-                              camera)
-    return (labels > 0).astype(float), {n: (labels == k + 1).astype(float) for k, n in enumerate(names)}
+    labels = asset_label_image(gt, gt.open_configuration(), camera)
+    return (labels > 0).astype(float), open_part_masks(gt, camera)
 
 
 def peer_seconds(scene: OpenStateScene, hypotheses, repeats: int = 20) -> float:

@@ -12,7 +12,7 @@ from spark_bench.spark.geometry import annotation_geometry
 from spark_bench.spark.optimize import OpenStateScene
 from spark_bench.spark.prior import ground_truth_structure
 from spark_bench.spark.refine import RefineSettings, prior_hypotheses, refine
-from spark_bench.spark.render import rasterize_labels, rasterize_mask
+from spark_bench.spark.render import open_part_masks, rasterize_mask
 from spark_bench.spark.toy import toy_cabinet, toy_camera
 
 
@@ -25,18 +25,6 @@ def problem():
     target = rasterize_mask(opened.vertices, opened.faces, camera, supersample=1)  # exact, independent
     truth = {j["name"]: j for j in joint_summary(gt, ["joint_0", "joint_1"])}
     return gt, camera, target, truth
-
-
-def _open_segmentation(asset, camera):
-    """The open state's per-link visible masks (what a case's open_seg.png holds), exact z-buffer."""
-    meshes = asset.link_meshes(asset.open_configuration())
-    names = list(meshes)
-    offsets = np.cumsum([0] + [len(meshes[n].vertices) for n in names])
-    labels = rasterize_labels(np.concatenate([meshes[n].vertices for n in names]),
-                              np.concatenate([meshes[n].faces + o for n, o in zip(names, offsets)]),
-                              np.concatenate([np.full(len(meshes[n].faces), k + 1) for k, n in enumerate(names)]),
-                              camera)
-    return {n: (labels == k + 1).astype(float) for k, n in enumerate(names)}
 
 
 def _solve(gt, camera, target, edit, discrete, part_masks=None):
@@ -88,7 +76,7 @@ def test_discrete_refinement_fixes_type_axis_and_pivot(problem):
             joint.type = "revolute"
             joint.upper = float(np.pi / 2)
 
-    found, result = _solve(gt, camera, target, edit, discrete=True, part_masks=_open_segmentation(gt, camera))
+    found, result = _solve(gt, camera, target, edit, discrete=True, part_masks=open_part_masks(gt, camera))
     _assert_recovered(found, truth)
     assert {"candidate", "screen_loss", "sweep"} <= set(result.candidates["joint_0"][0])
 
@@ -116,7 +104,7 @@ def test_a_correct_prior_stays_correct():
         joint.origin = [joint.origin[0] + 0.06, joint.origin[1] - 0.05, joint.origin[2] + 0.08]
         joint.upper = float(np.pi / 2) if joint.type == "revolute" else 0.5
 
-    found, result = _solve(gt, camera, target, edit, discrete=True, part_masks=_open_segmentation(gt, camera))
+    found, result = _solve(gt, camera, target, edit, discrete=True, part_masks=open_part_masks(gt, camera))
     for name in ("joint_0", "joint_1"):
         assert found[name]["type"] == truth[name]["type"], name
         assert np.degrees(axis_error(found[name]["axis"], truth[name]["axis"])) < 2.0, name
@@ -132,7 +120,7 @@ def test_a_correct_prior_stays_correct():
 def test_seg_scorer_matches_seg_score(problem):
     """The per-joint scorer (still links z-buffered once) scores exactly like a full render."""
     gt, camera, target, _ = problem
-    scene = OpenStateScene(gt, camera, target, part_masks=_open_segmentation(gt, camera))
+    scene = OpenStateScene(gt, camera, target, part_masks=open_part_masks(gt, camera))
     hyps = prior_hypotheses(gt)
     for blur in (0.0, 1.0):
         scorer = scene.seg_scorer(hyps, "joint_0", 64, blur)

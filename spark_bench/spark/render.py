@@ -202,6 +202,25 @@ def rasterize_labels(vertices: np.ndarray, faces: np.ndarray, face_labels: np.nd
     return rasterize_labels_depth(vertices, faces, face_labels, camera)[0]
 
 
+def asset_label_image(asset, q, camera: Camera) -> np.ndarray:
+    """Exact (H, W) label image of ``asset`` at configuration ``q``: 0 background, k + 1 where link k of
+    ``asset.links`` (file order, as a case's ``*_seg.png``) is the nearest surface."""
+    links = list(asset.links)
+    meshes = asset.link_meshes(q)
+    names = list(meshes)
+    offsets = np.cumsum([0] + [len(meshes[n].vertices) for n in names])
+    return rasterize_labels(
+        np.concatenate([meshes[n].vertices for n in names]),
+        np.concatenate([np.asarray(meshes[n].faces) + o for n, o in zip(names, offsets)]),
+        np.concatenate([np.full(len(meshes[n].faces), links.index(n) + 1) for n in names]), camera)
+
+
+def open_part_masks(asset, camera: Camera) -> dict[str, np.ndarray]:
+    """Each link's visible mask in the open state (what a case's ``open_seg.png`` holds), as floats."""
+    labels = asset_label_image(asset, asset.open_configuration(), camera)
+    return {n: (labels == k + 1).astype(float) for k, n in enumerate(asset.links) if asset.links[n].has_geometry}
+
+
 def rasterize_labels_depth(vertices: np.ndarray, faces: np.ndarray, face_labels: np.ndarray, camera: Camera
                            ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`rasterize_labels` and its (H, W) z-buffer of inverse depths (``1/z``, 0 where empty):

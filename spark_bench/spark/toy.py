@@ -81,24 +81,17 @@ def write_toy_case(case_dir, asset: ArticulatedAsset | None = None, camera: Came
     from PIL import Image
 
     from spark_bench.asset.urdf import write_object_folder
-    from spark_bench.spark.render import rasterize_labels
+    from spark_bench.spark.render import asset_label_image
 
     case_dir = Path(case_dir)
     case_dir.mkdir(parents=True, exist_ok=True)
     asset = asset or toy_cabinet()
     camera = camera or toy_camera(256)
     write_object_folder(asset, case_dir / "gt")
-    links = list(asset.links)
     for stem, q in (("input", asset.rest_configuration()), ("open", asset.open_configuration())):
         # a label image as the format says (k + 1 = case.json link k), not a 0/1 mask: a 0/1 image
         # would say that every object pixel is link 0's, and the per-part supervision would believe it
-        meshes = asset.link_meshes(q)
-        names = list(meshes)
-        offsets = np.cumsum([0] + [len(meshes[n].vertices) for n in names])
-        labels = rasterize_labels(
-            np.concatenate([meshes[n].vertices for n in names]),
-            np.concatenate([np.asarray(meshes[n].faces) + o for n, o in zip(names, offsets)]),
-            np.concatenate([np.full(len(meshes[n].faces), links.index(n) + 1) for n in names]), camera)
+        labels = asset_label_image(asset, q, camera)
         Image.fromarray(labels.astype(np.uint16)).save(case_dir / f"{stem}_seg.png")
         mask = labels > 0
         Image.fromarray(np.where(mask, 120, 255).astype(np.uint8)).convert("RGB").save(case_dir / f"{stem}.png")
