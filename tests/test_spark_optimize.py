@@ -105,14 +105,7 @@ def test_a_correct_prior_stays_correct():
         joint.upper = float(np.pi / 2) if joint.type == "revolute" else 0.5
 
     found, result = _solve(gt, camera, target, edit, discrete=True, part_masks=open_part_masks(gt, camera))
-    for name in ("joint_0", "joint_1"):
-        assert found[name]["type"] == truth[name]["type"], name
-        assert np.degrees(axis_error(found[name]["axis"], truth[name]["axis"])) < 2.0, name
-        assert float(np.dot(found[name]["axis"], truth[name]["axis"])) > 0, f"{name} opens the wrong way"
-    door, true_door = found["joint_0"], truth["joint_0"]
-    assert line_distance(door["origin"], door["axis"], true_door["origin"], true_door["axis"]) < 0.02
-    assert abs(door["upper"] - true_door["upper"]) < 0.05
-    assert abs(found["joint_1"]["upper"] - truth["joint_1"]["upper"]) < 0.02
+    _assert_recovered(found, truth)
     chosen = {n: r for n, rows in result.candidates.items() for r in rows if "seg_score" in r}
     assert set(chosen) == {"joint_0", "joint_1"}  # both joints went through the discrete search
 

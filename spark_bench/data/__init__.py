@@ -6,9 +6,8 @@ Heavy pieces (MuJoCo rendering, preparation) are imported on first use of their 
 
 from __future__ import annotations
 
-import importlib
-
 from spark_bench.data.readers import find_urdf, load_object
+from spark_bench.lazy import lazy_exports
 
 _LAZY = {
     "prepare_case": "spark_bench.data.prepare",
@@ -25,10 +24,5 @@ _LAZY = {
     "generate_object": "spark_bench.data.synth",
 }
 
-__all__ = ["find_urdf", "load_object", *_LAZY]
-
-
-def __getattr__(name: str):
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'spark_bench.data' has no attribute {name!r}")
+_lazy_names, __getattr__ = lazy_exports(__name__, _LAZY)
+__all__ = ["find_urdf", "load_object", *_lazy_names]

@@ -7,7 +7,7 @@ The public names are loaded on first use, so that ``spark-bench --help`` (which 
 
 from __future__ import annotations
 
-import importlib
+from spark_bench.lazy import lazy_exports
 
 _EXPORTS = {
     "compute_metrics": "spark_bench.metrics.evaluate",
@@ -33,10 +33,4 @@ _EXPORTS = {
     "sample_triangles": "spark_bench.metrics.sampling",
 }
 
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module 'spark_bench.metrics' has no attribute {name!r}")
+__all__, __getattr__ = lazy_exports(__name__, _EXPORTS)

@@ -12,7 +12,7 @@ light.
 
 from __future__ import annotations
 
-import importlib
+from spark_bench.lazy import lazy_exports
 
 _EXPORTS = {
     "build_spec": "spark_bench.sim.mjcf",
@@ -29,10 +29,4 @@ _EXPORTS = {
     "render_check_strip": "spark_bench.sim.render",
 }
 
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        return getattr(importlib.import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module 'spark_bench.sim' has no attribute {name!r}")
+__all__, __getattr__ = lazy_exports(__name__, _EXPORTS)
