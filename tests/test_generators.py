@@ -11,16 +11,14 @@ from test_eval import make_tiny_bench
 
 from spark_bench import generators
 from spark_bench.errors import InputError, SparkBenchError
+from spark_bench.external_methods import CommandMethod, find_object_folder, read_methods_file
 from spark_bench.generators import (
     CaseInput,
-    CommandMethod,
     Generation,
     GenerationError,
     MethodSpec,
     available_methods,
-    find_object_folder,
     make_generator,
-    read_methods_file,
 )
 
 

@@ -19,8 +19,11 @@ from spark_bench.metrics.matching import match_parts, part_cost_matrix
 from spark_bench.metrics.report import mean_over_objects
 from spark_bench.metrics.sampling import sample_triangles, triangle_areas
 from spark_bench.metrics.shape import (
+    build_tree,
     fscore,
     mutual_nearest_distances,
+    nearest_distances,
+    query_nearest,
     scores_from_distances,
     shape_scores,
 )
@@ -83,15 +86,28 @@ def test_two_squares_a_known_distance_apart():
 
 def test_matches_scikit_learn_partcrafter_formula():
     neighbors = pytest.importorskip("sklearn.neighbors")
-    # sizes above PILOT_MIN_QUERIES, so the bounded-search path (with its unbounded retries) runs
     rng = np.random.default_rng(0)
     a, b = rng.normal(size=(25_000, 3)), rng.normal(size=(21_000, 3)) * 1.1 + 0.05
-    a[:200] *= 5.0  # far outliers: these miss the pilot radius and are asked again
+    a[:200] *= 5.0  # far outliers: long searches through many leaves
     d_pg, d_gp = mutual_nearest_distances(a, b)
     ref_pg = neighbors.NearestNeighbors(n_neighbors=1, algorithm="kd_tree").fit(b).kneighbors(a)[0][:, 0]
     ref_gp = neighbors.NearestNeighbors(n_neighbors=1, algorithm="kd_tree").fit(a).kneighbors(b)[0][:, 0]
     np.testing.assert_allclose(d_pg, ref_pg, atol=1e-12)
     np.testing.assert_allclose(d_gp, ref_gp, atol=1e-12)
+
+
+def test_nearest_query_indices_and_one_thread_agree_with_brute_force():
+    rng = np.random.default_rng(4)
+    reference, query = rng.uniform(-1, 1, size=(500, 3)), rng.uniform(-2, 2, size=(300, 3))
+    brute = np.linalg.norm(query[:, None] - reference[None], axis=2)
+    for workers in (-1, 1):
+        distances, indices = query_nearest(build_tree(reference), query, workers)
+        np.testing.assert_allclose(distances, brute.min(axis=1), atol=1e-12)
+        np.testing.assert_array_equal(indices, brute.argmin(axis=1))
+        assert indices.dtype == np.intp
+    # a strided float32 view is converted, not misread
+    strided = np.asfortranarray(query.astype(np.float32))
+    np.testing.assert_allclose(nearest_distances(strided, reference), brute.min(axis=1), atol=1e-6)
 
 
 # ----- sampling ------------------------------------------------------------------------------------

@@ -16,16 +16,14 @@ import json
 import os
 import shutil
 import socket
-import sys
 import time
 import traceback
 from collections.abc import Callable, Iterable
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from spark_bench import CONVENTION_VERSION, __version__
+from spark_bench.bench.executors import EXECUTORS, run_local, run_ray, usable_cores
 from spark_bench.bench.store import METRIC_COLUMNS, ResultsStore, config_hash, now
 from spark_bench.data.readers import read_case
 from spark_bench.errors import InputError, SparkBenchError
@@ -39,9 +37,6 @@ from spark_bench.generators import (
 )
 
 DEFAULT_BENCH = "synth-v1"
-EXECUTORS = ("local", "ray")
-#: How often a case may take its worker process down (a crash in native code) before it is failed.
-MAX_CRASHES = 2
 
 
 @dataclass(frozen=True)
@@ -413,93 +408,6 @@ def _progress():
                     console=Console(stderr=True))
 
 
-def usable_cores() -> int:
-    """Cores this process may run on (its CPU affinity where the OS reports it)."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
-
-
-def _limit_threads(threads: int) -> None:
-    """Pool-worker initializer: at most ``threads`` BLAS/OpenMP/torch threads per worker, so that
-    ``workers`` processes do not oversubscribe the cores."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        pass
-    else:
-        threadpool_limits(threads)
-    if "torch" in sys.modules:
-        sys.modules["torch"].set_num_threads(threads)
-
-
-def _run_isolated(task: CaseTask) -> list[dict]:
-    """One case in a process of its own: a crash there is that case's."""
-    with ProcessPoolExecutor(max_workers=1) as pool:
-        try:
-            return pool.submit(evaluate_case, task).result()
-        except BrokenProcessPool:
-            return _failed_rows(task, "the worker process died on this case (a crash in native code?)")
-
-
-def _execute_local(tasks: list[CaseTask], workers: int, on_rows: Callable[[list[dict]], None]) -> None:
-    """Run tasks in a process pool (inline for ``workers == 0``).
-
-    A worker that dies (a crash in native code) breaks the whole pool, and which case killed it is
-    unknown: the unfinished cases are run again in a fresh pool, and after a second crash one at a
-    time, each in its own process, so that the crashing case is found and failed alone.
-    """
-    if workers <= 0:
-        for task in tasks:
-            on_rows(evaluate_case(task))
-        return
-    pending, crashes = list(tasks), 0
-    while pending and crashes < MAX_CRASHES:
-        with ProcessPoolExecutor(max_workers=workers, initializer=_limit_threads,
-                                 initargs=(max(1, usable_cores() // workers),)) as pool:
-            futures = {pool.submit(evaluate_case, t): t for t in pending}
-            pending = []
-            for future in _as_completed(futures):
-                try:
-                    rows = future.result()
-                except BrokenProcessPool:
-                    pending.append(futures[future])
-                    continue
-                on_rows(rows)
-        crashes += bool(pending)
-    for task in pending:
-        on_rows(_run_isolated(task))
-
-
-def _as_completed(futures):
-    remaining = set(futures)
-    while remaining:
-        done, remaining = wait(remaining, return_when=FIRST_COMPLETED)
-        yield from done
-
-
-def _execute_ray(tasks: list[CaseTask], workers: int, on_rows: Callable[[list[dict]], None],
-                 address: str | None = None) -> None:
-    """Run tasks as Ray tasks (a cluster with ``address``, else a local Ray), results back here."""
-    try:
-        import ray
-    except ImportError:
-        raise SparkBenchError("--executor ray needs Ray: pip install 'spark-bench[ray]'") from None
-    if not ray.is_initialized():
-        kwargs = {"address": address} if address else ({"num_cpus": workers} if workers > 0 else {})
-        ray.init(ignore_reinit_error=True, log_to_driver=False, **kwargs)
-    remote = ray.remote(max_retries=MAX_CRASHES - 1)(evaluate_case)
-    refs = {remote.remote(t): t for t in tasks}
-    while refs:
-        ready, _ = ray.wait(list(refs), num_returns=1)
-        for ref in ready:
-            task = refs.pop(ref)
-            try:
-                on_rows(ray.get(ref))
-            except Exception as exc:  # a task that died (node lost, worker crash) after its retries
-                on_rows(_failed_rows(task, f"ray task failed: {_reason(exc)}"))
-
-
 def run_eval(spec: MethodSpec, bench: str | None = None, options: EvalOptions | None = None,
              db: str | Path | None = None, workers: int = 1, executor: str = "local",
              runs_root: str | Path | None = None, progress: bool = True, ray_address: str | None = None,
@@ -545,9 +453,9 @@ def run_eval(spec: MethodSpec, bench: str | None = None, options: EvalOptions | 
                     bar.update(job, advance=1, failed=failed[0])
 
             if executor == "ray":
-                _execute_ray(tasks, workers, on_rows, ray_address)
+                run_ray(tasks, evaluate_case, _failed_rows, workers, on_rows, ray_address)
             else:
-                _execute_local(tasks, workers, on_rows)
+                run_local(tasks, evaluate_case, _failed_rows, workers, on_rows)
         rows = [r for r in store.rows(bench=run.bench, label=run.label, where=[("config_hash", run.config_hash)])
                 if r["case_id"] in set(all_ids)]
     from spark_bench.bench.aggregate import summarize

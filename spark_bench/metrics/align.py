@@ -14,9 +14,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
-from spark_bench.metrics.shape import build_tree, chamfer_distance
+from spark_bench.metrics.shape import KDTree, build_tree, chamfer_distance, query_nearest
 
 #: Default start angles about Z: every 30 degrees, so ICP starts within 15 degrees of any yaw.
 DEFAULT_ANGLES = tuple(np.deg2rad(np.arange(0, 360, 30)))
@@ -84,24 +83,24 @@ def _apply(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
     return points @ matrix[:3, :3].T + matrix[:3, 3]
 
 
-def icp(source: np.ndarray, target_tree: cKDTree, initial: np.ndarray, max_iterations: int = 30,
+def icp(source: np.ndarray, target_tree: KDTree, initial: np.ndarray, max_iterations: int = 30,
         tolerance: float = 1e-6, workers: int = -1) -> np.ndarray:
     """Rigid point-to-point ICP of ``source`` onto the points of ``target_tree``, from ``initial``.
 
     :param source: (N, 3) points to move
-    :param target_tree: k-d tree on the target points
+    :param target_tree: k-d tree on the target points (:func:`~spark_bench.metrics.shape.build_tree`)
     :param initial: 4x4 starting transform (may contain a scale, which ICP keeps)
     :param max_iterations: iteration cap
     :param tolerance: stop when the mean residual improves by less than this
     :param workers: threads for the nearest-neighbour queries
     :returns: 4x4 transform ``rigid @ initial``
     """
-    target = target_tree.data
+    target = np.asarray(target_tree.data_pts).reshape(-1, 3)
     matrix = np.array(initial, dtype=np.float64)
     previous = np.inf
     for _ in range(max_iterations):
         moved = _apply(matrix, source)
-        dist, index = target_tree.query(moved, k=1, workers=workers)
+        dist, index = query_nearest(target_tree, moved, workers)
         error = float(dist.mean())
         if previous - error < tolerance:
             break
