@@ -170,6 +170,23 @@ def test_eval_json_output_and_pool(tiny_bench, tmp_path, capsys, isolated_home):
         assert store.count() == 3
 
 
+def test_eval_with_rl_trains_on_the_prediction_and_scores_on_the_ground_truth(tmp_path, isolated_home):
+    bench = make_tiny_bench(tmp_path, n=1)
+    code = main(["eval", "--method", "oracle", "--bench", str(bench), "--no-sim", "--n-samples", "2000", "--rl",
+                 "--rl-timesteps", "256", "--workers", "0", "--no-progress"])
+    assert code == 0
+    with ResultsStore(isolated_home / "results.sqlite") as store:
+        (row,) = store.rows(status="ok")
+    rl = row["checks"]["rl"]
+    assert "error" not in rl, rl
+    # the cabinet's first matched joint is its drawer or its door; the oracle's joint names are the truth's
+    assert rl["env"] in ("SparkDrawer-v0", "SparkDoor-v0") and rl["gt_joint"] == rl["pred_joint"]
+    assert rl["timesteps"] == 256
+    assert 0.0 <= row["rl_success"] <= 1.0 and row["rl_success"] == rl["success_rate"]
+    rl_dir = Path(row["prediction_dir"]).parent
+    assert list(rl_dir.parent.rglob("*.rl/model.zip")), "the trained policy is kept next to the generation"
+
+
 def test_unknown_method_is_a_one_line_error(tiny_bench, capsys, isolated_home):
     assert main(["eval", "--method", "nope", "--bench", str(tiny_bench), "--no-progress"]) == 2
     err = capsys.readouterr().err

@@ -59,6 +59,21 @@ def test_missing_limits_and_continuous(tmp_path):
     assert asset.joints["joint_0"].rest_value == 0.0 and asset.joints["joint_0"].open_value == pytest.approx(np.pi / 2)
 
 
+def test_dynamics_and_limit_attributes_are_numbers_and_convert(tmp_path):
+    joints = GOOD_JOINTS.replace('<limit lower="0" upper="1.5"/>', '<limit lower="0" upper="1.5" effort="30" '
+                                 'velocity="2"/><dynamics damping="0.5" friction="0.25"/>')
+    asset = load_object(write_object(tmp_path, joints))
+    joint = asset.joints["joint_0"]
+    assert (joint.damping, joint.friction, joint.effort, joint.velocity) == (0.5, 0.25, 30.0, 2.0)
+    assert all(isinstance(v, float) for v in (joint.damping, joint.friction, joint.effort, joint.velocity))
+    # the converter takes the URDF's own damping and friction for that joint
+    from spark_bench.sim import build_spec
+
+    model = build_spec(asset).compile()
+    dof = model.jnt_dofadr[model.joint("joint_0").id]
+    assert model.dof_damping[dof] == pytest.approx(0.5) and model.dof_frictionloss[dof] >= 0.25
+
+
 @pytest.mark.parametrize(
     "mutate, message",
     [
@@ -70,6 +85,10 @@ def test_missing_limits_and_continuous(tmp_path):
          "two parent joints"),
         (lambda j: j.replace('<child link="link_0"/>', '<child link="link_9"/>'), "unknown link"),
         (lambda j: j.replace('upper="1.5"', 'upper="-1.5"'), "below lower"),
+        (lambda j: j.replace('<limit lower="0" upper="1.5"/>', '<limit lower="0" upper="1.5"/>'
+                             '<dynamics damping="stiff"/>'), "damping is not a number"),
+        (lambda j: j.replace('<limit lower="0" upper="1.5"/>', '<limit lower="0" upper="1.5" effort="inf"/>'),
+         "effort is not finite"),
     ],
 )
 def test_bad_joints_give_one_line_errors(tmp_path, mutate, message):

@@ -242,7 +242,8 @@ def _read_joint(urdf_path: Path, yjoint) -> Joint:
         lower, upper = (lower or 0.0), (upper or 0.0)
     elif yjoint.type == "fixed":
         lower, upper = 0.0, 0.0
-    lower, upper = float(lower), float(upper)
+    lower = _number(lower, urdf_path, f"joint {yjoint.name!r} limit lower")
+    upper = _number(upper, urdf_path, f"joint {yjoint.name!r} limit upper")
     if not (math.isfinite(lower) and math.isfinite(upper)):
         raise InputError(urdf_path, f"joint {yjoint.name!r} has non-finite limits")
     if upper < lower:
@@ -251,9 +252,30 @@ def _read_joint(urdf_path: Path, yjoint) -> Joint:
     return Joint(
         name=yjoint.name, type=yjoint.type, parent=yjoint.parent, child=yjoint.child, origin=origin,
         axis=axis, lower=lower, upper=upper, has_limits=has_limits or yjoint.type == "fixed",
-        damping=None if dyn is None else dyn.damping, friction=None if dyn is None else dyn.friction,
-        effort=None if limit is None else limit.effort, velocity=None if limit is None else limit.velocity,
+        # yourdfpy leaves <dynamics> and <limit effort/velocity> as the attribute strings
+        damping=_optional_number(getattr(dyn, "damping", None), urdf_path, f"joint {yjoint.name!r} damping"),
+        friction=_optional_number(getattr(dyn, "friction", None), urdf_path, f"joint {yjoint.name!r} friction"),
+        effort=_optional_number(getattr(limit, "effort", None), urdf_path, f"joint {yjoint.name!r} effort"),
+        velocity=_optional_number(getattr(limit, "velocity", None), urdf_path, f"joint {yjoint.name!r} velocity"),
     )
+
+
+def _number(value, urdf_path, what: str) -> float:
+    """``value`` as a float, or an :class:`InputError` naming the file and the attribute."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise InputError(urdf_path, f"{what} is not a number: {value!r}") from None
+
+
+def _optional_number(value, urdf_path, what: str) -> float | None:
+    """A finite float, or None when the attribute is absent."""
+    if value is None:
+        return None
+    number = _number(value, urdf_path, what)
+    if not math.isfinite(number):
+        raise InputError(urdf_path, f"{what} is not finite: {value!r}")
+    return number
 
 
 def load_urdf(path: str | Path, folder: str | Path | None = None, load_meshes: bool = True) -> ArticulatedAsset:
