@@ -102,6 +102,18 @@ def test_unknown_link_names_are_rejected():
             request_structure(_config(vlm.base_url, max_retries=0), b"png", ["body", "door"])
 
 
+def test_answer_missing_a_known_part_is_asked_again():
+    partial = json.loads(json.dumps(GOOD))
+    partial["links"].pop()
+    partial["joints"].pop()
+    with FakeVLM([(200, json.dumps(partial)), (200, json.dumps(GOOD))]) as vlm:
+        structure, _ = request_structure(_config(vlm.base_url, max_retries=1), b"png", ["body", "door", "drawer"])
+    assert len(vlm.requests) == 2 and [link.name for link in structure.links] == ["body", "door", "drawer"]
+    with FakeVLM([(200, json.dumps(partial))]) as vlm:
+        with pytest.raises(InputError, match=r"missing link names \['drawer'\]"):
+            request_structure(_config(vlm.base_url, max_retries=0), b"png", ["body", "door", "drawer"])
+
+
 def test_run_ours_with_vlm_backend_from_config_file(tmp_path):
     from spark_bench.spark import run_ours
     from spark_bench.spark.toy import write_toy_case

@@ -2,7 +2,10 @@
 
 The assembled asset has the PartNet-Mobility layout (DESIGN.md): a ``base`` link without geometry, a
 fixed root joint turning the object frame into the world frame (:data:`OBJECT_TO_WORLD`), the prior's
-root link (the static body), and one link per prior link. Every link frame is the object frame
+root link (the static body), and one link per prior link. When the prior itself calls a link ``base``
+(objects whose root link carries the body mesh, e.g. :func:`spark_bench.envs.cabinet.procedural_cabinet`,
+whose part names a VLM is told to reuse), the world link takes the first free name of
+:data:`WORLD_NAMES` instead, so every prior link keeps its name. Every link frame is the object frame
 translated to the link's joint pivot, so each joint origin is a pure translation and each joint axis,
 given in the joint frame, is also its object-frame direction (a canonical one for the prior).
 """
@@ -18,6 +21,8 @@ from spark_bench.spark.geometry import PartGeometry
 from spark_bench.spark.structure import OBJECT_TO_WORLD, PriorStructure
 
 BASE = "base"
+#: Names for the world link, in order of preference: the first one the prior does not use.
+WORLD_NAMES = (BASE, "world", "base_world")
 SEMANTIC_WORD = {"revolute": "hinge", "continuous": "hinge", "prismatic": "slider", "fixed": "static"}
 
 
@@ -34,23 +39,22 @@ def assemble_asset(prior: PriorStructure, geometry: PartGeometry, name: str = "o
     """The articulated asset of a coarse URDF with rest-pose part meshes (benchmark frame).
 
     :param prior: links and joints, object frame
-    :param geometry: part meshes by link name, world frame at rest; prior links without a mesh get none
+    :param geometry: part meshes by link name, world frame at rest; prior links without a mesh get none.
+        The geometry's root part (:attr:`PartGeometry.root`) goes to the prior's root link when the prior
+        has no link of its name (e.g. a generated object whose ``base`` link carries the body)
     :param name: the asset's name
     :param category: object category, for ``meta.json``
-    :raises InputError: when a link is called ``base`` (reserved) or a mesh has no prior link
+    :raises InputError: when a mesh has no prior link
     """
-    names = {link.name for link in prior.links}
-    if BASE in names:
-        raise InputError(None, f"prior link name {BASE!r} is reserved for the world link")
-    missing = set(geometry.meshes) - names
-    if missing:
-        raise InputError(geometry.source or None, f"part meshes {sorted(missing)} have no link in the prior")
+    names = [link.name for link in prior.links]
+    meshes = _meshes_by_prior_link(prior, geometry)
     position = _link_positions(prior)
     world_to_object = OBJECT_TO_WORLD.T
-    links = {BASE: Link(BASE)}
+    world = world_link_name(names)
+    links = {world: Link(world)}
     for plink in prior.links:
         link = Link(plink.name, label=plink.label)
-        mesh = geometry.meshes.get(plink.name)
+        mesh = meshes.get(plink.name)
         if mesh is not None and len(mesh.faces):
             local = transform_points(make_transform(world_to_object), mesh.vertices) - position[plink.name]
             link.visuals.append(Visual(mesh=_trimesh(local, mesh.faces)))
@@ -59,16 +63,35 @@ def assemble_asset(prior: PriorStructure, geometry: PartGeometry, name: str = "o
     root_joint = f"joint_{len(prior.joints)}"
     if root_joint in {j.name for j in prior.joints}:
         root_joint = "joint_root"
-    joints[root_joint] = Joint(root_joint, "fixed", BASE, prior.root, origin=make_transform(OBJECT_TO_WORLD))
+    joints[root_joint] = Joint(root_joint, "fixed", world, prior.root, origin=make_transform(OBJECT_TO_WORLD))
     for pj in prior.joints:
         origin = make_transform(translation=position[pj.child] - position[pj.parent])
         joints[pj.name] = Joint(pj.name, pj.type, pj.parent, pj.child, origin=origin,
                                 axis=pj.axis_vector.copy(), lower=0.0, upper=float(pj.upper))
         links[pj.child].semantic_joint = SEMANTIC_WORD[pj.type]
     links[prior.root].semantic_joint = "static"
-    ordered = {BASE: links[BASE], **{n: links[n] for n in links if n != BASE}}
-    return ArticulatedAsset(name=name, links=ordered, joints=joints, category=category,
+    return ArticulatedAsset(name=name, links=links, joints=joints, category=category,
                             meta={"model_cat": category, "generator": "spark-bench ours"})
+
+
+def world_link_name(prior_links) -> str:
+    """The world link's name: ``base`` unless the prior uses it (see the module docstring)."""
+    taken = set(prior_links)
+    return next(n for n in (*WORLD_NAMES, *(f"world_{k}" for k in range(len(taken) + 1))) if n not in taken)
+
+
+def _meshes_by_prior_link(prior: PriorStructure, geometry: PartGeometry) -> dict:
+    """``geometry.meshes`` keyed by prior link; the root part may be renamed to the prior's root."""
+    names = {link.name for link in prior.links}
+    meshes = dict(geometry.meshes)
+    root_part = geometry.root
+    if root_part and root_part in meshes and root_part not in names and prior.root not in meshes:
+        meshes[prior.root] = meshes.pop(root_part)
+    missing = set(meshes) - names
+    if missing:
+        raise InputError(geometry.source or None, f"part meshes {sorted(missing)} have no link in the prior "
+                                                  f"(its links: {sorted(names)})")
+    return meshes
 
 
 def _trimesh(vertices, faces):
@@ -112,13 +135,18 @@ def set_joint(asset: ArticulatedAsset, joint_name: str, joint_type: str, axis, u
 
 
 def joint_summary(asset: ArticulatedAsset, joint_names: list[str] | None = None) -> list[dict]:
-    """World-frame (benchmark) description of joints at rest, in case.json's form, for reports."""
+    """World-frame (benchmark) description of joints at rest, in case.json's form, for reports.
+
+    :param joint_names: the joints to describe (default: all but the root joint, the one hanging from
+        a world link without geometry)
+    """
     poses = asset.link_poses()
+    world = None if asset.links[asset.root].has_geometry else asset.root
     out = []
     for joint in asset.joints.values():
         if joint_names is not None and joint.name not in joint_names:
             continue
-        if joint_names is None and joint.parent == BASE:
+        if joint_names is None and joint.parent == world:
             continue
         frame = poses[joint.parent] @ joint.origin
         direction = frame[:3, :3] @ joint.axis

@@ -15,7 +15,10 @@ from it by fixed joints (:func:`group_parts`); the root part is everything that 
 
 from __future__ import annotations
 
+import os
 import shlex
+import shutil
+import signal
 import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -52,12 +55,14 @@ class PartGeometry:
     :param labels: part name -> semantic label
     :param source: the backend name and where the meshes came from, for the report
     :param members: part name -> the source object's links merged into it (where known)
+    :param root: the name of the part that never moves (where known)
     """
 
     meshes: dict[str, trimesh.Trimesh]
     labels: dict[str, str] = field(default_factory=dict)
     source: str = ""
     members: dict[str, list[str]] = field(default_factory=dict)
+    root: str = ""
 
     @property
     def names(self) -> list[str]:
@@ -97,7 +102,7 @@ def part_meshes(asset: ArticulatedAsset, parts: list[Part] | None = None) -> Par
         labels[part.name] = part.label
         if pieces:
             meshes[part.name] = merge_meshes(pieces)
-    return PartGeometry(meshes, labels, members={p.name: list(p.links) for p in parts})
+    return PartGeometry(meshes, labels, members={p.name: list(p.links) for p in parts}, root=parts[0].name)
 
 
 def annotation_geometry(gt: ArticulatedAsset) -> PartGeometry:
@@ -109,12 +114,17 @@ def annotation_geometry(gt: ArticulatedAsset) -> PartGeometry:
 
 def load_predicted_object(folder: Path) -> PartGeometry:
     """A predicted object folder's part meshes, normalized to the benchmark frame."""
-    from spark_bench.asset.ops import normalize_asset
     from spark_bench.data import load_object
 
-    asset, _, _ = normalize_asset(load_object(folder))
+    return _normalized_parts(load_object(folder), folder)
+
+
+def _normalized_parts(asset: ArticulatedAsset, source) -> PartGeometry:
+    from spark_bench.asset.ops import normalize_asset
+
+    asset, _, _ = normalize_asset(asset)
     out = part_meshes(asset)
-    out.source = str(folder)
+    out.source = str(source)
     return out
 
 
@@ -126,29 +136,102 @@ def predictions_geometry(predictions_dir: str | Path, case_id: str) -> PartGeome
     return load_predicted_object(folder)
 
 
+def spark_command_argv(command: str, case_dir: Path, prior_json: Path, out: Path) -> list[str]:
+    """The argument list of a ``spark`` command template (see :func:`spark_geometry`), without a shell.
+
+    :raises InputError: when the template does not split or names an unknown placeholder
+    """
+    values = {"image": Path(case_dir).resolve() / "input.png", "prior": Path(prior_json).resolve(),
+              "out": Path(out).resolve(), "case": Path(case_dir).resolve()}
+    try:
+        argv = [arg.format(**values) for arg in shlex.split(command)]
+    except (ValueError, KeyError, IndexError) as exc:
+        raise InputError(None, f"geometry.spark_command {command!r} is not a valid template "
+                               f"(placeholders: {{image}} {{prior}} {{out}} {{case}}; "
+                               f"double literal braces): {exc!r}") from None
+    if not argv:
+        raise InputError(None, "geometry.spark_command is empty")
+    return argv
+
+
+def run_spark_command(argv: list[str], timeout_s: float) -> subprocess.CompletedProcess:
+    """Run ``argv`` in its own process group; on timeout the whole group is killed (SPARK's pipeline
+    starts child processes that would otherwise keep running and hold the output pipes open).
+
+    :raises InputError: when it cannot start, times out, or exits non-zero (with its stderr's tail)
+    """
+    try:
+        process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                   stdin=subprocess.DEVNULL, start_new_session=True)
+    except OSError as exc:
+        raise InputError(argv[0], f"SPARK geometry command cannot start: {exc.strerror or exc}") from None
+    try:
+        stdout, stderr = process.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        _kill_group(process)
+        process.communicate()
+        raise InputError(argv[0], f"SPARK geometry command timed out after {timeout_s:g} s") from None
+    done = subprocess.CompletedProcess(argv, process.returncode, stdout.decode(errors="replace"),
+                                       stderr.decode(errors="replace"))
+    if done.returncode != 0:
+        lines = (done.stderr.strip() or done.stdout.strip()).splitlines()
+        tail = " | ".join(line.strip() for line in lines[-3:] if line.strip()) or "no output"
+        raise InputError(argv[0], f"SPARK geometry command exited {done.returncode}: {tail}")
+    return done
+
+
+def _kill_group(process: subprocess.Popen) -> None:
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        process.kill()
+
+
+def read_spark_output(out: Path) -> ArticulatedAsset:
+    """SPARK's output folder: ``mobility.urdf`` whose links each show one mesh file (GLB).
+
+    GLB scenes are flattened with their node transforms (:func:`spark_bench.asset.urdf.load_mesh_file`).
+
+    :raises InputError: naming the file when the URDF is missing or broken, a mesh file is missing or
+        unreadable, or a mesh file holds no triangles
+    """
+    from spark_bench.data import load_object
+
+    urdf = Path(out) / "mobility.urdf"
+    if not urdf.is_file():
+        raise InputError(urdf, "the SPARK geometry command wrote no mobility.urdf")
+    asset = load_object(out)
+    for link in asset.links.values():
+        for visual in link.visuals:
+            if visual.source and len(visual.mesh.faces) == 0:
+                raise InputError(Path(out) / visual.source, f"mesh of link {link.name!r} holds no triangles")
+    if not any(link.has_geometry for link in asset.links.values()):
+        raise InputError(urdf, "no link has a mesh")
+    return asset
+
+
 def spark_geometry(command: str, case_dir: Path, prior_json: Path, work_dir: Path,
                    timeout_s: float = 3600.0) -> PartGeometry:
     """The ``spark`` backend: run SPARK's public pipeline as an external command.
 
     ``command`` is a template with ``{image}`` (the case's ``input.png``), ``{prior}`` (the coarse URDF
     JSON of stage 1), ``{out}`` (an empty folder where it must write ``mobility.urdf`` with one GLB per
-    link) and ``{case}`` (the case folder), e.g.
-    ``python /opt/SPARK/infer.py --image {image} --urdf_prior {prior} --output {out}``.
+    link) and ``{case}`` (the case folder), all absolute paths, e.g.
+    ``python /opt/SPARK/infer.py --image {image} --urdf_prior {prior} --output {out}``. It runs without
+    a shell. Its links must be named as the prior's (the root part may have another name: it becomes
+    the prior's root), its meshes may be at any scale and position: they are normalized to the
+    benchmark frame like any predicted object.
+
+    :param work_dir: ``{out}`` is ``<work_dir>/spark_geometry``, emptied first
+    :param timeout_s: time limit; the command's whole process group is killed after it
+    :raises InputError: one line naming the command or the file, on any failure
     """
     out = Path(work_dir) / "spark_geometry"
-    out.mkdir(parents=True, exist_ok=True)
-    argv = [arg.format(image=case_dir / "input.png", prior=prior_json, out=out, case=case_dir)
-            for arg in shlex.split(command)]
-    try:
-        done = subprocess.run(argv, capture_output=True, text=True, timeout=timeout_s, check=False)
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        raise InputError(argv[0], f"SPARK geometry command failed to run: {exc}") from None
-    if done.returncode != 0:
-        tail = " ".join(done.stderr.strip().splitlines()[-3:])
-        raise InputError(argv[0], f"SPARK geometry command exited {done.returncode}: {tail}")
-    if not (out / "mobility.urdf").is_file():
-        raise InputError(out, "SPARK geometry command wrote no mobility.urdf")
-    return load_predicted_object(out)
+    if out.exists():  # a stale mobility.urdf from an earlier run must not pass for this one's
+        shutil.rmtree(out)
+    out.mkdir(parents=True)
+    run_spark_command(spark_command_argv(command, case_dir, prior_json, out), timeout_s)
+    return _normalized_parts(read_spark_output(out), out)
 
 
 def decimate(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:

@@ -81,7 +81,14 @@ def _link_masks(seg: np.ndarray, case_dir: Path) -> dict[str, np.ndarray]:
 
 
 def http_open_state(config, input_png: bytes) -> OpenState:
-    """The ``http`` backend (see the module docstring); ``config`` is an ``OpenStateConfig``."""
+    """The ``http`` backend (see the module docstring); ``config`` is an ``OpenStateConfig``.
+
+    The generated image is brought to the input image's size (the camera's) before its mask is taken,
+    since the optimization compares it pixel for pixel with renders from the case's camera.
+
+    :raises InputError: naming the endpoint on an HTTP error, a timeout, an answer that is not the
+        images JSON, a payload that is not an image, or an image without an object in it
+    """
     body = {"model": config.model, "prompt": OPEN_PROMPT, "image": image_data_url(input_png),
             "response_format": "b64_json"}
     headers = {"Content-Type": "application/json"}
@@ -91,14 +98,57 @@ def http_open_state(config, input_png: bytes) -> OpenState:
     request = urllib.request.Request(config.url, data=json.dumps(body).encode(), headers=headers, method="POST")
     try:
         with urllib.request.urlopen(request, timeout=config.timeout_s) as response:
-            payload = json.loads(response.read())
-        png = base64.b64decode(payload["data"][0]["b64_json"])
+            raw = response.read()
+    except urllib.error.HTTPError as exc:
+        detail = " ".join(exc.read()[:200].decode(errors="replace").split())
+        raise InputError(config.url, f"image generation failed: HTTP {exc.code}" + (f": {detail}" if detail else "")) \
+            from None
+    except (urllib.error.URLError, TimeoutError, ConnectionError) as exc:
+        reason = getattr(exc, "reason", exc)
+        if isinstance(reason, TimeoutError) or isinstance(exc, TimeoutError):
+            reason = f"no answer within {config.timeout_s:g} s"
+        raise InputError(config.url, f"image generation failed: {reason}") from None
+    image = decode_image_answer(raw, config.url)
+    mask = mask_from_image(_to_input_size(image, input_png))
+    if mask.max() <= 0:
+        raise InputError(config.url, "the generated open-state image shows no object (empty mask)")
+    return OpenState(mask, config.url)
+
+
+def decode_image_answer(raw: bytes, source) -> Image.Image:
+    """The image of an OpenAI images answer ``{"data": [{"b64_json": ...}]}``.
+
+    :raises InputError: naming ``source`` when the answer is not that JSON or the payload is no image
+    """
+    try:
+        payload = json.loads(raw)
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(source, f"image generation answer is not JSON: {exc}") from None
+    try:
+        encoded = payload["data"][0]["b64_json"]
+    except (KeyError, IndexError, TypeError):
+        raise InputError(source, 'image generation answer has no data[0].b64_json') from None
+    try:
+        png = base64.b64decode(encoded, validate=True)
+    except (ValueError, TypeError):
+        raise InputError(source, "image generation answer's b64_json is not base64") from None
+    try:
         image = Image.open(io.BytesIO(png))
         image.load()
-    except urllib.error.HTTPError as exc:
-        raise InputError(config.url, f"image generation failed: HTTP {exc.code}") from None
-    except (urllib.error.URLError, TimeoutError, ConnectionError) as exc:
-        raise InputError(config.url, f"image generation failed: {getattr(exc, 'reason', exc)}") from None
-    except (json.JSONDecodeError, KeyError, IndexError, TypeError, ValueError, OSError) as exc:
-        raise InputError(config.url, f"image generation answer unusable: {exc!r}") from None
-    return OpenState(mask_from_image(image), config.url)
+    except (OSError, ValueError, Image.DecompressionBombError) as exc:
+        raise InputError(source, f"image generation answer's payload is not an image ({len(png)} bytes): "
+                                 f"{type(exc).__name__}") from None
+    return image
+
+
+def _to_input_size(image: Image.Image, input_png: bytes) -> Image.Image:
+    """``image`` resized to the input image's size (a no-op when they agree or the input is unreadable)."""
+    try:
+        with Image.open(io.BytesIO(input_png)) as source:
+            size = source.size
+    except OSError:
+        return image
+    if image.size == size:
+        return image
+    mode = "RGBA" if image.mode in ("RGBA", "LA", "P") else "RGB"
+    return image.convert(mode).resize(size, Image.Resampling.BILINEAR)

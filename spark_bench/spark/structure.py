@@ -136,7 +136,7 @@ def parse_structure(data, source=None, known_links: list[str] | None = None,
 
     :param data: the decoded JSON object ``{"links": [...], "joints": [...]}``
     :param source: file or endpoint it came from, for one-line errors
-    :param known_links: when the part meshes are known in advance, the only allowed link names
+    :param known_links: when the part meshes are known in advance, the link names: each exactly once
     :param upper_table: predefined upper limits by type and range (default :data:`DEFAULT_UPPER`);
         an explicit ``upper`` in a joint wins
     :param origin_bound: largest accepted absolute origin coordinate (benchmark units)
@@ -156,6 +156,8 @@ def parse_structure(data, source=None, known_links: list[str] | None = None,
         _fail(source, f"duplicate link names in {names}")
     if known_links is not None and set(names) - set(known_links):
         _fail(source, f"unknown link names {sorted(set(names) - set(known_links))}; expected from {known_links}")
+    if known_links is not None and set(known_links) - set(names):  # each part mesh needs its link
+        _fail(source, f"missing link names {sorted(set(known_links) - set(names))}; every part needs a link")
     joints = [_parse_joint(k, item, source, set(names), table, origin_bound)
               for k, item in enumerate(data["joints"])]
     _check_tree(names, joints, source)
