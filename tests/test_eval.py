@@ -187,6 +187,24 @@ def test_eval_with_rl_trains_on_the_prediction_and_scores_on_the_ground_truth(tm
     assert list(rl_dir.parent.rglob("*.rl/model.zip")), "the trained policy is kept next to the generation"
 
 
+def test_ray_executor_gives_the_same_results_as_the_process_pool(tiny_bench, tmp_path):
+    pytest.importorskip("ray", reason="the Ray executor is optional: pip install 'spark-bench[ray]'")
+    import ray
+
+    local = run_eval(MethodSpec.create("oracle"), str(tiny_bench), FAST, db=tmp_path / "local.sqlite", workers=0,
+                     runs_root=tmp_path / "runs", progress=False)
+    try:
+        remote = run_eval(MethodSpec.create("oracle"), str(tiny_bench), FAST, db=tmp_path / "ray.sqlite",
+                          workers=1, executor="ray", runs_root=tmp_path / "runs_ray", progress=False)
+    finally:
+        ray.shutdown()
+    assert remote.n_cases == 3 and remote.n_failed == 0
+    assert remote.metrics == local.metrics
+    with ResultsStore(tmp_path / "ray.sqlite") as store:
+        pids = {row["info"]["pid"] for row in store.rows(status="ok")}
+    assert os.getpid() not in pids, "cases ran in Ray workers, not in the driver"
+
+
 def test_unknown_method_is_a_one_line_error(tiny_bench, capsys, isolated_home):
     assert main(["eval", "--method", "nope", "--bench", str(tiny_bench), "--no-progress"]) == 2
     err = capsys.readouterr().err
