@@ -14,13 +14,12 @@ import base64
 import io
 import json
 import sys
-import threading
 import time
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers_http import LoopbackServer
 from PIL import Image
 from scipy.spatial import cKDTree
 
@@ -318,46 +317,15 @@ def test_ours_on_an_object_whose_base_link_has_the_body(tmp_path):
 
 # ----- http open state ---------------------------------------------------------------------------
 
-class FakeImages:
+class FakeImages(LoopbackServer):
     """An OpenAI-style images endpoint on loopback: answers a scripted list of (status, body, delay)."""
 
     def __init__(self, script):
-        self.script, self.requests = list(script), []
-        owner = self
-
-        class Handler(BaseHTTPRequestHandler):
-            def do_POST(self):  # noqa: N802 (http.server API)
-                body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
-                owner.requests.append({"path": self.path, "body": body, "auth": self.headers.get("Authorization")})
-                status, data, delay = owner.script.pop(0) if len(owner.script) > 1 else owner.script[0]
-                time.sleep(delay)
-                try:
-                    self.send_response(status)
-                    self.send_header("Content-Type", "application/json")
-                    self.send_header("Content-Length", str(len(data)))
-                    self.end_headers()
-                    self.wfile.write(data)
-                except (BrokenPipeError, ConnectionResetError):
-                    pass  # the client gave up (timeout test)
-
-            def log_message(self, *args):
-                pass
-
-        self.server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-        self.server.daemon_threads = True
-        self.thread = threading.Thread(target=self.server.serve_forever, args=(0.05,), daemon=True)
+        super().__init__(script, lambda body, entry: entry)
 
     @property
     def url(self):
-        return f"http://127.0.0.1:{self.server.server_address[1]}/v1/images/edits"
-
-    def __enter__(self):
-        self.thread.start()
-        return self
-
-    def __exit__(self, *exc):
-        self.server.shutdown()
-        self.server.server_close()
+        return f"{self.root}/v1/images/edits"
 
 
 def images_answer(png: bytes) -> bytes:

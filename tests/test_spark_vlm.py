@@ -1,10 +1,9 @@
 """The ``vlm`` prior against a real HTTP server on loopback speaking the chat-completions protocol."""
 
 import json
-import threading
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import pytest
+from helpers_http import LoopbackServer
 
 from spark_bench.errors import InputError
 from spark_bench.spark.config import SparkConfig, VLMConfig
@@ -18,45 +17,22 @@ GOOD = {"links": [{"name": "body", "label": "body"}, {"name": "door", "label": "
                     "origin": [0.0, -0.5, 0.47], "range": "large"}]}
 
 
-class FakeVLM:
+def _chat_answer(body: dict, entry: tuple) -> tuple[int, bytes, float]:
+    status, content = entry
+    payload = {"id": "x", "object": "chat.completion", "model": body["model"],
+               "choices": [{"index": 0, "finish_reason": "stop", "message": {"role": "assistant", "content": content}}]}
+    return status, json.dumps(payload).encode() if status == 200 else b'{"error": "boom"}', 0.0
+
+
+class FakeVLM(LoopbackServer):
     """Serves a scripted list of (status, content) replies, then repeats the last; records requests."""
 
     def __init__(self, script):
-        self.script, self.requests = list(script), []
-        owner = self
-
-        class Handler(BaseHTTPRequestHandler):
-            def do_POST(self):  # noqa: N802 (http.server API)
-                body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
-                owner.requests.append({"path": self.path, "body": body, "auth": self.headers.get("Authorization")})
-                status, content = owner.script.pop(0) if len(owner.script) > 1 else owner.script[0]
-                payload = {"id": "x", "object": "chat.completion", "model": body["model"],
-                           "choices": [{"index": 0, "finish_reason": "stop",
-                                        "message": {"role": "assistant", "content": content}}]}
-                data = json.dumps(payload).encode() if status == 200 else b'{"error": "boom"}'
-                self.send_response(status)
-                self.send_header("Content-Type", "application/json")
-                self.send_header("Content-Length", str(len(data)))
-                self.end_headers()
-                self.wfile.write(data)
-
-            def log_message(self, *args):
-                pass
-
-        self.server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-        self.thread = threading.Thread(target=self.server.serve_forever, daemon=True)
+        super().__init__(script, _chat_answer)
 
     @property
     def base_url(self):
-        return f"http://127.0.0.1:{self.server.server_address[1]}/v1"
-
-    def __enter__(self):
-        self.thread.start()
-        return self
-
-    def __exit__(self, *exc):
-        self.server.shutdown()
-        self.server.server_close()
+        return f"{self.root}/v1"
 
 
 def _config(url, **kw):
