@@ -170,9 +170,13 @@ def write_scripted_md(report: dict, n_synth: int, results: Path) -> Path:
     """``envs_scripted.md`` in ``results``: the speed table, the scripted opener's success per kind on
     the synth objects and per object on the real ones, and every joint it did not open."""
     results.mkdir(parents=True, exist_ok=True)
+    load = report.get("load", {})
     lines = ["# Opening environments: speed and the scripted opener", "",
-             "Produced by `python benchmarks/bench_envs.py --skip-train --results benchmarks/results` on the 2",
-             "shared CPU cores (other jobs running).", "",
+             "Produced by `python benchmarks/bench_envs.py --skip-train --results benchmarks/results` on "
+             f"{os.cpu_count()} visible CPU cores shared with other engineers' jobs (1-minute load average "
+             f"{load.get('start', float('nan')):.1f} at the start, {load.get('end', float('nan')):.1f} at the end): "
+             "absolute steps/s vary with that load; the overhead ratios compare runs interleaved in the same "
+             "seconds.", "",
              f"## Speed (control step = {N_SUBSTEPS} physics steps; random actions near the handle)", "",
              "| env | env steps/s | unwrapped steps/s | raw mj_step steps/s | overhead (env / raw) |",
              "|---|---|---|---|---|"]
@@ -197,9 +201,14 @@ def write_scripted_md(report: dict, n_synth: int, results: Path) -> Path:
     grips = {}
     for r in synth + real:
         grips[r.get("grasp", "error")] = grips.get(r.get("grasp", "error"), 0) + 1
+    thin = [f"{r['object']} {r['joint']} ({1000 * r['pad_thickness']:.1f} mm)" for r in synth + real
+            if r.get("pad_thickness") is not None]
     lines += ["", "Grasps: " + ", ".join(f"{k} {v}" for k, v in sorted(grips.items())) +
               " (label: an annotated handle link; geometry: a handle found proud of the front; notch: a "
-              "finger-pull notch, gripped from inside; face: no handle).", "", "Not opened:", ""]
+              "finger-pull notch, gripped from inside; face: no handle).", "",
+              f"Pads thinned to fit beside the handle (another part's feature, e.g. the other leaf's edge lip "
+              f"of a double door, stands inside the open fingers' sweep; the fingers approach pre-closed): "
+              f"{len(thin)} joints" + (f": {', '.join(thin)}." if thin else "."), "", "Not opened:", ""]
     failures = [r for r in synth + real if r["success_rate"] < 1.0]
     lines += [f"- {r['object']} {r['joint']} ({r['type']}, grasp {r.get('grasp')}, largest opening "
               f"{r.get('max_fraction', 0):.2f}) {r.get('error', '')}".rstrip() for r in failures] or ["- none"]
@@ -225,7 +234,7 @@ def main() -> None:
     args = parser.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="bench_envs_"))
     out.mkdir(parents=True, exist_ok=True)
-    report: dict = {}
+    report: dict = {"load": {"start": os.getloadavg()[0]}}
     algos = tuple(a.strip().lower() for a in args.algos.split(",") if a.strip())
     if args.summarize_train is not None:
         rows = training_rows(args.summarize_train, algos)
@@ -274,6 +283,7 @@ def main() -> None:
             console.print(f"{row['algo'].upper()}: success {row['final_success']:.2f} after {row['steps']} steps, "
                           f"{row['wall_s']:.0f} s (best {row['best_success']:.2f} at {row['best_at_steps']} steps, "
                           f"{row['best_at_wall_s']:.0f} s); curve {row['curve']}")
+    report["load"]["end"] = os.getloadavg()[0]
     (out / "bench_envs.json").write_text(json.dumps(report, indent=2, default=float))
     if args.results is not None:
         console.print(f"wrote {write_scripted_md(report, args.synth, args.results)}")

@@ -113,6 +113,8 @@ def test_grasp_point_is_the_handle_bar_on_the_procedural_cabinet():
     bar = asset.links["link_1"].collisions[1]
     assert np.linalg.norm(door.point - (poses["link_1"] @ bar.origin)[:3, 3]) < 0.01
     assert abs(door.long_axis[2]) > 0.99 and door.source == "geometry"
+    # nothing else stands beside these handles: the fingers approach fully open, with the default pads
+    assert drawer.opening is None and door.opening is None and door.pad_thickness is None
 
 
 def test_grasp_points_match_partnet_handle_annotations(real_object):
@@ -233,3 +235,69 @@ def test_a_notch_in_a_front_is_found_and_gripped_from_inside():
     pad = env.unwrapped.model.geom("spark_gripper_pad_left")
     assert 2 * pad.size[2] <= NOTCH_DEPTH - 0.008  # pads low enough to enter the notch
 
+
+
+#: Synth StorageFurniture object 7 of ``generate_dataset(seed=0)`` (the benchmark's set): a double door
+#: whose two edge lips (the handles) stand about 6 mm apart, half a default pad's thickness.
+DOUBLE_DOOR_INDEX = 7
+
+
+def double_door_cabinet(out):
+    """Generate the synth double-door cabinet into ``out``; returns its folder."""
+    from spark_bench.data.synth.generate import generate_object, object_seed
+
+    return generate_object("StorageFurniture", object_seed(0, DOUBLE_DOOR_INDEX), out, "double_door")
+
+
+@pytest.fixture(scope="module")
+def double_door(tmp_path_factory):
+    return double_door_cabinet(tmp_path_factory.mktemp("synth"))
+
+
+def _door_joints(asset) -> list[str]:
+    return [j.name for j in asset.movable_joints() if j.type == "revolute"]
+
+
+def _handle_points(asset, joint: str) -> np.ndarray:
+    links = [name for name in asset.part_of_joint(joint) if asset.links[name].label == "handle"]
+    return np.asarray(asset.mesh(links=links).vertices)
+
+
+def test_clipped_vertices_are_the_mesh_inside_the_box():
+    import trimesh
+
+    from spark_bench.envs.grasp import clipped_vertices
+
+    cube = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    frame = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])  # box u = world y, v = z, w = x
+    inside = clipped_vertices(cube, np.array([0.0, 0.0, 0.0]), frame, [0.1, -np.inf, 0.2], [0.3, np.inf, np.inf])
+    np.testing.assert_allclose(inside.min(0), [0.1, -0.5, 0.2], atol=1e-9)
+    np.testing.assert_allclose(inside.max(0), [0.3, 0.5, 0.5], atol=1e-9)
+    assert len(clipped_vertices(cube, np.zeros(3), frame, [0.6, -1, -1], [0.9, 1, 1])) == 0
+
+
+def test_double_door_lips_are_pinched_one_at_a_time(double_door):
+    """The two leaves' edge lips stand closer than a default pad is thick: each door's grasp puts its
+    pads into the gaps beside its own lip, thin enough that the other lip stays outside the fingers."""
+    from spark_bench.data import load_object
+    from spark_bench.envs.gripper import GripperConfig
+
+    asset = load_object(double_door)
+    doors = _door_joints(asset)
+    assert len(doors) == 2
+    lips = [_handle_points(asset, joint) for joint in doors]
+    closing = find_grasp(asset, doors[0]).closing
+    across = [lip @ closing for lip in lips]
+    gap = max(across[1].min() - across[0].max(), across[0].min() - across[1].max())
+    assert 0.002 < gap < GripperConfig().pad_thickness  # the case: a default pad does not fit between the lips
+    for joint, own, other in ((doors[0], lips[0], lips[1]), (doors[1], lips[1], lips[0])):
+        grasp = find_grasp(asset, joint)
+        assert grasp.source == "label" and grasp.opening is not None
+        assert grasp.pad_thickness < gap and grasp.clearance >= 0.001
+        inner, outer = grasp.opening, grasp.opening + grasp.pad_thickness  # each pad's faces from the TCP
+        assert np.all(np.abs((own - grasp.point) @ grasp.closing) < inner - 0.0009)  # own lip between the pads
+        assert np.all(np.abs((other - grasp.point) @ grasp.closing) > outer + 0.0009)  # the other lip outside
+        env = gym.make("SparkDoor-v0", asset=str(double_door), joint=joint)
+        pad = env.unwrapped.model.geom("spark_gripper_pad_left")
+        assert 2 * pad.size[1] == pytest.approx(grasp.pad_thickness)
+        env.close()

@@ -29,13 +29,22 @@ class GripperConfig:
     :param tip_beyond_tcp: how far the fingertips reach past the TCP, m
     :param max_opening: finger travel per side, m (full opening is twice this)
     :param pad_height: pad extent across the approach and closing directions, m (lower to fit a notch)
+    :param pad_thickness: pad extent along the closing direction, m (thinner to fit a pad into a narrow gap
+        beside a handle, e.g. between the edge lips of a double door)
     :param kp: stiffness of the translation servos, N/m
     :param force_limit: force limit of each translation servo, N
     :param finger_kp: stiffness of each finger servo, N/m
     :param squeeze: how far past fully closed (m) the closed command aims: the grip force on a handle of
         width w is about ``finger_kp * (squeeze + w / 2)``, up to ``grip_force``
     :param grip_force: force limit of each finger servo, N
+    :param finger_damping: damping of each finger slide, N s/m: it caps the closing speed near
+        ``grip_force / finger_damping`` without lowering the static grip force
     :param pad_friction: sliding friction of the finger pads
+    :param pad_solref: contact ``solref`` (time constant s, damping ratio) of the finger pads (they have
+        contact priority, so theirs is used): MuJoCo scales a contact's softness with the light fingers'
+        mass, and at its default (0.02 s) a 40 N grip sinks each pad 1-2 mm into what it holds (harmless
+        for the default 12 mm pads; a 3 mm pad nearly passes through a 5 mm lip); twice the physics step
+        (MuJoCo's stiffest safe value) keeps it to about 0.5 mm
     :param wrist_stiffness: spring of the passive wrist hinge (doors), N m/rad
     :param wrist_damping: damping of the passive wrist hinge, N m s/rad
     :param rgba: display colour
@@ -45,12 +54,15 @@ class GripperConfig:
     tip_beyond_tcp: float = 0.012
     max_opening: float = 0.045
     pad_height: float = 0.024
+    pad_thickness: float = 0.012
     kp: float = 1500.0
     force_limit: float = 150.0
     finger_kp: float = 1000.0
     squeeze: float = 0.025
     grip_force: float = 40.0
+    finger_damping: float = 2.0
     pad_friction: float = 1.5
+    pad_solref: tuple = (0.02, 1.0)
     wrist_stiffness: float = 0.3
     wrist_damping: float = 0.3
     rgba: tuple = (0.15, 0.35, 0.8, 1.0)
@@ -150,16 +162,17 @@ def add_gripper(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
                   quat=_quat(hand_rotation([0, 0, 1], [0, 1, 0])), mass=0.2, rgba=color, contype=0,
                   conaffinity=0)
     fingers, finger_joints, finger_acts, sensors = [], [], [], []
-    pad_half = 0.006
+    pad_half = cfg.pad_thickness / 2
     for side, sign in (("left", 1.0), ("right", -1.0)):
         body = hand.add_body(name=f"{p}_finger_{side}", gravcomp=1.0)
         joint = f"{p}_finger_{side}_slide"
         body.add_joint(name=joint, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, sign, 0], limited=True,
-                       range=[0.0, cfg.max_opening], armature=0.001, damping=2.0)
+                       range=[0.0, cfg.max_opening], armature=0.001, damping=cfg.finger_damping)
         center = [tip - length / 2, sign * pad_half, 0]
         body.add_geom(name=f"{p}_pad_{side}", type=mujoco.mjtGeom.mjGEOM_BOX, pos=center,
                       size=[length / 2, pad_half, cfg.pad_height / 2], mass=0.05, rgba=color, contype=2, conaffinity=1,
-                      friction=[cfg.pad_friction, 0.02, 0.001], condim=4, priority=1)
+                      friction=[cfg.pad_friction, 0.02, 0.001], condim=4, priority=1,
+                      solref=list(cfg.pad_solref))
         body.add_site(name=f"{p}_pad_{side}_site", type=mujoco.mjtGeom.mjGEOM_BOX, pos=center,
                       size=[length / 2 + 0.002, pad_half + 0.002, cfg.pad_height / 2 + 0.002], rgba=[0, 0, 0, 0])
         sensor = spec.add_sensor(name=f"{p}_touch_{side}", type=mujoco.mjtSensor.mjSENS_TOUCH,

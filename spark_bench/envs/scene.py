@@ -10,7 +10,7 @@ not each other.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -29,6 +29,10 @@ N_SUBSTEPS = 10
 IMPRATIO = 10.0
 #: Room (m) left between the pads and a notch's edges, across the closing direction.
 NOTCH_CLEARANCE = 0.014
+#: Contact ``solref`` of pads thinned to fit beside a handle: the stiffest MuJoCo allows at this step
+#: (2 steps), so that a 3 mm pad squeezing a 5 mm lip sinks about 0.5 mm into it, not 2 mm (at 0.02 s).
+#: The default pads keep MuJoCo's default, which the opener's grasps were tuned on.
+THIN_PAD_SOLREF = (2 * TIMESTEP, 1.0)
 #: How far (m) around the object's box the gripper may move.
 WORKSPACE_MARGIN = 0.35
 
@@ -109,7 +113,7 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     """
     chosen = choose_joint(asset, kind, joint)
     try:
-        grasp = find_grasp(asset, chosen.name)
+        grasp = find_grasp(asset, chosen.name, gripper=gripper)
     except ValueError as exc:
         raise InputError(asset.source or asset.name, str(exc)) from None
     from spark_bench.sim import build_spec
@@ -129,6 +133,10 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     if gripper is None and grasp.inside_grip and grasp.notch_size is not None:
         # pads low enough to enter the notch with room to spare
         gripper = GripperConfig(pad_height=float(np.clip(grasp.notch_size[0] - NOTCH_CLEARANCE, 0.008, 0.024)))
+    if grasp.pad_thickness is not None:
+        # pads thin enough to fit into the gaps beside the handle (find_grasp planned them for this gripper)
+        base = gripper or GripperConfig()
+        gripper = replace(base, pad_thickness=min(base.pad_thickness, grasp.pad_thickness), pad_solref=THIN_PAD_SOLREF)
     handles = add_gripper(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
                           workspace=workspace, config=gripper)
     try:

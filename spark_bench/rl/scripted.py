@@ -32,6 +32,10 @@ PULL_STEP = 0.03
 #: presses on it (about ``kp * PRESS_OFFSET`` = 15 N), and the steps spent pressing before the fingers open.
 PRESS_OFFSET = 0.01
 PRESS_STEPS = 5
+#: Aligned approach (pads going into narrow gaps beside the handle): the TCP advances along the approach
+#: line by at most this much (m) per step, and only while it is within the lateral tolerance of that line.
+ALIGNED_STEP = 0.005
+ALIGNED_APPROACH_STEPS = 50
 
 
 def _unit(v) -> np.ndarray:
@@ -61,10 +65,14 @@ class ScriptedOpener:
     :param pull_step: path length per step while opening, m
     :param inside_grip: grip from inside a notch (see above)
     :param press: unit direction towards the notch's inner wall at rest, world frame (inside grip)
+    :param approach_grip: the gripper command (the action's last entry) while travelling to the grasp;
+        None: fully open (closed for an inside grip)
+    :param lateral_tolerance: aligned approach (see above) with this tolerance, m; None: direct approach
     """
 
     def __init__(self, axis, pivot, joint_type: str, outward, pull_step: float = PULL_STEP,
-                 inside_grip: bool = False, press=None):
+                 inside_grip: bool = False, press=None, approach_grip: float | None = None,
+                 lateral_tolerance: float | None = None):
         if joint_type not in ("prismatic", "revolute", "continuous"):
             raise ValueError(f"cannot open a {joint_type!r} joint")
         self.axis = _unit(axis)
@@ -76,6 +84,8 @@ class ScriptedOpener:
         if self.inside_grip and press is None:
             raise ValueError("an inside grip needs a press direction")
         self.press = _unit(press) if self.inside_grip else np.zeros(3)
+        self.approach_grip = None if approach_grip is None else float(np.clip(approach_grip, -1.0, 1.0))
+        self.lateral_tolerance = None if lateral_tolerance is None else float(lateral_tolerance)
         self.reset()
 
     def reset(self) -> None:
@@ -108,6 +118,15 @@ class ScriptedOpener:
         on_circle = center + radial / max(np.linalg.norm(radial), 1e-9) * self.radius
         return rotate_about(on_circle, self.pivot, self.axis, self.pull_step / self.radius) + press
 
+    def _aligned_target(self, tcp: np.ndarray, grasp: np.ndarray, outward: np.ndarray) -> np.ndarray:
+        """The next waypoint of an aligned approach: down the line ``grasp + s * outward`` by at most
+        :data:`ALIGNED_STEP`, or no further down it while the TCP is off it by more than the tolerance."""
+        rel = tcp - grasp
+        depth = float(rel @ outward)
+        off_line = np.linalg.norm(rel - depth * outward)
+        advance = ALIGNED_STEP if off_line <= self.lateral_tolerance else 0.0
+        return grasp + max(depth - advance, 0.0) * outward
+
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         """The action for observation ``obs`` (the environments' layout)."""
         tcp, grasp = obs[0:3].astype(float), obs[8:11].astype(float)
@@ -116,15 +135,22 @@ class ScriptedOpener:
         self.phase_steps += 1
         # an inside grip travels with closed fingers and grips by opening them
         travel, hold = (1.0, -1.0) if self.inside_grip else (-1.0, 1.0)
-        grip = travel
+        grip = travel if self.approach_grip is None else self.approach_grip
         press = PRESS_OFFSET * self._turned(self.press, grasp)
+        aligned = self.lateral_tolerance is not None
         if self.phase == "pregrasp":
-            target = grasp + PREGRASP_OFFSET * self._turned(self.outward, grasp)
-            if np.linalg.norm(target - tcp) < WAYPOINT_TOLERANCE or self.phase_steps > 30:
+            outward = self._turned(self.outward, grasp)
+            target = grasp + PREGRASP_OFFSET * outward
+            error = target - tcp
+            if aligned:  # on the approach line, not just near the waypoint
+                error = error - np.dot(error, outward) * outward
+            tolerance = self.lateral_tolerance if aligned else WAYPOINT_TOLERANCE
+            if np.linalg.norm(error) < tolerance or self.phase_steps > 30:
                 self._next("approach")
         elif self.phase == "approach":
-            target = grasp
-            if np.linalg.norm(target - tcp) < WAYPOINT_TOLERANCE or self.phase_steps > 20:
+            target = self._aligned_target(tcp, grasp, self._turned(self.outward, grasp)) if aligned else grasp
+            limit = ALIGNED_APPROACH_STEPS if aligned else 20
+            if np.linalg.norm(grasp - tcp) < WAYPOINT_TOLERANCE or self.phase_steps > limit:
                 self._next("press" if self.inside_grip else "close")
         elif self.phase == "press":
             target = grasp + press
@@ -132,6 +158,8 @@ class ScriptedOpener:
                 self._next("close")
         elif self.phase == "close":
             target, grip = grasp + press, hold
+            if aligned:  # close gradually: thin pads slamming shut from beside a thin lip can pass through it
+                grip = grip + (self.approach_grip - grip) * (1.0 - self.phase_steps / CLOSE_STEPS)
             if self.phase_steps >= CLOSE_STEPS:
                 self._next("open")
         else:
@@ -167,12 +195,28 @@ def ground_truth_joint(env: gym.Env) -> tuple[np.ndarray, np.ndarray, str]:
     return axis, pivot, scene.joint.type
 
 
+def grip_command(config, opening: float) -> float:
+    """The gripper command (the action's last entry) that holds each finger ``opening`` (m) open: the
+    environments map -1 to fully open and +1 to :attr:`GripperConfig.squeeze` past closed, linearly.
+
+    :param config: the scene's :class:`~spark_bench.envs.gripper.GripperConfig`
+    """
+    closed = -config.squeeze
+    return float(1.0 - 2.0 * (opening - closed) / (config.max_opening - closed))
+
+
 def opener_for(env: gym.Env, axis, pivot, joint_type: str, pull_step: float = PULL_STEP) -> ScriptedOpener:
-    """A :class:`ScriptedOpener` for ``env``'s grasp (its outward direction, and its inside grip if the
-    part has a notch), planned from the given joint parameters."""
-    grasp = env.unwrapped.scene.grasp
+    """A :class:`ScriptedOpener` for ``env``'s grasp (its outward direction, its inside grip if the part
+    has a notch, its pre-closed aligned approach if the pads go into gaps beside the handle), planned from
+    the given joint parameters."""
+    scene = env.unwrapped.scene
+    grasp = scene.grasp
+    approach_grip = lateral_tolerance = None
+    if grasp.opening is not None and not grasp.inside_grip:
+        approach_grip = grip_command(scene.gripper.config, grasp.opening)
+        lateral_tolerance = 0.5 * grasp.clearance
     return ScriptedOpener(axis, pivot, joint_type, grasp.outward, pull_step, inside_grip=grasp.inside_grip,
-                          press=grasp.press)
+                          press=grasp.press, approach_grip=approach_grip, lateral_tolerance=lateral_tolerance)
 
 
 def open_with_joint(env: gym.Env, axis, pivot, joint_type: str, seed: int | None = None,
@@ -231,7 +275,9 @@ def open_every_joint(asset, episodes: int = 1, seed: int = 0, max_episode_steps:
             rows.append({"joint": joint.name, "type": joint.type, "success_rate": 0.0, "error": str(exc)})
             continue
         results = [open_with_ground_truth(env, seed=seed + k) for k in range(episodes)]
-        rows.append({"joint": joint.name, "type": joint.type, "grasp": env.unwrapped.scene.grasp.source,
+        grasp = env.unwrapped.scene.grasp
+        rows.append({"joint": joint.name, "type": joint.type, "grasp": grasp.source,
+                     "pad_thickness": grasp.pad_thickness,
                      "success_rate": float(np.mean([r.success for r in results])),
                      "max_fraction": float(np.mean([r.max_fraction for r in results]))})
         env.close()
