@@ -128,12 +128,13 @@ def test_scripted_opener_opens_notched_fronts_with_an_inside_grip(env_id, joint)
 
 
 def test_grip_command_spans_the_gripper_travel():
-    from spark_bench.envs.gripper import GripperConfig
-    from spark_bench.rl.scripted import grip_command
+    from spark_bench.envs.gripper import GripperConfig, finger_target, grip_command
 
     cfg = GripperConfig()
     assert grip_command(cfg, cfg.max_opening) == pytest.approx(-1.0)
     assert grip_command(cfg, -cfg.squeeze) == pytest.approx(1.0)
+    for opening in (-cfg.squeeze, 0.0, 0.013, cfg.max_opening):  # the env's mapping inverts it
+        assert finger_target(cfg, grip_command(cfg, opening)) == pytest.approx(opening)
     env = gym.make("SparkDrawer-v0", asset="procedural:0")
     env.reset(seed=0)
     for _ in range(15):  # held at a partial opening, the fingers settle there

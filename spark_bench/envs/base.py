@@ -17,6 +17,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco  # noqa: E402  (after MUJOCO_GL)
 
 from spark_bench.envs.assets import AssetLike, asset_key, load_asset  # noqa: E402
+from spark_bench.envs.gripper import finger_target  # noqa: E402
 from spark_bench.envs.scene import N_SUBSTEPS, Scene, build_scene  # noqa: E402
 
 #: Largest TCP displacement per step (action 1.0), m.
@@ -113,8 +114,8 @@ class SparkArticulationEnv(gym.Env):
         self._span = self._open - self._rest
         self._body = m.body(self.scene.grasp_body).id
         self._local = self.scene.grasp_local.copy()
+        self._gripper_config = g.config
         self._max_opening = g.config.max_opening
-        self._closed = -g.config.squeeze  # a closed command aims past contact, so the fingers squeeze
         self._low, self._high = self.scene.workspace[0], self.scene.workspace[1]
 
     # ----- state -----------------------------------------------------------------------------
@@ -194,7 +195,7 @@ class SparkArticulationEnv(gym.Env):
         a = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
         d = self.data
         d.ctrl[self._act_tcp] = np.clip(d.qpos[self._tcp_q] + MAX_STEP * a[:3], self._low, self._high)
-        d.ctrl[self._act_fingers] = self._closed + (self._max_opening - self._closed) * 0.5 * (1.0 - a[3])
+        d.ctrl[self._act_fingers] = finger_target(self._gripper_config, a[3])
         mujoco.mj_step(self.model, d, nstep=N_SUBSTEPS)
         obs = self._obs()
         terms = self._reward_terms(obs)

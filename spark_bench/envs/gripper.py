@@ -190,3 +190,17 @@ def add_gripper(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
                           slide_actuators=tuple(slide_acts), finger_actuators=tuple(finger_acts),
                           hand_body=hand.name, finger_bodies=tuple(fingers), touch_sensors=tuple(sensors),
                           config=cfg)
+
+
+def finger_target(config: GripperConfig, command: float) -> float:
+    """Each finger's position target (m from closed) for a gripper command in [-1, 1]: -1 fully open,
+    +1 :attr:`GripperConfig.squeeze` past closed (so a closed grip squeezes), linear between."""
+    closed = -config.squeeze
+    return closed + (config.max_opening - closed) * 0.5 * (1.0 - float(command))
+
+
+def grip_command(config: GripperConfig, opening: float) -> float:
+    """The gripper command that holds each finger ``opening`` (m) open: the inverse of
+    :func:`finger_target`."""
+    closed = -config.squeeze
+    return float(1.0 - 2.0 * (opening - closed) / (config.max_opening - closed))

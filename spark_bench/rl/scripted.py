@@ -19,6 +19,7 @@ import gymnasium as gym
 import numpy as np
 
 from spark_bench.envs.base import MAX_STEP
+from spark_bench.envs.gripper import grip_command
 
 #: Distance (m) in front of the grasp point where the approach starts.
 PREGRASP_OFFSET = 0.06
@@ -193,16 +194,6 @@ def ground_truth_joint(env: gym.Env) -> tuple[np.ndarray, np.ndarray, str]:
     scene = env.unwrapped.scene
     pivot, axis = scene.asset.joint_frames()[scene.joint.name]
     return axis, pivot, scene.joint.type
-
-
-def grip_command(config, opening: float) -> float:
-    """The gripper command (the action's last entry) that holds each finger ``opening`` (m) open: the
-    environments map -1 to fully open and +1 to :attr:`GripperConfig.squeeze` past closed, linearly.
-
-    :param config: the scene's :class:`~spark_bench.envs.gripper.GripperConfig`
-    """
-    closed = -config.squeeze
-    return float(1.0 - 2.0 * (opening - closed) / (config.max_opening - closed))
 
 
 def opener_for(env: gym.Env, axis, pivot, joint_type: str, pull_step: float = PULL_STEP) -> ScriptedOpener:
