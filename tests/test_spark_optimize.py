@@ -9,7 +9,7 @@ import torch
 from spark_bench.spark.assemble import assemble_asset, joint_summary
 from spark_bench.spark.diagnostics import axis_error, line_distance
 from spark_bench.spark.geometry import annotation_geometry
-from spark_bench.spark.optimize import OpenStateScene
+from spark_bench.spark.optimize import Adam, LossWeights, OpenStateScene, Stage
 from spark_bench.spark.prior import ground_truth_structure
 from spark_bench.spark.refine import RefineSettings, prior_hypotheses, refine
 from spark_bench.spark.render import open_part_masks, rasterize_mask
@@ -122,6 +122,48 @@ def test_seg_scorer_matches_seg_score(problem):
                 hyp = replace(hyps["joint_0"], value=value, pivot_offset=np.array([shift, 0.0, -shift]))
                 full = scene.seg_score({**hyps, "joint_0": hyp}, 64, blur)
                 assert scorer(hyp) == pytest.approx(full, abs=1e-12)
+        # and in one batch, the same scores (regions the door never covers are compared once)
+        batch = [replace(hyps["joint_0"], value=v, pivot_offset=np.array([d, 0.0, -d]))
+                 for v in (0.0, 0.6, 1.2) for d in (0.0, 0.15)]
+        expected = [scene.seg_score({**hyps, "joint_0": h}, 64, blur) for h in batch]
+        assert scorer.scores(batch) == pytest.approx(expected, abs=1e-12)
     # the truth scores near 0, a door opened 0.5 rad too little does not
     assert scene.seg_score(hyps, 64) < 0.03
     assert scene.seg_score({**hyps, "joint_0": replace(hyps["joint_0"], value=0.7)}, 64, 1.0) > 0.1
+
+
+def test_still_parts_give_the_full_loss_and_gradient(problem):
+    """Rendering only the links that a fit moves, over the others' cached images, is the same loss."""
+    gt, camera, target, _ = problem
+    scene = OpenStateScene(gt, camera, target, part_masks=open_part_masks(gt, camera))
+    hyps = prior_hypotheses(gt)
+    stage = Stage(64, 0.7, 1)
+    for use_still in (False, True):
+        pivot = torch.tensor([0.05, 0.0, -0.03], dtype=torch.float64, requires_grad=True)
+        value = torch.tensor(1.0, dtype=torch.float64, requires_grad=True)
+        still = scene.still_parts(hyps, ["joint_0"], stage) if use_still else None
+        loss = scene.image_loss(hyps, stage, LossWeights(), {"joint_0": (pivot, value)}, still)
+        loss.backward()
+        if not use_still:
+            full = (float(loss.detach()), pivot.grad.clone(), value.grad.clone())
+    assert float(loss.detach()) == pytest.approx(full[0], abs=1e-6)
+    assert torch.allclose(pivot.grad, full[1], atol=1e-6) and torch.allclose(value.grad, full[2], atol=1e-6)
+    assert float(full[2].abs()) > 0
+
+
+def test_adam_matches_torch_adam():
+    """The optimizer's own Adam takes torch.optim.Adam's steps."""
+    start = torch.tensor([0.3, -1.2, 2.0], dtype=torch.float64)
+    ours, theirs = start.clone().requires_grad_(True), start.clone().requires_grad_(True)
+    mine, reference = Adam([ours], [0.05]), torch.optim.Adam([theirs], lr=0.05)
+    for step in range(20):
+        scale = 1.0 if step < 10 else 0.5
+        for group in reference.param_groups:
+            group["lr"] = 0.05 * scale
+        for tensor, optimizer in ((ours, mine), (theirs, reference)):
+            optimizer.zero_grad()
+            ((tensor - 1.0) ** 2 * torch.tensor([1.0, 3.0, 0.5], dtype=torch.float64)).sum().backward()
+        mine.step(scale)
+        reference.step()
+    assert torch.allclose(ours, theirs, atol=1e-12)
+    assert float((ours.detach() - start).abs().min()) > 0.1

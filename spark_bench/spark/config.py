@@ -14,6 +14,7 @@ Example (TOML)::
     backend = "dataset"      # dataset | http
     [optimize]
     enabled = true
+    screen_blur = 1.0        # any OptimizeConfig field, e.g. the discrete search's knobs
 
 Command-line style overrides (``section.key=value``, value parsed as JSON when it parses) go through
 :meth:`SparkConfig.with_overrides`. :meth:`SparkConfig.label` is the string results rows carry.
@@ -98,13 +99,49 @@ class OpenStateConfig:
 
 @dataclass
 class OptimizeConfig:
-    """Stage 4 (see :class:`spark_bench.spark.refine.RefineSettings` for the knobs' meaning).
+    """Stage 4: the native joint optimization (:func:`spark_bench.spark.refine.refine`; the module
+    docstring of :mod:`spark_bench.spark.refine` describes the search these settings drive).
 
     :param enabled: run the joint optimization (False: export the prior as is)
     :param refine: discrete type/axis refinement: ``render`` (offline), ``vlm`` (ask the VLM again with
         the coarse URDF, then fit continuously) or ``none``
     :param part_masks: also fit and score against the open state's per-part masks when it has them and
         the parts are the case's own links (``annotation`` geometry with the ``dataset`` open state)
+    :param screen_size: image size (px) of the first level of each candidate's short fit
+    :param screen_tau: edge softness (px) at that level
+    :param short_steps: Adam steps of a short fit at that level
+    :param short_fine_size: image size of the short fit's second level (its steps: ``short_fine_steps``,
+        0 for none)
+    :param short_fine_tau: edge softness at that level
+    :param short_fine_steps: Adam steps at that level
+    :param top_k: candidates per joint that get a short fit (besides the best of the prior's family)
+    :param score_size: image size of the exact segmentation score that picks among the finalists
+    :param screen_score_size: image size of the blurred segmentation score that screens the candidates
+    :param screen_blur: Gaussian blur (px) of that score: a part within about this many pixels of its
+        place scores nearly as well as in place, so a coarse grid of open values finds it
+    :param screen_values_revolute: open values (rad) each revolute candidate is screened at (besides
+        the prior's)
+    :param screen_values_prismatic: open values (benchmark units) each prismatic candidate is screened
+        at (up to 1.3: a lid lifted off a pot travels more than a drawer)
+    :param screen_local: steps of the local search of the best screened candidates' open values, in
+        order (radians; for prismatic joints, fractions of the value)
+    :param small_part: a part whose rest box is smaller than this fraction of the object's gets only the
+        prior's and the centre-line pivot starts (0: off)
+    :param margin_rel: a candidate of another type or axis must beat the prior's score by this fraction
+        of it (and by ``margin_abs`` at least) to replace it
+    :param margin_abs: the smallest such margin
+    :param final_sizes: image sizes of the final joint fit's levels, coarse to fine
+    :param final_taus: edge softness of each level
+    :param final_steps: Adam steps of each level
+    :param w_edge: weight of the edge term of the loss
+    :param w_part: weight of the per-part coverage term (with part masks)
+    :param lambda_t: regularizer weight of the pivot offsets
+    :param lambda_theta: regularizer weight of the open values
+    :param lr_pivot: Adam step for pivot offsets
+    :param lr_value: Adam step for open values
+    :param include_fixed: also try ``fixed`` for every joint
+    :param sweeps: most passes of the discrete search over the joints
+    :param max_faces: per-link face budget of the rendered meshes
     :param threads: torch CPU threads during the optimization
     """
 
@@ -120,6 +157,11 @@ class OptimizeConfig:
     top_k: int = 3
     score_size: int = 128
     screen_score_size: int = 64
+    screen_blur: float = 1.0
+    screen_values_revolute: list[float] = field(default_factory=lambda: [0.3, 0.5, 0.7, 0.9, 1.1, 1.3, 1.5, 1.7, 1.9])
+    screen_values_prismatic: list[float] = field(default_factory=lambda: [0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.3])
+    screen_local: list[float] = field(default_factory=lambda: [0.06, 0.03])
+    small_part: float = 0.0
     margin_rel: float = 0.1
     margin_abs: float = 0.01
     final_sizes: list[int] = field(default_factory=lambda: [64, 128])

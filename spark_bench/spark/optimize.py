@@ -19,7 +19,6 @@ within each stage.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -34,9 +33,9 @@ from spark_bench.spark.render import (
     HALO_CUTOFF,
     SoftSilhouetteRenderer,
     downsample_mask,
-    rasterize_labels,
-    rasterize_labels_depth,
+    rasterize_labels_depth_batch,
 )
+from spark_bench.spark.scoring import JointScorer, gaussian_blur, mismatch
 
 
 @dataclass
@@ -119,6 +118,7 @@ class OpenStateScene:
             faces.append(torch.as_tensor(np.asarray(mesh.faces), dtype=torch.long) + offset)
             offset += len(mesh.vertices)
         self.link_vertices = verts
+        self.vertex_groups = np.repeat(np.arange(len(verts)), [len(v) for v in verts]).astype(np.int64)
         self.faces = torch.cat(faces) if faces else torch.zeros((0, 3), dtype=torch.long)
         self.face_groups = torch.cat(groups) if groups else torch.zeros((0,), dtype=torch.long)
         target = np.asarray(target, dtype=np.float64)
@@ -133,6 +133,8 @@ class OpenStateScene:
         self._part_targets: dict[int, tuple[torch.Tensor, torch.Tensor]] = {}
         self._labels: dict[int, np.ndarray] = {}
         self._blurred: dict[tuple, np.ndarray] = {}
+        self._subsets: dict[tuple, tuple[torch.Tensor, torch.Tensor]] = {}
+        self._still: dict[tuple, torch.Tensor] = {}
 
     @property
     def has_part_masks(self) -> bool:
@@ -182,8 +184,9 @@ class OpenStateScene:
             self._labels[size] = labels
         return self._labels[size]
 
-    def world_vertices(self, hypotheses: dict[str, Hypothesis], params: dict | None = None) -> torch.Tensor:
-        """World vertices at the open state; ``params`` holds tensors replacing pivot offsets / values."""
+    def link_poses(self, hypotheses: dict[str, Hypothesis], params: dict | None = None) -> dict[str, torch.Tensor]:
+        """World pose (4x4, float64) of every link at the open state; ``params`` holds tensors replacing
+        pivot offsets / values (see :func:`fit`)."""
         params = params or {}
         q, pivots, axes, types = {}, {}, {}, {}
         for name, hyp in hypotheses.items():
@@ -192,35 +195,98 @@ class OpenStateScene:
             axes[name] = torch.as_tensor(hyp.axis, dtype=torch.float64)
             pivots[name] = pivot if pivot is not None else torch.as_tensor(hyp.pivot_offset, dtype=torch.float64)
             q[name] = value if value is not None else float(hyp.value) if hyp.type != "fixed" else 0.0
-        poses = link_poses_torch(self.asset, q=q, pivot_offsets=pivots, axes=axes, types=types)
-        parts = [v @ poses[n][:3, :3].T + poses[n][:3, 3] for n, v in zip(self.link_names, self.link_vertices)]
-        return torch.cat(parts).float()
+        return link_poses_torch(self.asset, q=q, pivot_offsets=pivots, axes=axes, types=types)
+
+    def world_vertices_from(self, poses: dict[str, torch.Tensor], links: list[int] | None = None) -> torch.Tensor:
+        """The vertices of ``links`` (indices into :attr:`link_names`; default all), posed, float64."""
+        links = range(len(self.link_names)) if links is None else links
+        parts = [self.link_vertices[g] @ poses[self.link_names[g]][:3, :3].T + poses[self.link_names[g]][:3, 3]
+                 for g in links]
+        return torch.cat(parts) if parts else torch.zeros((0, 3), dtype=torch.float64)
+
+    def world_vertices(self, hypotheses: dict[str, Hypothesis], params: dict | None = None) -> torch.Tensor:
+        """World vertices at the open state (float32); ``params`` holds tensors replacing pivot offsets /
+        values."""
+        return self.world_vertices_from(self.link_poses(hypotheses, params)).float()
+
+    def moving_link_indices(self, joints: list[str]) -> list[int]:
+        """Indices into :attr:`link_names` of the links that move with any of ``joints``."""
+        moving = set().union(*(self._moving_links(j) for j in joints)) if joints else set()
+        return [g for g, n in enumerate(self.link_names) if n in moving]
+
+    def _subset(self, links: list[int]) -> tuple[torch.Tensor, torch.Tensor]:
+        """Faces of ``links`` indexed into their concatenated vertices, and each face's position in
+        ``links``."""
+        key = tuple(links)
+        if key not in self._subsets:
+            faces, groups, offset = [], [], 0
+            starts = np.concatenate([[0], np.cumsum([len(v) for v in self.link_vertices])])
+            for k, g in enumerate(links):
+                mine = self.face_groups == g
+                faces.append(self.faces[mine] - int(starts[g]) + offset)
+                groups.append(torch.full((int(mine.sum()),), k, dtype=torch.long))
+                offset += len(self.link_vertices[g])
+            self._subsets[key] = (torch.cat(faces) if faces else torch.zeros((0, 3), dtype=torch.long),
+                                  torch.cat(groups) if groups else torch.zeros((0,), dtype=torch.long))
+        return self._subsets[key]
 
     def render(self, hypotheses: dict[str, Hypothesis], stage: Stage, params: dict | None = None) -> torch.Tensor:
         """The whole object's soft silhouette (size, size)."""
         return self.renderer(stage.size, stage.tau).render(self.world_vertices(hypotheses, params), self.faces)
 
-    def render_parts(self, hypotheses: dict[str, Hypothesis], stage: Stage, params: dict | None = None
-                     ) -> torch.Tensor:
-        """One soft silhouette per link with geometry, (G, size, size), in :attr:`link_names` order."""
-        return self.renderer(stage.size, stage.tau).render(self.world_vertices(hypotheses, params), self.faces,
-                                                           self.face_groups, len(self.link_names))
+    def render_parts(self, hypotheses: dict[str, Hypothesis], stage: Stage, params: dict | None = None,
+                     links: list[int] | None = None) -> torch.Tensor:
+        """One soft silhouette per link with geometry, (G, size, size), in :attr:`link_names` order (or of
+        ``links`` only, in their order)."""
+        renderer = self.renderer(stage.size, stage.tau)
+        if links is None:
+            return renderer.render(self.world_vertices(hypotheses, params), self.faces, self.face_groups,
+                                   len(self.link_names))
+        faces, groups = self._subset(links)
+        vertices = self.world_vertices_from(self.link_poses(hypotheses, params), links).float()
+        return renderer.render(vertices, faces, groups, len(links))
+
+    def still_parts(self, hypotheses: dict[str, Hypothesis], active: list[str], stage: Stage) -> StillParts:
+        """The per-link images of the links that ``active`` joints do not move, rendered once for a fit
+        (and kept for the next fits with the same other joints: the short fits of one joint's candidates)."""
+        moving = self.moving_link_indices(active)
+        key = (stage.size, stage.tau, tuple(moving), _fingerprint(hypotheses, exclude=active))
+        if key not in self._still:
+            still = [g for g in range(len(self.link_names)) if g not in moving]
+            images = torch.zeros((len(self.link_names), stage.size, stage.size))
+            if still:
+                with torch.no_grad():
+                    images[still] = self.render_parts(hypotheses, stage, None, still)
+            if len(self._still) >= 16:
+                self._still.clear()
+            self._still[key] = images
+        return StillParts(moving, self._still[key])
 
     def image_loss(self, hypotheses: dict[str, Hypothesis], stage: Stage, weights: LossWeights,
-                   params: dict | None = None) -> torch.Tensor:
+                   params: dict | None = None, still: StillParts | None = None) -> torch.Tensor:
         """``L_region + w_edge L_edge (+ w_part L_part)`` of the hypotheses, differentiable in ``params``.
 
         ``L_part`` (only with part masks) is the mean over links with a visible mask of ``1 - recall``,
         the fraction of the link's visible pixels that its rendered silhouette does not cover. Recall,
         not Dice: the masks are what is visible, so a correctly posed part may be partly hidden by
         another, and only its silhouette's coverage of its own visible pixels is free of occlusion bias.
+
+        :param still: images of the links that ``params`` do not move (:meth:`still_parts`, at this
+            stage): only the others are rendered (the same loss, at the cost of the moving parts only)
         """
-        if not self.has_part_masks or weights.w_part == 0:
+        use_parts = self.has_part_masks and weights.w_part != 0
+        if still is not None:
+            moved = self.render_parts(hypotheses, stage, params, still.moving)
+            parts = still.images.index_copy(0, torch.as_tensor(still.moving, dtype=torch.long), moved)
+        elif use_parts:
+            parts = self.render_parts(hypotheses, stage, params)
+        else:
             total, _, _ = silhouette_loss(self.render(hypotheses, stage, params),
                                           self.target(stage.size, stage.tau), weights.w_edge)
             return total
-        parts = self.render_parts(hypotheses, stage, params)
         total, _, _ = silhouette_loss(parts.amax(dim=0), self.target(stage.size, stage.tau), weights.w_edge)
+        if not use_parts:
+            return total
         masks, weight = self.part_targets(stage.size)
         recall = (parts * masks).sum(dim=(1, 2)) / masks.sum(dim=(1, 2)).clamp_min(1e-6)
         part_loss = ((1.0 - recall) * weight).sum() / weight.sum().clamp_min(1.0)
@@ -232,46 +298,24 @@ class OpenStateScene:
             return float(self.image_loss(hypotheses, stage, weights))
 
     def seg_score(self, hypotheses: dict[str, Hypothesis], size: int, blur: float = 0.0) -> float:
-        """Segmentation mismatch in [0, 1] of fixed hypotheses at ``size`` px (lower is better).
+        """Segmentation mismatch in [0, 1] of fixed hypotheses at ``size`` px (lower is better; see
+        :mod:`spark_bench.spark.scoring`): the posed meshes z-buffered into a label image
+        (:func:`~spark_bench.spark.render.rasterize_labels`) against :meth:`target_labels`.
 
-        The posed meshes are z-buffered into a label image (:func:`rasterize_labels`) and compared with
-        :meth:`target_labels`: with part masks, the mean of ``1 - IoU`` over the whole object and every
-        link that is visible in either image (so a small part weighs as much as a large one in its own
-        joint's decision); without, ``1 - IoU`` of the object's silhouette.
-
-        :param blur: 0 for the exact IoU; otherwise both indicator images are blurred by a Gaussian of
-            this many pixels and compared by soft IoU (``sum min / sum max``), which stays low within
-            about ``blur`` pixels of motion (used to rank candidates from a coarse grid of open values)
+        :param blur: 0 for the exact IoU; otherwise the Gaussian blur (px) of the soft IoU
         """
         with torch.no_grad():
-            vertices = self.world_vertices(hypotheses).double().numpy()
+            vertices = self.world_vertices_from(self.link_poses(hypotheses)).numpy()
         face_labels = self.face_groups.numpy() + 1
-        rendered = rasterize_labels(vertices, self.faces.numpy(), face_labels, self.camera.resized(size))
-        return self._mismatch(rendered, size, blur)
+        rendered, _ = rasterize_labels_depth_batch(vertices[None], self.faces.numpy(), face_labels,
+                                                   self.camera.resized(size))
+        return float(self.mismatch(rendered, size, blur)[0])
 
     def seg_scorer(self, hypotheses: dict[str, Hypothesis], joint: str, size: int, blur: float = 0.0
-                   ) -> Callable[[Hypothesis], float]:
-        """``h -> seg_score({**hypotheses, joint: h}, size, blur)``, for scoring many hypotheses of one
-        joint: the links that do not move with ``joint`` are z-buffered once, and each call rasterizes
-        only the moving ones and composes the two by depth."""
-        moving_links = self._moving_links(joint)
-        moving = torch.as_tensor([n in moving_links for n in self.link_names], dtype=torch.bool)
-        face_moving = moving[self.face_groups].numpy() if len(self.face_groups) else np.zeros(0, bool)
-        faces, face_labels = self.faces.numpy(), self.face_groups.numpy() + 1
-        camera = self.camera.resized(size)
-        with torch.no_grad():
-            vertices = self.world_vertices(hypotheses).double().numpy()
-        still_labels, still_depth = rasterize_labels_depth(vertices, faces[~face_moving], face_labels[~face_moving],
-                                                           camera)
-        moving_faces, moving_labels = faces[face_moving], face_labels[face_moving]
-
-        def score(hyp: Hypothesis) -> float:
-            with torch.no_grad():
-                posed = self.world_vertices({**hypotheses, joint: hyp}).double().numpy()
-            labels, depth = rasterize_labels_depth(posed, moving_faces, moving_labels, camera)
-            return self._mismatch(np.where(depth > still_depth, labels, still_labels), size, blur)
-
-        return score
+                   ) -> JointScorer:
+        """``h -> seg_score({**hypotheses, joint: h}, size, blur)`` for many hypotheses of one joint
+        (:class:`~spark_bench.spark.scoring.JointScorer`; ``.scores(list)`` scores a batch)."""
+        return JointScorer(self, hypotheses, joint, size, blur)
 
     def _moving_links(self, joint: str) -> set[str]:
         """The links below ``joint`` (its child and everything under it)."""
@@ -282,45 +326,32 @@ class OpenStateScene:
             stack.extend(j.child for j in self.asset.joints.values() if j.parent == link)
         return out
 
-    def _mismatch(self, rendered: np.ndarray, size: int, blur: float) -> float:
-        """The score of :meth:`seg_score` for a rendered label image (1 + index into ``link_names``)."""
-        target = self.target_labels(size)
-        regions = [(rendered > 0, "object", target != 0)]
-        if self.has_part_masks:
-            for g, name in enumerate(self.link_names):
-                if name not in self.part_masks_full:
-                    continue
-                mine, theirs = rendered == g + 1, target == g + 1
-                if mine.any() or theirs.any():
-                    regions.append((mine, name, theirs))
-        if blur <= 0:
-            return float(np.mean([1.0 - _iou(mine, theirs) for mine, _, theirs in regions]))
-        errors = []
-        for mine, key, theirs in regions:
-            theirs_soft = self._blurred_target(size, blur, key, theirs)
-            errors.append(1.0 - _soft_iou(_blur(mine, blur), theirs_soft))
-        return float(np.mean(errors))
+    def mismatch(self, rendered: np.ndarray, size: int, blur: float) -> np.ndarray:
+        """The score of :meth:`seg_score` for (B, size, size) rendered label images (1 + index into
+        ``link_names``)."""
+        part_labels = [g + 1 for g, n in enumerate(self.link_names) if n in self.part_masks_full]
+        return mismatch(rendered, self.target_labels(size), part_labels, blur,
+                        lambda label, indicator: self._blurred_target(size, blur, label, indicator))
 
-    def _blurred_target(self, size: int, blur: float, key: str, indicator: np.ndarray) -> np.ndarray:
+    def _blurred_target(self, size: int, blur: float, key, indicator: np.ndarray) -> np.ndarray:
         if (size, blur, key) not in self._blurred:
-            self._blurred[(size, blur, key)] = _blur(indicator, blur)
+            self._blurred[(size, blur, key)] = gaussian_blur(indicator.astype(np.float64), blur)
         return self._blurred[(size, blur, key)]
 
 
-def _blur(indicator: np.ndarray, sigma: float) -> np.ndarray:
-    from scipy.ndimage import gaussian_filter
-
-    return gaussian_filter(indicator.astype(np.float64), sigma, mode="constant", truncate=3.0)
-
-
-def _soft_iou(a: np.ndarray, b: np.ndarray) -> float:
-    union = np.maximum(a, b).sum()
-    return float(np.minimum(a, b).sum() / union) if union > 1e-9 else 1.0
+def _fingerprint(hypotheses: dict[str, Hypothesis], exclude: list[str]) -> tuple:
+    """A hashable summary of the hypotheses of the joints not in ``exclude``."""
+    return tuple((n, h.type, np.asarray(h.axis, float).tobytes(), np.asarray(h.pivot_offset, float).tobytes(),
+                  float(h.value)) for n, h in sorted(hypotheses.items()) if n not in exclude)
 
 
-def _iou(a: np.ndarray, b: np.ndarray) -> float:
-    union = np.logical_or(a, b).sum()
-    return float(np.logical_and(a, b).sum() / union) if union else 1.0
+@dataclass
+class StillParts:
+    """Per-link images (G, size, size) of a fit's stage, of which the ``moving`` links are re-rendered
+    at every step (:meth:`OpenStateScene.image_loss`)."""
+
+    moving: list[int]
+    images: torch.Tensor
 
 
 def _window(target: np.ndarray, camera: Camera, rest_vertices: np.ndarray) -> tuple[int, int, int]:
@@ -410,34 +441,34 @@ def fit(scene: OpenStateScene, hypotheses: dict[str, Hypothesis], active: list[s
     :param lr_pivot: Adam step for pivot offsets (benchmark units)
     :param lr_value: Adam step for open values (rad or benchmark units)
     """
-    params, start, groups = {}, {}, []
+    params, start, tensors, lrs = {}, {}, [], []
     for name in active:
         hyp = hypotheses[name]
         if hyp.type == "fixed":
             continue
         value = torch.tensor(float(hyp.value), dtype=torch.float64, requires_grad=True)
-        groups.append({"params": [value], "lr": lr_value})
+        tensors.append(value)
+        lrs.append(lr_value)
         pivot = None
         if hyp.type == "revolute":
             pivot = torch.tensor(hyp.pivot_offset, dtype=torch.float64, requires_grad=True)
-            groups.append({"params": [pivot], "lr": lr_pivot})
+            tensors.append(pivot)
+            lrs.append(lr_pivot)
         params[name] = (pivot, value)
         start[name] = (torch.as_tensor(hyp.pivot_offset, dtype=torch.float64), float(hyp.value))
     curve: list[float] = []
     loss_value = float("nan")
-    if not groups:
+    if not tensors:
         loss_value = scene.loss(hypotheses, stages[-1], weights)
         return FitResult(dict(hypotheses), loss_value, [loss_value])
-    optimizer = torch.optim.Adam(groups)
-    base_lrs = [g["lr"] for g in groups]
+    optimizer = Adam(tensors, lrs)
     for stage in stages:
+        still = scene.still_parts(hypotheses, list(params), stage)
         for step in range(stage.steps):
             # finer pixels, finer steps: the step shrinks with the pixel size (1 at 32 px), and decays
             decay = min(1.0, 32.0 / stage.size) * (0.1 + 0.9 * 0.5 * (1 + np.cos(np.pi * step / max(stage.steps, 1))))
-            for group, lr in zip(optimizer.param_groups, base_lrs):
-                group["lr"] = lr * decay
             optimizer.zero_grad()
-            image_loss = scene.image_loss(hypotheses, stage, weights, params)
+            image_loss = scene.image_loss(hypotheses, stage, weights, params, still)
             reg = image_loss.new_zeros(()).double()
             for name, (pivot, value) in params.items():
                 pivot0, value0 = start[name]
@@ -446,10 +477,43 @@ def fit(scene: OpenStateScene, hypotheses: dict[str, Hypothesis], active: list[s
                 reg = reg + weights.lambda_theta * (value - value0) ** 2
             total = image_loss.double() + reg
             total.backward()
-            optimizer.step()
+            optimizer.step(decay)
             curve.append(float(total.detach()))
-        loss_value = scene.loss(_with_params(hypotheses, params), stage, weights)
+        with torch.no_grad():
+            loss_value = float(scene.image_loss(_with_params(hypotheses, params), stage, weights, None, still))
     return FitResult(_with_params(hypotheses, params), loss_value, curve)
+
+
+class Adam:
+    """Adam (Kingma and Ba), the update of ``torch.optim.Adam`` with its default betas and eps, on a few
+    tensors with a learning rate each (the optimizer's first use imports ``torch._dynamo``: seconds).
+
+    :param tensors: leaf tensors with ``requires_grad``
+    :param lrs: base learning rate of each
+    """
+
+    def __init__(self, tensors: list[torch.Tensor], lrs: list[float], betas=(0.9, 0.999), eps: float = 1e-8):
+        self.tensors, self.lrs, self.betas, self.eps = tensors, lrs, betas, eps
+        self.moments = [(torch.zeros_like(t), torch.zeros_like(t)) for t in tensors]
+        self.steps = 0
+
+    def zero_grad(self) -> None:
+        for tensor in self.tensors:
+            tensor.grad = None
+
+    def step(self, scale: float = 1.0) -> None:
+        """One update with every learning rate multiplied by ``scale``."""
+        beta1, beta2 = self.betas
+        self.steps += 1
+        correction1, correction2 = 1 - beta1 ** self.steps, 1 - beta2 ** self.steps
+        with torch.no_grad():
+            for tensor, lr, (mean, square) in zip(self.tensors, self.lrs, self.moments):
+                if tensor.grad is None:
+                    continue
+                mean.mul_(beta1).add_(tensor.grad, alpha=1 - beta1)
+                square.mul_(beta2).addcmul_(tensor.grad, tensor.grad, value=1 - beta2)
+                denom = (square.sqrt() / np.sqrt(correction2)).add_(self.eps)
+                tensor.addcdiv_(mean, denom, value=-lr * scale / correction1)
 
 
 def _with_params(hypotheses: dict[str, Hypothesis], params: dict) -> dict[str, Hypothesis]:

@@ -50,7 +50,11 @@ def refine_settings(config: SparkConfig, discrete: bool) -> RefineSettings:
         final=[Stage(s, t, n) for s, t, n in zip(opt.final_sizes, opt.final_taus, opt.final_steps)],
         weights=LossWeights(opt.w_edge, opt.lambda_t, opt.lambda_theta, opt.w_part), refine_discrete=discrete,
         include_fixed=opt.include_fixed, sweeps=opt.sweeps, max_faces=opt.max_faces, lr_pivot=opt.lr_pivot,
-        lr_value=opt.lr_value, score_size=opt.score_size, screen_score_size=opt.screen_score_size, margin_rel=opt.margin_rel, margin_abs=opt.margin_abs)
+        lr_value=opt.lr_value, score_size=opt.score_size, screen_score_size=opt.screen_score_size,
+        margin_rel=opt.margin_rel, margin_abs=opt.margin_abs,
+        screen_values={"revolute": tuple(opt.screen_values_revolute),
+                       "prismatic": tuple(opt.screen_values_prismatic)},
+        screen_blur=opt.screen_blur, screen_local=tuple(opt.screen_local), small_part=opt.small_part)
 
 
 @contextmanager

@@ -10,7 +10,8 @@ short continuous fit:
    parts may get the prior's and the centre line only, ``small_part``), ``prismatic`` along each direction,
    and optionally ``fixed``;
 2. screening: a blurred segmentation mismatch of every candidate at a coarse resolution
-   (``screen_score_size``, ``screen_blur``) on a grid of open values, with the other joints as they are;
+   (``screen_score_size``, ``screen_blur``) on a grid of open values, with the other joints as they are
+   (all poses of a joint scored in a few batched rasterizations, :class:`~spark_bench.spark.scoring.JointScorer`);
    the best few, and the best of the prior's family, then get a local search of their open value (the
    exact IoU of a thin door falls off within about 0.05 rad of its true angle);
 3. the ``top_k`` best, and the best of the prior's family (its type about its axis line, either sign:
@@ -23,7 +24,7 @@ short continuous fit:
    the prior says only on clear evidence, so a correct prior stays correct. Among candidates within
    that margin of the best, the one agreeing with the prior on most of type and axis line wins (a
    symmetric knob turns about any line alike; the prior's line then decides);
-4. after one sweep over the joints, every joint is fitted together, coarse to fine.
+4. after the sweeps over the joints (see ``sweeps``), every joint is fitted together, coarse to fine.
 
 Why not the soft loss at the screening resolution: at 32 px a candidate that is wrong but happens to
 cover the same pixels (a drawer pulled out 0.38 vs a door tipped down 90 degrees seen from the front)
@@ -34,6 +35,7 @@ coarse image happened to prefer (measured: 2 correct joints of 8 replaced on the
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -64,8 +66,9 @@ class RefineSettings:
     :param weights: loss weights
     :param refine_discrete: try other types and axes (False: continuous fit of the prior's only)
     :param include_fixed: also try ``fixed`` (a part that does not move)
-    :param sweeps: most passes of the discrete search over the joints (another pass runs only when a
-        joint's type or axis changed in the last one, since that changes what the others must explain)
+    :param sweeps: most passes of the discrete search over the joints (another pass runs only for the
+        joints searched before the last one whose type or axis changed in this pass: that change alters what
+        they must explain, and the joints after it were searched with it in place)
     :param max_faces: per-link face budget for rendering
     :param lr_pivot: Adam step for pivot offsets
     :param lr_value: Adam step for open values
@@ -121,7 +124,9 @@ class RefineResult:
     :param hypotheses: the final hypothesis per movable joint
     :param curve: loss per Adam step of the final fit
     :param candidates: per joint, every candidate's tag with its screening and short-fit losses
-    :param timings: seconds per phase
+    :param timings: seconds per phase (:meth:`Clock.as_dict`): ``discrete_search`` (of which
+        ``search_screen``, the screening scores, ``search_short_fits`` and ``search_exact_scores``) and
+        ``final_fit``, wall and ``*_cpu``
     :param loss_prior: the prior's image loss at the finest level
     :param loss_final: the refined image loss at the finest level
     """
@@ -133,6 +138,28 @@ class RefineResult:
     timings: dict[str, float]
     loss_prior: float
     loss_final: float
+
+
+class Clock:
+    """Wall and CPU (this process) seconds per phase, accumulated over its ``with clock.phase(name)``
+    blocks: on a shared machine the CPU seconds say what the work costs, the wall seconds what it took."""
+
+    def __init__(self):
+        self.wall: dict[str, float] = {}
+        self.cpu: dict[str, float] = {}
+
+    @contextmanager
+    def phase(self, name: str):
+        wall, cpu = time.perf_counter(), time.process_time()
+        try:
+            yield
+        finally:
+            self.wall[name] = self.wall.get(name, 0.0) + time.perf_counter() - wall
+            self.cpu[name] = self.cpu.get(name, 0.0) + time.process_time() - cpu
+
+    def as_dict(self) -> dict[str, float]:
+        """``{phase: wall seconds, phase + "_cpu": CPU seconds}``."""
+        return {**self.wall, **{f"{k}_cpu": v for k, v in self.cpu.items()}}
 
 
 def prior_hypotheses(asset: ArticulatedAsset, include_fixed: bool = False) -> dict[str, Hypothesis]:
@@ -228,58 +255,87 @@ def _same_family(a: Hypothesis, b: Hypothesis) -> bool:
 
 def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSettings) -> RefineResult:
     """The native joint-optimization stage on an assembled prior asset (see the module docstring)."""
-    timings: dict[str, float] = {}
+    clock = Clock()
     prior = prior_hypotheses(asset, settings.include_fixed)
     current = dict(prior)
     candidates_report: dict[str, list[dict]] = {}
     finest = settings.final[-1] if settings.final else settings.screen
     loss_prior = scene.loss(prior, finest, settings.weights)
     short = settings.short_stages()
-    tick = time.perf_counter()
-    if settings.refine_discrete:
+    with clock.phase("discrete_search"):
+        pending = list(current) if settings.refine_discrete else []
         for sweep in range(settings.sweeps):
-            changed = False
-            for name in list(current):
+            last_changed = -1
+            for k, name in enumerate(pending):
                 # the prior stays the reference in every sweep: a joint replaced while the others were
                 # still wrong must beat the prior again once they are right
-                found, rows = _search_joint(asset, scene, current, name, prior[name], short, settings)
+                found, rows = _search_joint(asset, scene, current, name, prior[name], short, settings, clock)
                 candidates_report.setdefault(name, []).extend({"sweep": sweep, **row} for row in rows)
-                changed |= not _same_motion(found, current[name])
+                if not _same_motion(found, current[name]):
+                    last_changed = k
                 current[name] = found
-            if not changed:  # a later sweep helps only when a joint's motion changed under the others
+            # another sweep helps only a joint that was searched before another's motion changed: the
+            # joints searched after the last change already saw every change
+            pending = pending[:max(last_changed, 0)]
+            if not pending:
                 break
-    timings["discrete_search"] = time.perf_counter() - tick
-    tick = time.perf_counter()
     stages = list(settings.final)
     if not settings.refine_discrete:  # no short fits ran: start coarse
         stages = [replace(settings.screen, steps=2 * settings.short_steps)] + stages
-    result: FitResult = fit(scene, current, list(current), stages, settings.weights,
-                            settings.lr_pivot, settings.lr_value)
-    timings["final_fit"] = time.perf_counter() - tick
+    with clock.phase("final_fit"):
+        result: FitResult = fit(scene, current, list(current), stages, settings.weights,
+                                settings.lr_pivot, settings.lr_value)
     final = {n: canonical_sign(h) for n, h in result.hypotheses.items()}
     refined = asset.copy()
     for name, hyp in final.items():
         set_joint(refined, name, hyp.type, hyp.axis, hyp.value)
         if hyp.type == "revolute":
             apply_pivot_offset(refined, name, hyp.pivot_offset)
-    return RefineResult(refined, final, result.curve, candidates_report, timings, loss_prior, result.loss)
+    return RefineResult(refined, final, result.curve, candidates_report, clock.as_dict(), loss_prior,
+                        result.loss)
 
 
-def _search_joint(asset, scene, current, name, prior_hyp, short, settings):
+def _search_joint(asset, scene, current, name, prior_hyp, short, settings, clock: Clock):
     """Screen and short-fit the candidates of one joint; returns the winner and a report."""
+    with clock.phase("search_screen"):
+        screened, keep = _screen(asset, scene, current, name, prior_hyp, settings)
+    report = [{"candidate": c.tag, "screen_loss": round(s, 6)} for s, c in screened]
+    with clock.phase("search_exact_scores"):
+        exact = scene.seg_scorer(current, name, settings.score_size)
+    fitted = []
+    for cand in keep:
+        with clock.phase("search_short_fits"):
+            res = fit(scene, {**current, name: cand}, [name], short, settings.weights, settings.lr_pivot,
+                      settings.lr_value)
+        # the short fit minimizes the soft loss, not the exact score: on a small part it can drift from
+        # a start that was already right, so the better of the two (exactly scored) is the finalist
+        options = [canonical_sign(res.hypotheses[name]), canonical_sign(cand)]
+        with clock.phase("search_exact_scores"):
+            scores = exact.scores(options).tolist()
+        score_exact, found = min(zip(scores, options), key=lambda item: item[0])
+        entry = next(r for r in report if r["candidate"] == cand.tag)
+        entry.update(fit_loss=round(res.loss, 6), seg_score=round(score_exact, 6))
+        fitted.append((score_exact, res.loss, found, cand))
+    # the part left at rest: a knob turned a full turn looks so, and then no motion is evidence of an axis
+    with clock.phase("search_exact_scores"):
+        rest_score = exact(replace(prior_hyp, value=0.0))
+    return _decide(fitted, prior_hyp, rest_score, settings), report
+
+
+def _screen(asset, scene, current, name, prior_hyp, settings) -> tuple[list, list[Hypothesis]]:
+    """Every candidate of one joint scored on the grid of open values (sorted ``(score, candidate)``
+    pairs), and the finalists: the ``top_k`` best after a local search of the value, and the best of the
+    prior's family."""
     cands = candidate_hypotheses(asset, name, prior_hyp, settings.include_fixed,
                                  small_part=_is_small_part(scene, name, settings.small_part))
-
     scorer = scene.seg_scorer(current, name, settings.screen_score_size, settings.screen_blur)
-
-    def score(cand, value):
-        return scorer(replace(cand, value=value))
-
-    screened = []
-    for cand in cands:
-        grid = settings.screen_values.get(cand.type, ())
-        values = [cand.value] + [v for v in grid if abs(v - cand.value) > 1e-6]
-        loss, value = min((score(cand, v), v) for v in values)
+    grids = [[cand.value] + [v for v in settings.screen_values.get(cand.type, ()) if abs(v - cand.value) > 1e-6]
+             for cand in cands]
+    flat = scorer.scores([replace(cand, value=v) for cand, grid in zip(cands, grids) for v in grid])
+    screened, at = [], 0
+    for cand, grid in zip(cands, grids):
+        loss, value = min(zip(flat[at:at + len(grid)].tolist(), grid))
+        at += len(grid)
         screened.append((loss, replace(cand, value=value)))
     screened.sort(key=lambda item: item[0])
     # the open value's basin is narrower than the grid's step for thin parts: the best few, and the best of
@@ -288,34 +344,21 @@ def _search_joint(asset, scene, current, name, prior_hyp, short, settings):
     family = next(item for item in screened if _same_family(item[1], prior_hyp))
     if not any(c is family[1] for _, c in pool):
         pool.append(family)
-    refined = []
-    for loss, cand in pool:
-        best = (loss, cand.value)
-        for frac in settings.screen_local:
+    best = [(loss, cand.value) for loss, cand in pool]
+    for frac in settings.screen_local:
+        trials = []
+        for (_, cand), (_, value) in zip(pool, best):
             step = frac if cand.type == "revolute" else frac * max(cand.value, 0.1)
-            for value in (best[1] - step, best[1] + step):
-                best = min(best, (score(cand, value), value))
-        refined.append((best[0], replace(cand, value=best[1])))
-    refined.sort(key=lambda item: item[0])
+            trials += [(cand, value - step), (cand, value + step)]
+        losses = scorer.scores([replace(cand, value=v) for cand, v in trials]).tolist()
+        for k in range(len(pool)):
+            best[k] = min([best[k]] + [(losses[2 * k + j], trials[2 * k + j][1]) for j in (0, 1)])
+    refined = sorted(((loss, replace(cand, value=value)) for (_, cand), (loss, value) in zip(pool, best)),
+                     key=lambda item: item[0])
     keep = [c for _, c in refined[: settings.top_k]]
     if not any(_same_family(c, prior_hyp) for c in keep):  # the prior's type and axis line always compete
         keep.append(next(c for _, c in refined if _same_family(c, prior_hyp)))
-    report = [{"candidate": c.tag, "screen_loss": round(s, 6)} for s, c in screened]
-    fitted = []
-    for cand in keep:
-        res = fit(scene, {**current, name: cand}, [name], short, settings.weights, settings.lr_pivot,
-                  settings.lr_value)
-        # the short fit minimizes the soft loss, not the exact score: on a small part it can drift from
-        # a start that was already right, so the better of the two (exactly scored) is the finalist
-        options = [(scene.seg_score({**current, name: h}, settings.score_size), h)
-                   for h in (canonical_sign(res.hypotheses[name]), canonical_sign(cand))]
-        score_exact, found = min(options, key=lambda item: item[0])
-        entry = next(r for r in report if r["candidate"] == cand.tag)
-        entry.update(fit_loss=round(res.loss, 6), seg_score=round(score_exact, 6))
-        fitted.append((score_exact, res.loss, found, cand))
-    # the part left at rest: a knob turned a full turn looks so, and then no motion is evidence of an axis
-    rest_score = scene.seg_score({**current, name: replace(prior_hyp, value=0.0)}, settings.score_size)
-    return _decide(fitted, prior_hyp, rest_score, settings), report
+    return screened, keep
 
 
 def _decide(fitted: list[tuple], prior_hyp: Hypothesis, rest_score: float, settings: RefineSettings

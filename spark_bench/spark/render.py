@@ -20,9 +20,11 @@ interior at all to get wrong; the optimizer gives the target mask the same edge 
 
 Speed on CPU comes from sparsity: the halo vanishes beyond ``cutoff * tau`` pixels, so only the
 (pixel, triangle) pairs inside each triangle's padded bounding box are formed (a ragged list built with
-``repeat_interleave``), evaluated, and reduced per pixel with ``scatter_reduce``. The cost is
-proportional to the total padded bounding-box area, not to ``pixels x triangles``: a few milliseconds
-per forward+backward frame for decimated part meshes at 64 px.
+``repeat_interleave``) and reduced per pixel with ``scatter_reduce``. The pairs are evaluated without
+autograd: a cheap inside test first marks the covered pixels (1 whatever else is there, and flat), then
+distances are computed only for the pairs at the other pixels, and only the pair that attains each
+halo pixel's value is evaluated again with autograd (the maximum's gradient flows through its argmax
+alone). The backward pass thus costs the band of pixels around the silhouette, not every pair.
 """
 
 from __future__ import annotations
@@ -81,24 +83,38 @@ def _pixel_pairs(tri: torch.Tensor, width: int, height: int, margin: float):
 def signed_distance(points: torch.Tensor, tri: torch.Tensor) -> torch.Tensor:
     """Signed distance (positive inside) from 2D points (P, 2) to triangles (P, 3, 2), pairwise.
 
-    Degenerate (zero-area) triangles are never inside.
+    Degenerate (zero-area) triangles are never inside. (Written per coordinate: reductions over a
+    last axis of 2 cost more than the arithmetic.)
     """
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    area2 = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    orient = torch.sign(area2).detach()
+    x, y = points[:, 0], points[:, 1]
+    corners = [(tri[:, k, 0], tri[:, k, 1]) for k in range(3)]
+    (ax, ay), (bx, by), (cx, cy) = corners
+    orient = torch.sign((bx - ax) * (cy - ay) - (by - ay) * (cx - ax)).detach()
     dist2 = None
-    inside = None
-    for start, end in ((a, b), (b, c), (c, a)):
-        edge = end - start
-        rel = points - start
-        cross = edge[:, 0] * rel[:, 1] - edge[:, 1] * rel[:, 0]
-        side = (cross * orient) > 0
-        inside = side if inside is None else inside & side
-        t = ((rel * edge).sum(-1) / (edge * edge).sum(-1).clamp_min(1e-12)).clamp(0.0, 1.0)
-        d2 = ((rel - t[:, None] * edge) ** 2).sum(-1)
+    inside = orient != 0
+    for (sx, sy), (ex, ey) in zip(corners, corners[1:] + corners[:1]):
+        dx, dy = ex - sx, ey - sy
+        rx, ry = x - sx, y - sy
+        inside = inside & ((dx * ry - dy * rx) * orient > 0)
+        t = ((rx * dx + ry * dy) / (dx * dx + dy * dy).clamp_min(1e-12)).clamp(0.0, 1.0)
+        qx, qy = rx - t * dx, ry - t * dy
+        d2 = qx * qx + qy * qy
         dist2 = d2 if dist2 is None else torch.minimum(dist2, d2)
     dist = torch.sqrt(dist2 + 1e-12)
-    return torch.where(inside & (orient != 0), dist, -dist)
+    return torch.where(inside, dist, -dist)
+
+
+def inside_triangle(points: torch.Tensor, tri: torch.Tensor) -> torch.Tensor:
+    """Whether 2D points (P, 2) lie strictly inside triangles (P, 3, 2), pairwise (the sign test of
+    :func:`signed_distance` alone; degenerate triangles contain nothing)."""
+    x, y = points[:, 0], points[:, 1]
+    corners = [(tri[:, k, 0], tri[:, k, 1]) for k in range(3)]
+    (ax, ay), (bx, by), (cx, cy) = corners
+    orient = torch.sign((bx - ax) * (cy - ay) - (by - ay) * (cx - ax))
+    inside = orient != 0
+    for (sx, sy), (ex, ey) in zip(corners, corners[1:] + corners[:1]):
+        inside = inside & (((ex - sx) * (y - sy) - (ey - sy) * (x - sx)) * orient > 0)
+    return inside
 
 
 class SoftSilhouetteRenderer:
@@ -142,22 +158,57 @@ class SoftSilhouetteRenderer:
         n = self.size
         pixel, face, px, py = _pixel_pairs(tri, n, n, self.cutoff * self.tau)
         centres = torch.stack([px, py], dim=1).to(vertices.dtype) + 0.5
-        sd = signed_distance(centres, tri[face])
         if self.aggregate == "softras":
+            sd = signed_distance(centres, tri[face])
             if groups is not None:
                 raise ValueError("grouped rendering needs aggregate='halo'")
             log_empty = torch.zeros(n * n, dtype=vertices.dtype).index_add(0, pixel, -F.softplus(sd / self.tau))
             return (1.0 - torch.exp(log_empty)).reshape(n, n)
         count = 1
+        keys = pixel
         if groups is not None:
             count = int(n_groups)
-            pixel = groups.long()[visible][face] * (n * n) + pixel
-        empty = torch.full((count * n * n,), -1e4, dtype=vertices.dtype)
-        nearest = empty.scatter_reduce(0, pixel, sd.clamp_max(0.0), reduce="amax", include_self=True)
+            keys = groups.long()[visible][face] * (n * n) + pixel
+        with torch.no_grad():
+            # pixels inside a triangle are 1 whatever the others say: distances only for the rest
+            covered = torch.zeros(count * n * n, dtype=torch.bool)
+            covered[keys[inside_triangle(centres, tri.detach()[face])]] = True
+            outside = torch.nonzero(~covered[keys]).squeeze(1)
+            keys, face, centres = keys[outside], face[outside], centres[outside]
+            sd = signed_distance(centres, tri.detach()[face])
+            nearest = _nearest_outside(sd, keys, count * n * n)
+            nearest[covered] = 0.0
+        if vertices.requires_grad:
+            nearest = _with_gradient(nearest, keys, sd, centres, tri, face)
         image = 2.0 * torch.sigmoid(nearest / self.tau)
         return image.reshape(n, n) if groups is None else image.reshape(count, n, n)
 
     __call__ = render
+
+
+def _nearest_outside(sd: torch.Tensor, keys: torch.Tensor, n_keys: int) -> torch.Tensor:
+    """Per key (pixel of a group), the largest ``min(sd, 0)`` over its pairs (-1e4 where there are none):
+    minus the distance to the nearest triangle, 0 where a triangle covers the pixel centre."""
+    empty = torch.full((n_keys,), -1e4, dtype=sd.dtype)
+    return empty.scatter_reduce(0, keys, sd.clamp_max(0.0), reduce="amax", include_self=True)
+
+
+def _with_gradient(nearest: torch.Tensor, keys: torch.Tensor, sd: torch.Tensor, centres: torch.Tensor,
+                   tri: torch.Tensor, face: torch.Tensor) -> torch.Tensor:
+    """``nearest`` with autograd through the one (pixel, triangle) pair that attains each pixel's value.
+
+    The per-pixel maximum's gradient flows only through its argmax, and not at all where a triangle
+    covers the pixel centre (``min(sd, 0)`` is flat there), so only the winning pair of each halo pixel
+    is evaluated again with autograd: the same values, and a backward pass over the band of pixels
+    around the silhouette instead of over every (pixel, triangle) pair of the padded bounding boxes.
+    """
+    with torch.no_grad():
+        halo = torch.nonzero((nearest < 0) & (nearest > -1e4)).squeeze(1)
+        winner = torch.full(nearest.shape, -1, dtype=torch.long)
+        ties = torch.nonzero(sd == nearest[keys]).squeeze(1)  # pairs attaining their pixel's value
+        winner[keys[ties]] = ties  # one of them per pixel (tied pairs have the same value)
+        pick = winner[halo]
+    return nearest.detach().index_put((halo,), signed_distance(centres[pick], tri[face[pick]]))
 
 
 def rasterize_mask(vertices: np.ndarray, faces: np.ndarray, camera: Camera, supersample: int = 4) -> np.ndarray:
@@ -180,8 +231,7 @@ def rasterize_mask(vertices: np.ndarray, faces: np.ndarray, camera: Camera, supe
     pixel, face, px, py = _pixel_pairs(tri, fine.width, fine.height, 0.0)
     if len(pixel):
         centres = torch.stack([px, py], dim=1).double() + 0.5
-        inside = signed_distance(centres, tri[face]) > 0
-        covered[pixel[inside]] = True
+        covered[pixel[inside_triangle(centres, tri[face])]] = True
     mask = covered.reshape(fine.height, fine.width).double().numpy()
     return mask.reshape(camera.height, supersample, camera.width, supersample).mean(axis=(1, 3))
 
@@ -226,23 +276,47 @@ def rasterize_labels_depth(vertices: np.ndarray, faces: np.ndarray, face_labels:
     """:func:`rasterize_labels` and its (H, W) z-buffer of inverse depths (``1/z``, 0 where empty):
     two label images of disjoint face sets compose into the image of both by keeping the larger ``1/z``
     per pixel (the discrete refinement rasterizes the parts that do not move once per joint)."""
-    uv, depth = camera.project(np.asarray(vertices, float))
-    faces = np.asarray(faces)
-    keep = (depth[faces] > NEAR).all(axis=1)
-    faces, labels = faces[keep], np.asarray(face_labels)[keep]
+    labels, inv_depth = rasterize_labels_depth_batch(np.asarray(vertices, float)[None], faces, face_labels, camera)
+    return labels[0], inv_depth[0]
+
+
+def rasterize_labels_depth_batch(vertices: np.ndarray, faces: np.ndarray, face_labels: np.ndarray,
+                                 camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`rasterize_labels_depth` of ``B`` poses of one mesh at once, (B, H, W) each.
+
+    One call for many poses (the discrete refinement scores a part at many open values): the per-call
+    overhead of the tensor operations is paid once, and the pixel pairs of all poses are formed together.
+
+    :param vertices: (B, N, 3) world-space vertices of each pose
+    :param faces: (F, 3) vertex indices (shared by the poses)
+    :param face_labels: (F,) positive integer label per face
+    :param camera: the view; the images have its size
+    """
+    vertices = np.asarray(vertices, float)
+    batch, n_vertices = vertices.shape[:2]
     width, height = camera.width, camera.height
-    out = np.zeros(width * height, dtype=np.int64)
-    empty = (out.reshape(height, width), np.zeros((height, width)))
-    if not len(faces):
-        return empty
-    tri = torch.as_tensor(uv[faces], dtype=torch.float64)
-    inv_z = torch.as_tensor(1.0 / depth[faces], dtype=torch.float64)
+    labels_out = np.zeros((batch, height * width), dtype=np.int64)
+    depth_out = np.zeros((batch, height * width))
+    faces = np.asarray(faces).reshape(-1, 3)
+    if not len(faces) or not batch:
+        return labels_out.reshape(batch, height, width), depth_out.reshape(batch, height, width)
+    uv, depth = camera.project(vertices.reshape(-1, 3))
+    all_faces = (faces[None] + (np.arange(batch) * n_vertices)[:, None, None]).reshape(-1, 3)
+    image = np.repeat(np.arange(batch), len(faces))
+    labels = np.tile(np.asarray(face_labels), batch)
+    keep = (depth[all_faces] > NEAR).all(axis=1)
+    all_faces, image, labels = all_faces[keep], image[keep], labels[keep]
+    if not len(all_faces):
+        return labels_out.reshape(batch, height, width), depth_out.reshape(batch, height, width)
+    tri = torch.as_tensor(uv[all_faces], dtype=torch.float64)
+    inv_z = torch.as_tensor(1.0 / depth[all_faces], dtype=torch.float64)
     pixel, face, px, py = _pixel_pairs(tri, width, height, 0.0)
     centres = torch.stack([px, py], dim=1).double() + 0.5
-    inside = signed_distance(centres, tri[face]) > 0
+    inside = inside_triangle(centres, tri[face])
     pixel, face, centres = pixel[inside], face[inside], centres[inside]
     if not len(pixel):
-        return empty
+        return labels_out.reshape(batch, height, width), depth_out.reshape(batch, height, width)
+    key = torch.as_tensor(image)[face] * (width * height) + pixel
     # perspective-correct depth: 1/z is affine in screen space, interpolated by 2D barycentrics
     t = tri[face]
     a, b, c = t[:, 0], t[:, 1], t[:, 2]
@@ -251,11 +325,22 @@ def rasterize_labels_depth(vertices: np.ndarray, faces: np.ndarray, face_labels:
     w_c = ((b[:, 0] - a[:, 0]) * (centres[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (centres[:, 0] - a[:, 0])) / area
     iz = inv_z[face]
     nearness = (1 - w_b - w_c) * iz[:, 0] + w_b * iz[:, 1] + w_c * iz[:, 2]  # larger = closer
-    best = torch.full((width * height,), -1.0, dtype=torch.float64).scatter_reduce(
-        0, pixel, nearness, reduce="amax", include_self=True)
-    winner = nearness >= best[pixel]
-    out[pixel[winner].numpy()] = np.asarray(labels)[face[winner].numpy()]
-    return out.reshape(height, width), best.clamp_min(0.0).numpy().reshape(height, width)
+    best = torch.full((batch * width * height,), -1.0, dtype=torch.float64).scatter_reduce(
+        0, key, nearness, reduce="amax", include_self=True)
+    winner = nearness >= best[key]
+    # equal depths (coplanar faces of two parts) go to the larger label, as :func:`compose_labels` does
+    labels_out = torch.zeros(batch * width * height, dtype=torch.long).scatter_reduce(
+        0, key[winner], torch.as_tensor(labels)[face[winner]], reduce="amax").numpy()
+    depth_out = best.clamp_min(0.0).numpy()
+    return labels_out.reshape(batch, height, width), depth_out.reshape(batch, height, width)
+
+
+def compose_labels(labels: np.ndarray, inv_depth: np.ndarray, other_labels: np.ndarray,
+                   other_inv_depth: np.ndarray) -> np.ndarray:
+    """The label image of two disjoint face sets from theirs (:func:`rasterize_labels_depth_batch`): the
+    nearer surface per pixel, the larger label on equal depths (as when rasterized together)."""
+    tied = np.where(inv_depth == other_inv_depth, np.maximum(labels, other_labels), other_labels)
+    return np.where(inv_depth > other_inv_depth, labels, tied)
 
 
 def downsample_mask(mask: np.ndarray, size: int) -> np.ndarray:
