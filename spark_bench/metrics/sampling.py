@@ -50,12 +50,19 @@ def sample_triangles(triangles: np.ndarray, n: int, seed: int = 0) -> np.ndarray
     face = np.minimum(np.searchsorted(cumulative, picks, side="right"), len(triangles) - 1)
     uv = rng.random((n, 2))
     # fold the unit square onto the triangle: (u, v) with u + v > 1 maps to (1 - u, 1 - v)
-    flip = uv.sum(axis=1) > 1.0
-    uv[flip] = 1.0 - uv[flip]
-    origin = triangles[face, 0]
-    return (origin
-            + uv[:, :1] * (triangles[face, 1] - origin)
-            + uv[:, 1:] * (triangles[face, 2] - origin))
+    u, v = uv[:, 0], uv[:, 1]
+    flip = (u + v) > 1.0
+    u, v = np.where(flip, 1.0 - u, u), np.where(flip, 1.0 - v, v)
+    # origin + u (p1 - origin) + v (p2 - origin), edges per face, gathered once per sample
+    edge_1 = triangles[:, 1] - triangles[:, 0]
+    edge_2 = triangles[:, 2] - triangles[:, 0]
+    out = edge_1[face]
+    out *= u[:, None]
+    out += triangles[face, 0]
+    second = edge_2[face]
+    second *= v[:, None]
+    out += second
+    return out
 
 
 def sample_mesh_arrays(vertices: np.ndarray, faces: np.ndarray, n: int, seed: int = 0) -> np.ndarray:
