@@ -97,8 +97,8 @@ def profile_split(case_id, gt, camera, mask, part_masks, noise, settings) -> dic
     total = max(v[3] for v in stats.stats.values())
     buckets = {"render (forward)": ("render.py", "render"), "forward kinematics": ("torch_fk.py", "link_poses_torch"),
                "segmentation scores": ("scoring.py", "scores"),
-               "backward pass": ("_tensor.py", "backward"), "loss": ("optimize.py", "silhouette_loss"),
-               "targets (distance transform)": ("optimize.py", "halo_target"),
+               "backward pass": ("_tensor.py", "backward"), "loss": ("loss.py", "silhouette_loss"),
+               "targets (distance transform)": ("loss.py", "halo_target"),
                "mesh prep (decimate, weld)": ("optimize.py", "__init__")}
     out = {}
     for label, (filename, function) in buckets.items():

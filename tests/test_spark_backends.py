@@ -13,6 +13,7 @@ from __future__ import annotations
 import base64
 import io
 import json
+import re
 import sys
 import time
 from pathlib import Path
@@ -223,7 +224,7 @@ def test_run_ours_with_spark_geometry_reads_glb_scenes(toy_case, substitute, tmp
     config = SparkConfig().with_overrides(["geometry.backend=spark", "optimize.enabled=false", *EXACT_PRIOR,
                                            f"geometry.spark_command={json.dumps(spark_command(substitute))}"])
     report = run_ours(toy_case, tmp_path / "out", config)
-    assert report["label"] == "prior=annotation,geometry=spark,open=dataset,opt=none"
+    assert report["label"].startswith("prior=annotation,geometry=spark,open=dataset,opt=none,settings=")
     assert report["backends"]["geometry"] == "spark" and report["geometry_is_ground_truth"] is False
     received = json.loads((tmp_path / "out" / "spark_geometry" / "received.json").read_text())
     assert received["image_size"] == [256, 256] and received["links"] == ["body", "door", "drawer"]
@@ -418,7 +419,7 @@ def test_eval_ours_with_spark_geometry(substitute, tmp_path, capsys, isolated_ho
         "geometry.backend=spark", f"geometry.spark_command={json.dumps(spark_command(substitute))}",
         *EXACT_PRIOR, *TINY_OPT])
     doc = _eval(bench, config, capsys, isolated_home)
-    assert doc["n_failed"] == 0 and doc["method"] == "ours (prior=annotation,geometry=spark,open=dataset,opt=native+none)"
+    assert doc["n_failed"] == 0 and doc["method"].startswith("ours (prior=annotation,geometry=spark,open=dataset,opt=fit-only,settings=")
     # SPARK's stand-in returns the true parts: the shape metrics are real (not n/a) and as good as 3000
     # surface samples can tell (their own noise floor is a CD of about 0.1 on this object)
     assert doc["metrics"]["cd"] < 0.15 and doc["metrics"]["fscore@0.1"] > 0.95
@@ -448,7 +449,7 @@ def test_eval_ours_with_http_open_state(tmp_path, capsys, isolated_home):
     assert base64.b64decode(sent) == (case / "input.png").read_bytes()
     rows = _rows(isolated_home)
     row = next(r for r in rows if r["variant"] == "")
-    assert row["info"]["backends"]["open_state"] == "http" and row["info"]["label"].endswith("open=http,opt=native+none")
+    assert row["info"]["backends"]["open_state"] == "http" and "open=http:img,opt=fit-only" in row["info"]["label"]
     assert not row["shape_metrics_valid"]  # annotation geometry: shape metrics are n/a
     run_dir = Path(row["prediction_dir"])
     report = json.loads((run_dir / "spark_report.json").read_text())
@@ -467,7 +468,7 @@ def test_run_ours_with_every_external_backend(toy_case, substitute, tmp_path):
             "geometry.backend=spark", f"geometry.spark_command={json.dumps(spark_command(substitute))}",
             "open_state.backend=http", f"open_state.url={json.dumps(images.url)}", *TINY_OPT])
         report = run_ours(toy_case, tmp_path / "out", config)
-    assert report["label"] == "prior=vlm,geometry=spark,open=http,opt=native+none"
+    assert re.fullmatch(r"prior=vlm:[\w.-]+,geometry=spark,open=http,opt=fit-only,settings=[0-9a-f]{8}", report["label"])
     assert report["backends"] == {"prior": "vlm", "geometry": "spark", "open_state": "http", "optimize": "none"}
     # the VLM's answer went to SPARK as its prior, and SPARK's links are the VLM's
     assert json.loads((tmp_path / "out" / "prior.json").read_text()) == GOOD

@@ -18,7 +18,9 @@ def test_run_ours_offline_end_to_end(tmp_path):
     config = SparkConfig().with_overrides(["prior.noise.p_axis=1.0", "prior.noise.p_type=1.0",
                                            "prior.noise.p_sign=0.0", "prior.noise.sigma_origin=0.1"])
     report = run_ours(case, tmp_path / "out", config)
-    assert report["label"] == "prior=annotation,geometry=annotation,open=dataset,opt=native"
+    # a non-default noise model: the label says the settings changed
+    assert report["label"] == config.label()
+    assert report["label"].startswith("prior=annotation,geometry=annotation,open=dataset,opt=native,settings=")
     saved = json.loads((tmp_path / "out" / "spark_report.json").read_text())
     assert saved["loss_curve"] == report["loss_curve"] and len(saved["loss_curve"]) > 20
     assert saved["geometry_is_ground_truth"] is True

@@ -91,9 +91,18 @@ def test_config_files_overrides_and_label(tmp_path):
     path.write_text(json.dumps({"prior": {"backend": "file", "file_dir": "x", "noise": {"p_axis": 0.3}},
                                 "optimize": {"enabled": False}}))
     config = SparkConfig.from_file(path)
-    assert config.prior.noise.p_axis == 0.3 and config.label().endswith("opt=none")
+    # a file prior from folder "x": a setting that changes results, so the label names it
+    assert config.prior.noise.p_axis == 0.3 and config.label().startswith(
+        "prior=file,geometry=annotation,open=dataset,opt=none,settings=")
+    assert config.changed_settings() == {"prior.file_dir": "x"}
     config = config.with_overrides(["optimize.enabled=true", "optimize.refine=none", "vlm.model=my-model"])
-    assert config.label() == "prior=file,geometry=annotation,open=dataset,opt=native+none"
+    label = config.label()
+    assert label.startswith("prior=file,geometry=annotation,open=dataset,opt=fit-only,settings=")
+    # the VLM is not used by this config: its model leaves the label alone; an optimization knob does not
+    assert config.with_overrides(["vlm.model=other"]).label() == label
+    assert config.with_overrides(["optimize.top_k=5"]).label() != label
+    assert SparkConfig().with_overrides(["prior.backend=vlm", "vlm.model=my-model"]).label() == \
+        "prior=vlm:my-model,geometry=annotation,open=dataset,opt=native"
     assert config.vlm.model == "my-model"
     assert SparkConfig.from_dict(config.to_dict()) == config
     with pytest.raises(InputError, match="unknown setting"):

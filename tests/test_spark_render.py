@@ -5,7 +5,7 @@ import torch
 import trimesh
 
 from spark_bench.spark.camera import look_at_camera
-from spark_bench.spark.optimize import halo_target
+from spark_bench.spark.loss import halo_target
 from spark_bench.spark.render import SoftSilhouetteRenderer, rasterize_mask
 
 

@@ -102,7 +102,7 @@ def test_run_ours_with_vlm_backend_from_config_file(tmp_path):
                                f'model = "test-vlm"\nbackoff_s = 0.0\n[optimize]\nenabled = false\n')
         config = SparkConfig.from_file(config_path)
         report = run_ours(case, tmp_path / "out", config)
-    assert report["label"] == "prior=vlm,geometry=annotation,open=dataset,opt=none"
+    assert report["label"] == "prior=vlm:test-vlm,geometry=annotation,open=dataset,opt=none"
     assert (tmp_path / "out" / "mobility.urdf").is_file() and (tmp_path / "out" / "prior" / "mobility.urdf").is_file()
     assert json.loads((tmp_path / "out" / "prior.json").read_text()) == GOOD
     assert report["diagnostics"]["prior"]["axis_err"] == pytest.approx(0.0, abs=1e-6)

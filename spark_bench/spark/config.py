@@ -22,6 +22,7 @@ Command-line style overrides (``section.key=value``, value parsed as JSON when i
 
 from __future__ import annotations
 
+import hashlib
 import json
 import tomllib
 from dataclasses import asdict, dataclass, field, fields, is_dataclass
@@ -200,10 +201,51 @@ class SparkConfig:
     write_prior: bool = True
 
     def label(self) -> str:
-        """``prior=...,geometry=...,open=...,opt=...``: what a results row made with this config says."""
-        opt = "none" if not self.optimize.enabled else "native" if self.optimize.refine == "render" \
-            else f"native+{self.optimize.refine}"
-        return f"prior={self.prior.backend},geometry={self.geometry.backend},open={self.open_state.backend},opt={opt}"
+        """What a results row made with this config says, e.g. ``prior=annotation,geometry=annotation,
+        open=dataset,opt=native``.
+
+        A remote model is named (``prior=vlm:gpt-4o``, ``open=http:<model>``); ``opt`` is ``native``
+        (continuous fit with the offline type/axis search), ``native+vlm`` (the VLM re-predicts type and
+        axis), ``fit-only`` (no type/axis search) or ``none``. When a setting that changes results
+        differs from its default (the prior's noise, an optimization knob, the predictions folder, the
+        SPARK command, the VLM's sampling), ``settings=<8 hex>`` names that set of changes, so two runs
+        that differ only there never share a label (the leaderboard keeps one row per label).
+        """
+        opt = "none" if not self.optimize.enabled else \
+            {"render": "native", "vlm": "native+vlm", "none": "fit-only"}[self.optimize.refine]
+        prior = f"vlm:{self.vlm.model}" if self.prior.backend == "vlm" else self.prior.backend
+        open_state = self.open_state.backend
+        if open_state == "http" and self.open_state.model:
+            open_state = f"http:{self.open_state.model}"
+        label = f"prior={prior},geometry={self.geometry.backend},open={open_state},opt={opt}"
+        changed = self.changed_settings()
+        if changed:
+            digest = hashlib.sha256(json.dumps(changed, sort_keys=True).encode()).hexdigest()[:8]
+            label += f",settings={digest}"
+        return label
+
+    def changed_settings(self) -> dict:
+        """The settings that change results and differ from their defaults, for the stages in use
+        (``{"optimize.top_k": 5, ...}``); endpoints, keys, timeouts and retries are not among them."""
+        default = SparkConfig()
+        sections = []
+        if self.prior.backend == "annotation":
+            sections.append(("prior.noise", self.prior.noise, default.prior.noise, ()))
+        if self.prior.backend == "file":
+            sections.append(("prior", self.prior, default.prior, ("backend", "noise")))
+        if self.prior.backend == "vlm" or (self.optimize.enabled and self.optimize.refine == "vlm"):
+            sections.append(("vlm", self.vlm, default.vlm, ("base_url", "model", "api_key_env", "timeout_s",
+                                                             "max_retries", "backoff_s")))
+        sections.append(("geometry", self.geometry, default.geometry, ("backend", "timeout_s")))
+        if self.optimize.enabled:
+            sections.append(("optimize", self.optimize, default.optimize, ("enabled", "refine", "threads")))
+        out = {}
+        for prefix, ours, theirs, skip in sections:
+            for f in fields(ours):
+                value = getattr(ours, f.name)
+                if f.name not in skip and value != getattr(theirs, f.name):
+                    out[f"{prefix}.{f.name}"] = asdict(value) if is_dataclass(value) else value
+        return out
 
     def to_dict(self) -> dict:
         return asdict(self)

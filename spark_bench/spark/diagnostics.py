@@ -113,8 +113,7 @@ def calibrate_noise(ground_truths: Sequence[tuple[str, object]], noise, target: 
             trial = replace(noise, seed=seed)
             for cid, gt, geometry, truth in prepared:
                 prior = assemble_asset(annotation_prior(gt, cid, trial), geometry)
-                names = [j.name for j in prior.joints.values() if j.parent != "base"]
-                per_object.append(joint_errors(joint_summary(prior, names), truth))
+                per_object.append(joint_errors(joint_summary(prior), truth))
         measured = mean_errors(per_object)
         if progress:
             progress(f"calibration {it}: {noise} -> {measured}")

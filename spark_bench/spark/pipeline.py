@@ -92,16 +92,20 @@ def _prior(config: SparkConfig, case_dir: Path, case_id: str, gt, geometry: Part
         return annotation_prior(gt, case_id, config.prior.noise), None
     if backend == "file":
         return file_prior(config.prior.file_dir, case_id, known), None
+    return request_structure(config.vlm, _input_image(case_dir), known, geometry.labels if geometry else None)
+
+
+def _input_image(case_dir: Path) -> bytes:
     image = Path(case_dir) / "input.png"
     if not image.is_file():
         raise InputError(image, "input image not found")
-    return request_structure(config.vlm, image.read_bytes(), known, geometry.labels if geometry else None)
+    return image.read_bytes()
 
 
 def _open_state(config: SparkConfig, case_dir: Path) -> OpenState:
     if config.open_state.backend == "dataset":
         return dataset_open_state(case_dir)
-    return http_open_state(config.open_state, (Path(case_dir) / "input.png").read_bytes())
+    return http_open_state(config.open_state, _input_image(case_dir))
 
 
 def run_ours(case_dir: Path, out_dir: Path, config: SparkConfig | None = None) -> dict:

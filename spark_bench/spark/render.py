@@ -16,7 +16,7 @@ inside the silhouette, wherever two triangles share an edge (diagonals of thin p
 the carcass), and those seams bias the fit (a hinge moved by 0.03 lowered the loss of the true joints);
 the union also over-covers by 6-14 % at shared silhouette edges and vertices. The halo model has no
 interior at all to get wrong; the optimizer gives the target mask the same edge profile
-(:func:`spark_bench.spark.optimize.halo_target`).
+(:func:`spark_bench.spark.loss.halo_target`).
 
 Speed on CPU comes from sparsity: the halo vanishes beyond ``cutoff * tau`` pixels, so only the
 (pixel, triangle) pairs inside each triangle's padded bounding box are formed (a ragged list built with
