@@ -16,6 +16,7 @@ import json
 import re
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -377,11 +378,29 @@ def test_http_open_state_request_and_mask(toy_case, monkeypatch):
 def test_http_open_state_failures(reply, words):
     with FakeImages([reply]) as server:
         with pytest.raises(InputError) as info:
-            http_open_state(_open_config(server.url, timeout_s=0.5), _png(Image.new("RGB", (64, 64))))
+            http_open_state(_open_config(server.url, timeout_s=0.5, max_retries=0), _png(Image.new("RGB", (64, 64))))
     message = str(info.value)
     assert info.value.path == server.url and "\n" not in message
     for word in words:
         assert word in message
+    assert len(server.requests) == 1
+
+
+def test_http_open_state_retries_overload_and_gives_up_on_a_bad_request(toy_case):
+    good = images_answer(_png(Image.open(toy_case / "open.png")))
+    input_png = (toy_case / "input.png").read_bytes()
+    config = _open_config("", max_retries=2, backoff_s=0.0)
+    with FakeImages([(503, b'{"error": "busy"}', 0), (429, b"{}", 0), (200, good, 0)]) as server:
+        state = http_open_state(replace(config, url=server.url), input_png)
+    assert len(server.requests) == 3 and state.mask.max() == 1.0
+    with FakeImages([(503, b'{"error": "busy"}', 0)]) as server:
+        with pytest.raises(InputError, match="failed after 3 attempts: HTTP 503: .*busy"):
+            http_open_state(replace(config, url=server.url), input_png)
+    assert len(server.requests) == 3
+    with FakeImages([(400, b'{"error": "bad prompt"}', 0), (200, good, 0)]) as server:
+        with pytest.raises(InputError, match="HTTP 400: .*bad prompt"):
+            http_open_state(replace(config, url=server.url), input_png)
+    assert len(server.requests) == 1  # a 4xx is the request's fault: not tried again
 
 
 # ----- spark-bench eval --method ours --config X --------------------------------------------------

@@ -89,13 +89,17 @@ class GeometryConfig:
 @dataclass
 class OpenStateConfig:
     """Stage 3. :param backend: ``dataset`` | ``http``; :param url: image-generation endpoint for
-    ``http``; :param model: model name sent; :param api_key_env: key variable; :param timeout_s: limit."""
+    ``http``; :param model: model name sent; :param api_key_env: key variable; :param timeout_s: limit
+    per attempt; :param max_retries: attempts after the first on HTTP 429/5xx, network errors and
+    timeouts; :param backoff_s: first retry delay, doubled each time."""
 
     backend: str = "dataset"
     url: str = ""
     model: str = ""
     api_key_env: str = "OPENAI_API_KEY"
     timeout_s: float = 300.0
+    max_retries: int = 2
+    backoff_s: float = 2.0
 
 
 @dataclass

@@ -13,9 +13,6 @@ from __future__ import annotations
 import base64
 import io
 import json
-import os
-import urllib.error
-import urllib.request
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -23,7 +20,7 @@ import numpy as np
 from PIL import Image
 
 from spark_bench.errors import InputError
-from spark_bench.spark.vlm import image_data_url
+from spark_bench.spark.remote import image_data_url, post_json, with_retries
 
 OPEN_PROMPT = ("The same object, same camera, same lighting, with every movable part (doors, drawers, "
                "lids...) fully open. Plain background.")
@@ -86,28 +83,13 @@ def http_open_state(config, input_png: bytes) -> OpenState:
     The generated image is brought to the input image's size (the camera's) before its mask is taken,
     since the optimization compares it pixel for pixel with renders from the case's camera.
 
-    :raises InputError: naming the endpoint on an HTTP error, a timeout, an answer that is not the
-        images JSON, a payload that is not an image, or an image without an object in it
+    :raises InputError: naming the endpoint on an HTTP error (HTTP 429/5xx, network errors and timeouts
+        after ``config.max_retries`` more attempts), an answer that is not the images JSON, a payload that is not an image, or an image without an object in it
     """
     body = {"model": config.model, "prompt": OPEN_PROMPT, "image": image_data_url(input_png),
             "response_format": "b64_json"}
-    headers = {"Content-Type": "application/json"}
-    key = os.environ.get(config.api_key_env) if config.api_key_env else None
-    if key:
-        headers["Authorization"] = f"Bearer {key}"
-    request = urllib.request.Request(config.url, data=json.dumps(body).encode(), headers=headers, method="POST")
-    try:
-        with urllib.request.urlopen(request, timeout=config.timeout_s) as response:
-            raw = response.read()
-    except urllib.error.HTTPError as exc:
-        detail = " ".join(exc.read()[:200].decode(errors="replace").split())
-        raise InputError(config.url, f"image generation failed: HTTP {exc.code}" + (f": {detail}" if detail else "")) \
-            from None
-    except (urllib.error.URLError, TimeoutError, ConnectionError) as exc:
-        reason = getattr(exc, "reason", exc)
-        if isinstance(reason, TimeoutError) or isinstance(exc, TimeoutError):
-            reason = f"no answer within {config.timeout_s:g} s"
-        raise InputError(config.url, f"image generation failed: {reason}") from None
+    raw = with_retries(lambda: post_json(config.url, body, config.api_key_env, config.timeout_s), config.url,
+                       config.max_retries, config.backoff_s, "image generation")
     image = decode_image_answer(raw, config.url)
     mask = mask_from_image(_to_input_size(image, input_png))
     if mask.max() <= 0:

@@ -1,6 +1,6 @@
 """The ``vlm`` structure prior: any OpenAI-compatible chat-completions endpoint with image input.
 
-Standard library only (``urllib``). The request carries the paper's instructions (section 3.1), the
+Standard library only (:mod:`spark_bench.spark.remote`). The request carries the paper's instructions (section 3.1), the
 input image as a base64 data URL and, when the server supports structured outputs, the answer's JSON
 schema (:func:`spark_bench.spark.structure.answer_schema`). The answer is validated by
 :func:`~spark_bench.spark.structure.parse_structure`; HTTP 429/5xx, network errors and invalid answers
@@ -9,14 +9,11 @@ are retried with exponential backoff, then reported in one line naming the endpo
 
 from __future__ import annotations
 
-import base64
 import json
-import os
 import time
-import urllib.error
-import urllib.request
 
 from spark_bench.errors import InputError
+from spark_bench.spark.remote import Retryable, image_data_url, post_json, with_retries
 from spark_bench.spark.structure import CANONICAL_AXES, PriorStructure, answer_schema, parse_structure
 
 SYSTEM_PROMPT = """You are an expert in articulated objects and URDF. From one RGB image of an object you
@@ -49,11 +46,6 @@ origins. Answer with the full corrected coarse URDF in the same JSON form.
 
 {structure}
 """
-
-
-def image_data_url(png: bytes) -> str:
-    """A ``data:image/png;base64,...`` URL of PNG bytes."""
-    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
 
 
 def build_request(config, image_png: bytes, known_links: list[str] | None = None,
@@ -92,29 +84,11 @@ def build_request(config, image_png: bytes, known_links: list[str] | None = None
     return body
 
 
-class _Retry(Exception):
-    """A failure worth another attempt."""
-
-
-def _post(url: str, body: dict, api_key: str | None, timeout: float) -> dict:
-    headers = {"Content-Type": "application/json"}
-    if api_key:
-        headers["Authorization"] = f"Bearer {api_key}"
-    request = urllib.request.Request(url, data=json.dumps(body).encode(), headers=headers, method="POST")
+def _post(url: str, body: dict, api_key_env: str | None, timeout_s: float) -> dict:
     try:
-        with urllib.request.urlopen(request, timeout=timeout) as response:
-            payload = response.read()
-    except urllib.error.HTTPError as exc:
-        detail = exc.read()[:200].decode(errors="replace")
-        if exc.code == 429 or exc.code >= 500:
-            raise _Retry(f"HTTP {exc.code}: {detail}") from None
-        raise InputError(url, f"HTTP {exc.code}: {' '.join(detail.split())}") from None
-    except (urllib.error.URLError, TimeoutError, ConnectionError) as exc:
-        raise _Retry(f"network error: {getattr(exc, 'reason', exc)}") from None
-    try:
-        return json.loads(payload)
+        return json.loads(post_json(url, body, api_key_env, timeout_s))
     except (json.JSONDecodeError, UnicodeDecodeError):
-        raise _Retry("the response is not JSON") from None
+        raise Retryable("the response is not JSON") from None
 
 
 def answer_content(response: dict) -> dict:
@@ -122,16 +96,16 @@ def answer_content(response: dict) -> dict:
     try:
         content = response["choices"][0]["message"]["content"]
     except (KeyError, IndexError, TypeError):
-        raise _Retry("the response has no choices[0].message.content") from None
+        raise Retryable("the response has no choices[0].message.content") from None
     if not isinstance(content, str):
-        raise _Retry("the message content is not text")
+        raise Retryable("the message content is not text")
     text = content.strip()
     if text.startswith("```"):
         text = text.strip("`").removeprefix("json").strip()
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:
-        raise _Retry(f"the answer is not JSON ({exc.msg} at char {exc.pos})") from None
+        raise Retryable(f"the answer is not JSON ({exc.msg} at char {exc.pos})") from None
 
 
 def request_structure(config, image_png: bytes, known_links: list[str] | None = None,
@@ -142,23 +116,18 @@ def request_structure(config, image_png: bytes, known_links: list[str] | None = 
     :raises InputError: after ``1 + max_retries`` failed attempts, or at once on HTTP 4xx (not 429)
     """
     url = config.base_url.rstrip("/") + "/chat/completions"
-    api_key = os.environ.get(config.api_key_env) if config.api_key_env else None
     body = build_request(config, image_png, known_links, labels, refine_from)
-    problem = ""
-    for attempt in range(1 + max(0, int(config.max_retries))):
-        if attempt:
-            sleep(config.backoff_s * 2 ** (attempt - 1))
+
+    def attempt() -> tuple[PriorStructure, dict]:
+        answer = answer_content(_post(url, body, config.api_key_env, config.timeout_s))
         try:
-            answer = answer_content(_post(url, body, api_key, config.timeout_s))
-            try:
-                structure = parse_structure(answer, url, known_links, upper_table)
-            except InputError as exc:
-                raise _Retry(f"the answer does not fit the coarse-URDF schema: {exc.problem}") from None
-            structure.source = "vlm"
-            return structure, answer
-        except _Retry as exc:
-            problem = str(exc)
-    raise InputError(url, f"no valid answer after {1 + config.max_retries} attempts; last: {problem}")
+            structure = parse_structure(answer, url, known_links, upper_table)
+        except InputError as exc:
+            raise Retryable(f"the answer does not fit the coarse-URDF schema: {exc.problem}") from None
+        structure.source = "vlm"
+        return structure, answer
+
+    return with_retries(attempt, url, config.max_retries, config.backoff_s, "the VLM request", sleep)
 
 
 def axis_names() -> list[str]:
