@@ -4,7 +4,7 @@ Importing the package registers the gymnasium environments ``SparkDrawer-v0`` an
 (when :mod:`spark_bench.envs` is present); heavy dependencies are imported lazily by each module.
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 #: Version of the metric definitions (DESIGN.md "Benchmark frame", "Shape metrics",
 #: "Articulation metrics"), written into every results row.
