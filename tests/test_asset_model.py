@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 from helpers_assets import tiny_cabinet
 
-from spark_bench.asset.ops import normalize_asset, scale_asset, translate_asset
+from spark_bench.asset.ops import (
+    denormalization,
+    normalize_asset,
+    scale_asset,
+    similarity_asset,
+    translate_asset,
+)
 from spark_bench.asset.transforms import axis_angle_matrix, matrix_to_rpy, origin_to_matrix, rpy_to_matrix
 
 
@@ -81,3 +87,31 @@ def test_scale_and_translate_reject_bad_values_and_do_not_mutate():
         scale_asset(asset, 0.0)
     with pytest.raises(ValueError):
         scale_asset(asset, float("nan"))
+
+
+def test_similarity_moves_geometry_joints_and_collisions_and_undoes_normalization():
+    asset = tiny_cabinet()
+    rotation = axis_angle_matrix(np.array([0.0, 0.0, 1.0]), 0.7)
+    matrix = np.eye(4)
+    matrix[:3, :3], matrix[:3, 3] = 1.5 * rotation, [0.2, -0.1, 0.4]
+    moved = similarity_asset(asset, matrix)
+    q, q_moved = asset.open_configuration(), moved.open_configuration()
+    assert q_moved["joint_drawer"] == pytest.approx(1.5 * q["joint_drawer"])  # prismatic limits scale
+    expected = asset.mesh(q).vertices @ matrix[:3, :3].T + matrix[:3, 3]
+    np.testing.assert_allclose(moved.mesh(q_moved).vertices, expected, atol=1e-12)
+    for name, (point, direction) in asset.joint_frames().items():
+        moved_point, moved_direction = moved.joint_frames()[name]
+        np.testing.assert_allclose(moved_point, matrix[:3, :3] @ point + matrix[:3, 3], atol=1e-12)
+        np.testing.assert_allclose(moved_direction, rotation @ direction, atol=1e-12)
+    # collision shapes, in the world: where the similarity puts them
+    world = asset.link_poses()["body"] @ asset.links["body"].collisions[0].origin
+    moved_world = moved.link_poses()["body"] @ moved.links["body"].collisions[0].origin
+    np.testing.assert_allclose(moved_world[:3, 3], matrix[:3, :3] @ world[:3, 3] + matrix[:3, 3], atol=1e-12)
+    np.testing.assert_allclose(moved_world[:3, :3], rotation @ world[:3, :3], atol=1e-12)
+    np.testing.assert_allclose(moved.links["body"].collisions[0].size, 1.5 * asset.links["body"].collisions[0].size)
+    # the benchmark frame and back: the source object again
+    normalized, center, scale = normalize_asset(asset)
+    back = similarity_asset(normalized, denormalization(center, scale))
+    np.testing.assert_allclose(back.mesh(q).vertices, asset.mesh(q).vertices, atol=1e-12)
+    with pytest.raises(ValueError, match="similarity"):
+        similarity_asset(asset, np.diag([1.0, 2.0, 1.0, 1.0]))

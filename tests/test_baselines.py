@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_eval import make_tiny_bench, write_case
+from helpers_bench import make_tiny_bench, write_case
 
 from spark_bench.baselines.geometry import (
     GeometryOptions,

@@ -7,7 +7,7 @@ import sys
 from importlib.metadata import EntryPoint
 
 import pytest
-from test_eval import make_tiny_bench
+from helpers_bench import make_tiny_bench
 
 from spark_bench import generators
 from spark_bench.errors import InputError, SparkBenchError

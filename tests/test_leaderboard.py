@@ -10,7 +10,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from test_eval import FAST, make_tiny_bench
+from helpers_bench import make_tiny_bench
+from test_eval import FAST
 
 from spark_bench.bench.leaderboard import build_leaderboard, render, to_csv, to_latex, to_markdown
 from spark_bench.bench.store import ResultsStore

@@ -431,7 +431,7 @@ def _config_file(path: Path, overrides: list[str]) -> Path:
 
 
 def test_eval_ours_with_spark_geometry(substitute, tmp_path, capsys, isolated_home):
-    from test_eval import make_tiny_bench
+    from helpers_bench import make_tiny_bench
 
     bench = make_tiny_bench(tmp_path, n=1)  # procedural cabinets: their base link carries the body
     config = _config_file(tmp_path / "ours.json", [
@@ -453,7 +453,7 @@ def test_eval_ours_with_spark_geometry(substitute, tmp_path, capsys, isolated_ho
 
 
 def test_eval_ours_with_http_open_state(tmp_path, capsys, isolated_home):
-    from test_eval import make_tiny_bench
+    from helpers_bench import make_tiny_bench
 
     bench = make_tiny_bench(tmp_path, n=1)
     case = bench / "cases" / "cab0"

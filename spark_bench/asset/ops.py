@@ -35,23 +35,56 @@ def scale_asset(asset: ArticulatedAsset, scale: float) -> ArticulatedAsset:
 
 
 def translate_asset(asset: ArticulatedAsset, offset) -> ArticulatedAsset:
-    """A copy of ``asset`` moved by ``offset`` in the world frame.
+    """A copy of ``asset`` moved by ``offset`` in the world frame (see :func:`move_asset`)."""
+    matrix = np.eye(4)
+    matrix[:3, 3] = np.asarray(offset, dtype=float)
+    return move_asset(asset, matrix)
 
-    The root link stays at the identity; its meshes and the origins of the joints hanging from it
-    are shifted, so the asset's files need no extra world transform.
+
+def move_asset(asset: ArticulatedAsset, rigid: np.ndarray) -> ArticulatedAsset:
+    """A copy of ``asset`` moved by the 4x4 rigid transform ``rigid`` in the world frame.
+
+    The root link stays at the identity; its meshes and collision shapes, and the origins of the joints
+    hanging from it, are moved, so the asset's files need no extra world transform. Joint axes are in
+    their joints' frames and move with them.
     """
-    offset = np.asarray(offset, dtype=float)
+    rigid = np.asarray(rigid, dtype=float)
+    rotation, offset = rigid[:3, :3], rigid[:3, 3]
     out = asset.copy()
     root = out.root
     for visual in out.links[root].visuals:
-        visual.mesh.vertices = visual.mesh.vertices + offset
+        visual.mesh.vertices = visual.mesh.vertices @ rotation.T + offset
     for col in out.links[root].collisions:
-        col.origin = col.origin.copy()
-        col.origin[:3, 3] += offset
+        col.origin = rigid @ col.origin  # a mesh shape's vertices are in this frame: they move with it
     for joint in out.joints.values():
         if joint.parent == root:
-            joint.origin = joint.origin.copy()
-            joint.origin[:3, 3] += offset
+            joint.origin = rigid @ joint.origin
+    return out
+
+
+def similarity_asset(asset: ArticulatedAsset, matrix: np.ndarray) -> ArticulatedAsset:
+    """A copy of ``asset`` under the 4x4 similarity ``matrix`` (uniform scale, rotation, translation):
+    scaled about the world origin first (:func:`scale_asset`), then moved rigidly (:func:`move_asset`).
+
+    :raises ValueError: when ``matrix`` is not a similarity with a positive scale
+    """
+    matrix = np.asarray(matrix, dtype=float)
+    linear = matrix[:3, :3]
+    scale = float(np.cbrt(np.linalg.det(linear)))
+    if not np.isfinite(scale) or scale <= 0 or not np.allclose(linear.T @ linear, scale ** 2 * np.eye(3),
+                                                               atol=1e-9 * max(1.0, scale ** 2)):
+        raise ValueError("expected a similarity transform (uniform scale > 0, rotation, translation)")
+    rigid = np.eye(4)
+    rigid[:3, :3], rigid[:3, 3] = linear / scale, matrix[:3, 3]
+    return move_asset(scale_asset(asset, scale), rigid)
+
+
+def denormalization(center, scale: float) -> np.ndarray:
+    """The 4x4 similarity from the benchmark frame back to the source's world frame (metres):
+    ``p_world = p_bench / scale + center`` (the inverse of :func:`normalization`'s map)."""
+    out = np.eye(4) / float(scale)
+    out[3, 3] = 1.0
+    out[:3, 3] = np.asarray(center, dtype=float)
     return out
 
 

@@ -4,9 +4,11 @@ the *ground-truth* object (:func:`spark_bench.rl.scripted.open_with_joint`).
 Each ground-truth drawer (prismatic) and door (revolute) is opened once in its environment
 (``SparkDrawer-v0`` / ``SparkDoor-v0``), with the parameters of the predicted joint it was matched with
 by the metrics (Hungarian matching on parts). A joint the opener cannot open even with the
-ground-truth parameters tests the opener, not the prediction: it is left out (``success`` None). The predicted axis line is carried from the prediction's
-frame into the ground truth's: prediction world -> its benchmark frame (-> the ICP alignment, when the
-metrics aligned) -> ground-truth world. An unmatched joint counts as not opened. Continuous joints
+ground-truth parameters tests the opener, not the prediction: it is left out (``success`` None). The
+robot acts on the object at its real size: a case's ``gt/`` is stored in the benchmark frame ([-1, 1]^3),
+so it is scaled back with ``case.json``'s normalization. The predicted axis line is carried from the
+prediction's frame into the ground truth's: prediction world -> its benchmark frame (-> the ICP
+alignment, when the metrics aligned) -> ground-truth world -> metres. An unmatched joint counts as not opened. Continuous joints
 (knobs, caps) have no opening task and are left out.
 """
 
@@ -21,8 +23,9 @@ from spark_bench.errors import InputError
 ENV_OF_TYPE = {"prismatic": "SparkDrawer-v0", "revolute": "SparkDoor-v0"}
 
 
-def predicted_axes_in_gt_frame(pred, gt, alignment=None) -> dict[str, tuple[np.ndarray, np.ndarray, str]]:
-    """``{pred joint: (axis, pivot, type)}`` in the ground truth's world frame.
+def prediction_to_gt_world(pred, gt, alignment=None) -> np.ndarray:
+    """The 4x4 similarity from the prediction's world frame into the ground truth's: prediction world
+    -> its benchmark frame (-> the metrics' ICP alignment) -> ground-truth world.
 
     :param pred: predicted asset
     :param gt: ground-truth asset
@@ -30,14 +33,44 @@ def predicted_axes_in_gt_frame(pred, gt, alignment=None) -> dict[str, tuple[np.n
     """
     from spark_bench.metrics.geometry import benchmark_transform
 
-    frame = np.linalg.inv(benchmark_transform(gt)) @ np.asarray(alignment if alignment is not None else np.eye(4)) \
-        @ benchmark_transform(pred)
+    align = np.asarray(alignment if alignment is not None else np.eye(4), dtype=np.float64)
+    return np.linalg.inv(benchmark_transform(gt)) @ align @ benchmark_transform(pred)
+
+
+def predicted_axes_in_gt_frame(pred, gt, alignment=None, gt_to_world=None
+                               ) -> dict[str, tuple[np.ndarray, np.ndarray, str]]:
+    """``{pred joint: (axis, pivot, type)}`` in the ground truth's world frame.
+
+    :param pred: predicted asset
+    :param gt: ground-truth asset
+    :param alignment: optional 4x4 similarity the metrics applied to the prediction's benchmark frame
+    :param gt_to_world: optional 4x4 similarity applied after, e.g. a case's benchmark frame -> metres
+    """
+    frame = prediction_to_gt_world(pred, gt, alignment)
+    if gt_to_world is not None:
+        frame = np.asarray(gt_to_world, dtype=np.float64) @ frame
     out = {}
     for name, (point, direction) in pred.joint_frames().items():
         d = frame[:3, :3] @ direction
         p = frame[:3, :3] @ point + frame[:3, 3]
         out[name] = (d / np.linalg.norm(d), p, pred.joints[name].type)
     return out
+
+
+def ground_truth_at_source_size(gt_folder: str | Path):
+    """``(gt asset, 4x4 from its files' frame to metres)``: a case's ``gt/`` is normalized to the
+    benchmark frame, and the robot must open the object at its real size (identity elsewhere)."""
+    from spark_bench.asset.ops import similarity_asset
+    from spark_bench.data import load_object
+    from spark_bench.data.readers import case_to_source_frame
+
+    gt_folder = Path(gt_folder)
+    gt = load_object(gt_folder)
+    case_dir = gt_folder.parent
+    if not (case_dir / "case.json").is_file():
+        return gt, np.eye(4)
+    to_source = case_to_source_frame(case_dir)
+    return similarity_asset(gt, to_source), to_source
 
 
 def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, seed: int = 0,
@@ -55,10 +88,11 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     from spark_bench.rl.rollout import make_env
     from spark_bench.rl.scripted import open_with_ground_truth, open_with_joint
 
-    gt = load_object(gt_folder)
+    gt_files = load_object(gt_folder)
+    gt, to_source = ground_truth_at_source_size(gt_folder)
     pred = load_object(pred_folder)
     matched = {m["gt_joint"]: m["pred_joint"] for m in metrics.get("matching", [])}
-    axes = predicted_axes_in_gt_frame(pred, gt, metrics.get("alignment"))
+    axes = predicted_axes_in_gt_frame(pred, gt_files, metrics.get("alignment"), to_source)
     joints = {}
     for joint in gt.movable_joints():
         env_id = ENV_OF_TYPE.get(joint.type)
@@ -110,11 +144,16 @@ def rl_transfer(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, o
     :param episodes: evaluation episodes on the ground truth
     :returns: ``{"success_rate": ..., "train_success_rate": ..., "gt_joint": ..., "pred_joint": ...}``
     """
+    from spark_bench.asset.ops import similarity_asset
     from spark_bench.data import load_object
     from spark_bench.rl.rollout import ModelPolicy, make_env, run_episodes
     from spark_bench.rl.train import load_model, train
 
-    gt, pred = load_object(gt_folder), load_object(pred_folder)
+    gt_files, pred_files = load_object(gt_folder), load_object(pred_folder)
+    gt, to_source = ground_truth_at_source_size(gt_folder)
+    # the prediction where (and as large as) the metrics matched it with the real object
+    pred = similarity_asset(pred_files, to_source @ prediction_to_gt_world(pred_files, gt_files,
+                                                                          metrics.get("alignment")))
     for match in metrics.get("matching", []):
         env_id = ENV_OF_TYPE.get(match["gt_type"])
         pred_type = pred.joints[match["pred_joint"]].type

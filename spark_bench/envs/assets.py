@@ -1,7 +1,8 @@
 """What the environments' ``asset`` argument may be, and the default cabinet.
 
 ``asset`` is an :class:`~spark_bench.asset.model.ArticulatedAsset`, an object folder, a URDF file, or a
-benchmark case folder (its ground truth ``gt/`` is used); ``None`` is the default cabinet: the ``synth``
+benchmark case folder (its ground truth ``gt/``, brought back from the benchmark frame to the source
+object's size in metres with ``case.json``'s normalization); ``None`` is the default cabinet: the ``synth``
 generator's StorageFurniture object of :data:`DEFAULT_SEED` (generated once into the cache) when that
 generator is installed, else the in-memory :func:`~spark_bench.envs.cabinet.procedural_cabinet`.
 """
@@ -109,4 +110,17 @@ def load_asset(asset: AssetLike) -> tuple[ArticulatedAsset, str]:
     from spark_bench.data import load_object
 
     folder = asset_folder(asset)
-    return load_object(folder), str(folder.resolve())
+    loaded = load_object(folder)
+    case_dir = folder.parent
+    if folder.name == "gt" and (case_dir / "case.json").is_file():
+        loaded = source_size(loaded, case_dir)
+    return loaded, str(folder.resolve())
+
+
+def source_size(gt: ArticulatedAsset, case_dir: str | Path) -> ArticulatedAsset:
+    """A benchmark case's ground truth back at its source's size and place (metres): cases store it
+    normalized to [-1, 1]^3, and a robot must open the real object, not one scaled to two metres."""
+    from spark_bench.asset.ops import similarity_asset
+    from spark_bench.data.readers import case_to_source_frame
+
+    return similarity_asset(gt, case_to_source_frame(case_dir))
