@@ -205,7 +205,10 @@ def to_markdown(board: Leaderboard, per_category: bool = False) -> str:
             for table in board.tables(entries):
                 parts += [f"### {table.title}", "", _md_table(table), ""]
     parts.append("Best **bold**, second best _italics_ (reference rows with regime `ground truth` are not "
-                 "ranked). n/a: not measured or not meaningful (geometry taken from the ground truth).")
+                 "ranked). n/a: not measured or not meaningful (geometry taken from the ground truth). "
+                 "Open success: the scripted opener, planned from the predicted joints, opening each "
+                 "ground-truth drawer and door at its real size; cases whose joints it cannot open even "
+                 "with the ground truth's own are left out.")
     return "\n".join(parts) + "\n"
 
 
