@@ -67,7 +67,7 @@ def mujoco_import(src: Path) -> dict:
     """MuJoCo's URDF importer on the same file, and the same sweep where it compiles."""
     import mujoco
 
-    from spark_bench.sim.checks import SweptJoint, check_joint_sweep
+    from spark_bench.sim.sweep import SweptJoint, check_joint_sweep
 
     try:
         spec = mujoco.MjSpec.from_file(str(src / "mobility.urdf"))
