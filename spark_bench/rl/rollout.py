@@ -151,8 +151,13 @@ def write_video(frames: list[np.ndarray], path: str | Path, fps: int) -> Path:
     if path.suffix.lower() == ".gif":
         iio.imwrite(path, np.stack(frames), duration=1000.0 / fps, loop=0)
         return path
+    stack = np.stack(frames)
+    # H.264 wants sides divisible by 16: pad with the edge pixels rather than let the writer resample
+    pad_h, pad_w = -stack.shape[1] % 16, -stack.shape[2] % 16
+    if pad_h or pad_w:
+        stack = np.pad(stack, ((0, 0), (0, pad_h), (0, pad_w), (0, 0)), mode="edge")
     try:
-        iio.imwrite(path, np.stack(frames), fps=fps, codec="libx264", plugin="FFMPEG")
+        iio.imwrite(path, stack, fps=fps, codec="libx264", plugin="FFMPEG")
     except (ImportError, ValueError, RuntimeError) as exc:
         raise InputError(path, f"cannot write MP4 ({exc}); install imageio-ffmpeg or use .gif") from None
     return path
