@@ -194,6 +194,12 @@ def _md_table(table: Table) -> str:
     return "\n".join(lines)
 
 
+#: What the open-success column measures, under every rendering of the tables.
+OPEN_SUCCESS_NOTE = ("Open success: the scripted opener, planned from the predicted joints, opening each "
+                     "ground-truth drawer and door at its real size; cases whose joints it cannot open even "
+                     "with the ground truth's own are left out.")
+
+
 def to_markdown(board: Leaderboard, per_category: bool = False) -> str:
     """Markdown tables (best in bold, second best in italics)."""
     parts = [f"# spark-bench leaderboard: {board.bench}", ""]
@@ -206,9 +212,7 @@ def to_markdown(board: Leaderboard, per_category: bool = False) -> str:
                 parts += [f"### {table.title}", "", _md_table(table), ""]
     parts.append("Best **bold**, second best _italics_ (reference rows with regime `ground truth` are not "
                  "ranked). n/a: not measured or not meaningful (geometry taken from the ground truth). "
-                 "Open success: the scripted opener, planned from the predicted joints, opening each "
-                 "ground-truth drawer and door at its real size; cases whose joints it cannot open even "
-                 "with the ground truth's own are left out.")
+                 + OPEN_SUCCESS_NOTE)
     return "\n".join(parts) + "\n"
 
 

@@ -6,11 +6,12 @@ with relative paths, so the page and its folder can be copied anywhere together.
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 from spark_bench.bench.leaderboard import (
     HEADERS,
-    HIGHER_IS_BETTER,
+    OPEN_SUCCESS_NOTE,
     PALETTE,
     Leaderboard,
     Table,
@@ -64,8 +65,10 @@ def bar_chart(table: Table, path: Path) -> Path | None:
     metrics = [m for m in table.metrics if any(_number(e.metrics.get(m)) for e in table.entries)]
     if not metrics:
         return None
-    names = [e.name for e in table.entries]
-    fig, axes = plt.subplots(1, len(metrics), figsize=(3.6 * len(metrics), 0.45 * len(names) + 1.2),
+    # long labels (ours' backends) wrapped onto lines of their own, so the bars keep the width
+    names = ["\n".join(textwrap.wrap(e.name.replace(",", ", "), 34)) for e in table.entries]
+    lines = max(name.count("\n") + 1 for name in names)
+    fig, axes = plt.subplots(1, len(metrics), figsize=(2.2 + 2.6 * len(metrics), (0.25 + 0.17 * lines) * len(names) + 1.0),
                              squeeze=False)
     for ax, metric in zip(axes[0], metrics):
         values = [e.metrics.get(metric) if _number(e.metrics.get(metric)) else 0.0 for e in table.entries]
@@ -73,8 +76,7 @@ def bar_chart(table: Table, path: Path) -> Path | None:
         ax.barh(range(len(names)), values, color=colors)
         ax.set_yticks(range(len(names)), names if ax is axes[0][0] else [""] * len(names), fontsize=8)
         ax.invert_yaxis()
-        arrow = "higher is better" if HIGHER_IS_BETTER.get(metric) else "lower is better"
-        ax.set_title(f"{HEADERS[metric]} ({arrow})", fontsize=9)
+        ax.set_title(HEADERS[metric], fontsize=9)  # its arrow says which way is better
         for k, e in enumerate(table.entries):
             if not _number(e.metrics.get(metric)):
                 ax.text(0, k, " n/a", va="center", fontsize=7, color="#888")
@@ -151,7 +153,8 @@ def to_html(board: Leaderboard, out: Path, per_category: bool = False, max_cases
              f"<h1>spark-bench leaderboard: {html_escape(board.bench)}</h1>",
              "<p>Best of each column <span style='background:rgb{}'>highlighted</span>, second best "
              "<span style='background:rgb{}'>lighter</span>; reference rows (regime <i>ground truth</i>) are "
-             "not ranked; n/a: not measured or not meaningful.</p>".format(PALETTE["Palette5"], PALETTE["Palette4"])]
+             "not ranked; n/a: not measured or not meaningful. {}</p>".format(
+                 PALETTE["Palette5"], PALETTE["Palette4"], html_escape(OPEN_SUCCESS_NOTE))]
     charts = []
     for table in board.tables():
         parts += [f"<h2>{html_escape(table.title)}</h2>", _table_html(table)]
