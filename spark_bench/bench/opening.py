@@ -107,7 +107,7 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
             joints[joint.name] = {"success": False, "why": f"predicted joint is {pred_type}"}
             continue
         try:
-            env = make_env(env_id, asset=gt, joint=joint.name)
+            env = make_env(env_id, asset=gt, joint=joint.name, max_episode_steps=max_steps)
         except InputError as exc:  # no task for this joint (no graspable surface...): not the method's fault
             joints[joint.name] = {"success": None, "why": f"no opening task: {' '.join(str(exc).split())[:200]}"}
             continue

@@ -6,10 +6,15 @@ project it on the part's outward direction (the pull direction of a drawer, the 
 door's far edge), take the front face as the densest level near the front, and keep what stands
 proud of it by more than :data:`HANDLE_MIN_PROUD`; the connected clusters of those points are handle
 candidates, and the chosen one is the central one (drawers) or the one farthest from the hinge (doors).
+A part with neither has the handle of a part hinged to it (a door's lever or knob, its own joint) as its
+handle, the piece in front of its front face. A labelled handle whose bounding box's center is not over
+the handle (a bucket's bail, an arc) is grasped at its far end (:func:`on_handle`).
 A part with nothing proud of its front face but a finger-pull notch cut into an edge of its front
 (found by rasterising the front face, :func:`find_notch`) gets an *inside grip*: the closed fingers enter
 the notch, the hand presses against the notch's inner wall and the fingers open against its sides
-(``inside_grip=True``, ``press`` the direction of that wall). Any other part gets its front face's
+(``inside_grip=True``, ``press`` the direction of that wall). A revolute part with none of these but a
+tab standing out past its free edge (a box lid's lifting tab, :func:`find_tab`) is pinched across the tab
+from beyond that edge (``outward`` is then the edge's direction, not the swing's). Any other part gets its front face's
 center (drawers) or a point of the front face near its free edge (doors), with ``has_handle=False``.
 
 A pinch grasp is then checked against its neighbourhood (:func:`plan_pads`): a feature of *another* part
@@ -46,8 +51,21 @@ N_SAMPLES = 20000
 NOTCH_CELL = 0.003
 #: Smallest notch extent (m) the closed fingers (pads 12 mm tall, 24 mm wide) can enter.
 NOTCH_MIN = 0.02
-#: Largest notch extent (m) along its open edge: beyond this it is a gap between parts, not a notch.
+#: Largest notch extent (m) along its open edge: beyond this (and beyond :data:`NOTCH_MAX_FRACTION` of
+#: that edge) it is a gap between parts, not a notch.
 NOTCH_MAX = 0.35
+#: A notch may also be as long as this fraction of its edge (a fridge door's finger-pull runs 0.37 m of a
+#: 1.5 m edge).
+NOTCH_MAX_FRACTION = 0.3
+#: A labelled handle's grasp point must lie over the handle itself: within this distance (m), in the
+#: front plane, of a handle point. A bucket's bail is an arc: its bounding box's center is in the air.
+HANDLE_ON_TOLERANCE = 0.006
+#: A handle reached over its far end (a revolute part's tip): points this close (m) to the handle point
+#: farthest from the hinge.
+HANDLE_TIP_BAND = 0.02
+#: A revolute part's free edge must lie this far (m) from its hinge for a feature past it to be a lid's tab:
+#: a shorter part is a lever (a toilet's flush lever, 8 cm), pressed on its face, not pinched at its end.
+TAB_MIN_REACH = 0.15
 #: How far (m) behind the front face the TCP goes in a notch: the fingertips reach 12 mm further.
 NOTCH_DEPTH = 0.004
 #: Another part's surface stands in the fingers' way when it is this far (m) proud of the grasped front
@@ -68,7 +86,8 @@ class GraspTarget:
     :param outward: unit direction out of the part's front (the gripper approaches along ``-outward``)
     :param long_axis: the handle's long direction (perpendicular to ``outward``); fingers close across it
     :param has_handle: whether a handle was found (label or geometry)
-    :param source: ``label``, ``geometry``, ``notch`` (a finger-pull notch) or ``face`` (no handle)
+    :param source: ``label``, ``geometry``, ``notch`` (a finger-pull notch), ``tab`` (a lid's tab past its
+        free edge) or ``face`` (no handle)
     :param grip: ``pinch`` (fingers close across the handle) or ``inside`` (a notch: the closed fingers
         enter it, the hand presses towards its inner wall, the fingers open against its sides)
     :param press: for an ``inside`` grip, the unit direction (in the front plane) from the notch's open
@@ -248,7 +267,7 @@ def find_notch(image: np.ndarray, lo: np.ndarray, cell: float = NOTCH_CELL) -> l
         if len(sides) != 1:
             continue
         axis, sign = sides[0]
-        if extent[1 - axis] > NOTCH_MAX:
+        if extent[1 - axis] > max(NOTCH_MAX, NOTCH_MAX_FRACTION * image.shape[1 - axis] * cell):
             continue
         press = np.zeros(2)
         press[axis] = -sign
@@ -350,6 +369,72 @@ def plan_pads(part, others, point: np.ndarray, outward: np.ndarray, closing: np.
             "pad_thickness": thickness, "clearance": clearance}
 
 
+def carried_links(asset: ArticulatedAsset, joint: str, links: list[str]) -> list[str]:
+    """Links that move with ``joint`` but belong to parts of their own, hinged below it (a door's lever).
+
+    :param links: the joint's own part (:meth:`ArticulatedAsset.part_of_joint`)
+    """
+    subtree, stack = set(), [asset.joints[joint].child]
+    while stack:
+        link = stack.pop()
+        subtree.add(link)
+        stack.extend(j.child for j in asset.joints.values() if j.parent == link and j.child not in subtree)
+    return [name for name in asset.links if name in subtree and name not in links]
+
+
+def on_handle(handle: np.ndarray, basis: np.ndarray, origin: np.ndarray | None, axis: np.ndarray) -> np.ndarray:
+    """The handle points to grasp: all of them when their bounding box's center (in the front plane) lies
+    over the handle, else its far end (the points within :data:`HANDLE_TIP_BAND` of the one farthest from
+    a hinge at ``origin`` along ``axis``; ``origin`` None: of the one nearest that center).
+    A bucket's bail is an arc: the center of its box is in the air, its grip at the top of the arc."""
+    uv = handle @ basis.T
+    center = 0.5 * (uv.min(0) + uv.max(0))
+    gap = np.linalg.norm(uv - center, axis=1)
+    if gap.min() <= HANDLE_ON_TOLERANCE:
+        return handle
+    if origin is None:
+        anchor = handle[int(np.argmin(gap))]
+        return handle[np.linalg.norm(handle - anchor, axis=1) < HANDLE_TIP_BAND]
+    r = handle - origin
+    radial = np.linalg.norm(r - np.outer(r @ axis, axis), axis=1)
+    return handle[radial > radial.max() - HANDLE_TIP_BAND]
+
+
+def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> GraspTarget | None:
+    """A tab standing out past the free edge of a revolute part (a box lid's lifting tab), or None.
+
+    The free edge faces away from the hinge (``radial``, from the hinge to the part's centroid); a feature
+    proud of that edge's face by more than :data:`HANDLE_MIN_PROUD` is pinched from beyond the edge,
+    the fingers closing across its thickness. The edge's face is the densest level near the far end (a
+    tab's own end face is a level too, but a smaller one).
+
+    :param part: the part's mesh (world, at rest)
+    :param points: the part's surface points at rest (world)
+    :param origin: a point on the hinge axis
+    :param axis: unit hinge axis
+    """
+    r = points - origin
+    r = r - np.outer(r @ axis, axis)
+    radial = _face_normal(part, _unit(r.mean(0)))
+    depth = points @ radial
+    near = depth[depth > depth.max() - 0.12]
+    counts, edges = np.histogram(near, bins=np.arange(near.min(), depth.max() + 2 * LEVEL_BIN, LEVEL_BIN))
+    k = int(np.argmax(counts))
+    edge = float(0.5 * (edges[k] + edges[k + 1]))
+    if edge - float(origin @ radial) < TAB_MIN_REACH:
+        return None
+    tip = points[depth > edge + HANDLE_MIN_PROUD]
+    groups = [g for g in clusters(tip) if len(g) >= max(20, int(0.002 * len(points)))]
+    if not groups:
+        return None
+    basis = _perpendicular_basis(radial)
+    best = tip[max(groups, key=len)]
+    uv = best @ basis.T
+    point = 0.5 * (uv.min(0) + uv.max(0)) @ basis + float(np.median(best @ radial)) * radial
+    return GraspTarget(point=point, outward=radial, long_axis=_long_axis(best, basis), has_handle=True,
+                       source="tab")
+
+
 def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
                gripper: GripperConfig | None = None) -> GraspTarget:
     """The grasp on the part moved by ``joint``, at the asset's rest configuration.
@@ -393,9 +478,17 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
         min_size = max(20, int(0.002 * len(points)))
         groups = [g for g in clusters(handle_pts) if len(g) >= min_size]
         source = "geometry"
+    if not groups:
+        # a handle hinged to the part (a door's lever or knob) is the part's handle too: the one in front
+        carried = _handle_links(asset, carried_links(asset, joint, links))
+        if carried:
+            handle_pts = sample_surface(asset.mesh(links=carried), 4000, seed=seed)
+            groups = [g for g in clusters(handle_pts)
+                      if len(g) >= 20 and np.median(handle_pts[g] @ n) > face + HANDLE_MIN_PROUD]
+            source = "label"
     if groups:
         scores = [lateral_score(handle_pts[g]) for g in groups]
-        best = handle_pts[groups[int(np.argmin(scores))]]
+        best = on_handle(handle_pts[groups[int(np.argmin(scores))]], basis, origin if rotational else None, axis)
         uv = best @ basis.T
         lateral = 0.5 * (uv.min(0) + uv.max(0))
         along = float(np.median(best @ n))
@@ -422,6 +515,11 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
         return GraspTarget(point=notch.center @ basis + (face - NOTCH_DEPTH) * n, outward=n, long_axis=press,
                            has_handle=True, source="notch", grip="inside", press=press,
                            notch_size=(notch.depth, notch.width))
+
+    if rotational:  # a lid's tab standing out past its free edge, pinched from beyond that edge
+        tab = find_tab(part, points, origin, axis)
+        if tab is not None:
+            return tab
 
     # no handle: a point of the front face, central (drawer) or near the free edge (door)
     front = points[np.abs(depth - face) < 2 * LEVEL_BIN]
