@@ -266,7 +266,7 @@ def _handle_points(asset, joint: str) -> np.ndarray:
 def test_clipped_vertices_are_the_mesh_inside_the_box():
     import trimesh
 
-    from spark_bench.envs.grasp import clipped_vertices
+    from spark_bench.envs.pads import clipped_vertices
 
     cube = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
     frame = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])  # box u = world y, v = z, w = x
