@@ -48,11 +48,13 @@ def timed(fn):
 
 def ours(src: Path, home: Path, out: Path) -> dict:
     """Cold and cached conversion, then every check (cached)."""
+    from spark_bench.data.readers import read_json
     from spark_bench.sim import convert, run_checks
+    from spark_bench.sim.converter import REPORT_JSON
 
     os.environ["SPARK_BENCH_HOME"] = str(home)
     xml, cold_wall, cold_cpu = timed(lambda: convert(src, out / "cold"))
-    report = json.loads((xml.parent / "conversion.json").read_text())
+    report = read_json(xml.parent / REPORT_JSON)
     _, cached_wall, cached_cpu = timed(lambda: convert(src, out / "cached"))
     checks = run_checks(src)
     sweep = checks.checks["joint_sweep"]
@@ -65,10 +67,10 @@ def ours(src: Path, home: Path, out: Path) -> dict:
 
 def mujoco_import(src: Path) -> dict:
     """MuJoCo's URDF importer on the same file, and the same sweep where it compiles."""
-    import mujoco
+    from spark_bench.sim.mujoco_gl import mujoco_module
+    from spark_bench.sim.sweep import check_joint_sweep, swept_joints_of_model
 
-    from spark_bench.sim.sweep import SweptJoint, check_joint_sweep
-
+    mujoco = mujoco_module()
     try:
         spec = mujoco.MjSpec.from_file(str(src / "mobility.urdf"))
         spec.meshdir = str(src / "textured_objs")
@@ -76,13 +78,7 @@ def mujoco_import(src: Path) -> dict:
         model = spec.compile()
     except Exception as exc:  # the importer's verdict is the measurement
         return {"compiles": False, "error": " ".join(str(exc).split())[:160]}
-    joints = []
-    for j in range(model.njnt):
-        if model.jnt_type[j] not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
-            continue
-        lower, upper = (model.jnt_range[j] if model.jnt_limited[j] else (0.0, 2 * 3.141592653589793))
-        joints.append(SweptJoint(model.joint(j).name, model.jnt_type[j] == int(mujoco.mjtJoint.mjJNT_HINGE),
-                                 float(lower), float(upper), float(model.qpos0[model.jnt_qposadr[j]])))
+    joints = swept_joints_of_model(model)
     collision = int(sum(1 for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]))
     try:
         sweep = check_joint_sweep(spec, joints)

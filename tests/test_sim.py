@@ -7,7 +7,7 @@ import pytest
 import trimesh
 from scipy.spatial import ConvexHull
 
-from spark_bench.sim.decompose import DecomposeStats, decompose_many, mesh_key
+from spark_bench.sim.decompose import DecomposeStats, decompose_many, load_cached, mesh_key
 from spark_bench.sim.hulls import (
     CollisionShape,
     concavity,
@@ -190,3 +190,37 @@ def test_coacd_decomposes_l_shape_and_caches(tmp_path):
     second = decompose_many([(ell.vertices, ell.faces)], params, cache=tmp_path, workers=1, stats=again)
     assert again.calls == 0 and again.cache_hits == 1
     assert all(np.allclose(a[0], b[0]) for a, b in zip(first[0], second[0]))
+
+
+def test_torn_cache_entry_is_recomputed(tmp_path):
+    ell = _l_shape()
+    params = CoacdParams(mcts_iterations=20, mcts_nodes=8, resolution=500)
+    decompose_many([(ell.vertices, ell.faces)], params, cache=tmp_path, workers=1)
+    (entry,) = tmp_path.rglob("*.npz")
+    entry.write_bytes(entry.read_bytes()[: entry.stat().st_size // 2])  # a copy cut short
+    stats = DecomposeStats()
+    hulls = decompose_many([(ell.vertices, ell.faces)], params, cache=tmp_path, workers=1, stats=stats)
+    assert stats.calls == 1 and stats.cache_hits == 0 and len(hulls[0]) >= 2
+    assert load_cached(entry.stem, tmp_path) is not None  # overwritten with a whole entry
+
+
+def test_coacd_crash_costs_only_its_mesh_and_says_why():
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=0.1)
+    ell = _l_shape()
+    assert len(ball.faces) > len(ell.faces)  # the largest mesh runs first: the others come after it
+    broken = (ball.vertices, ball.faces + 10 ** 9)  # faces far out of range: CoACD segfaults on it
+    stats = DecomposeStats()
+    hulls = decompose_many([(ell.vertices, ell.faces), broken, (ell.vertices + 1.0, ell.faces[:, ::-1])],
+                           CoacdParams(mcts_iterations=20, mcts_nodes=8), workers=1, stats=stats)
+    assert list(stats.failed) == [1]
+    assert stats.failed[1].startswith("CoACD worker killed by SIG")  # SIGSEGV or SIGABRT
+    assert len(hulls[0]) >= 2 and len(hulls[2]) >= 2  # the meshes after it in the batch still ran
+    assert len(hulls[1]) == 1 and np.ptp(hulls[1][0][0], axis=0) == pytest.approx([0.2, 0.2, 0.2], rel=0.01)
+
+
+def test_hung_coacd_call_is_killed_with_a_reason():
+    ell = _l_shape()
+    stats = DecomposeStats()
+    hulls = decompose_many([(ell.vertices, ell.faces)], CoacdParams(), workers=1, stats=stats, timeout=0.0)
+    assert stats.failed == {0: "CoACD ran over 0 s (taken as hung; worker killed)"}
+    assert len(hulls[0]) == 1  # its convex hull stands in

@@ -26,23 +26,17 @@ from pathlib import Path
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset
+from spark_bench.sim.converter import load_source
+from spark_bench.sim.mujoco_gl import mujoco_module
 from spark_bench.sim.options import ConvertOptions
+from spark_bench.sim.relief import summarize_relief
 from spark_bench.sim.results import CheckReport, CheckResult
-from spark_bench.sim.sweep import (
-    SweptJoint,
-    check_joint_sweep,
-    mujoco_module,
-    swept_joints,
-    swept_joints_of_model,
-)
+from spark_bench.sim.sweep import SweptJoint, check_joint_sweep, swept_joints, swept_joints_of_model
 
 REST_SECONDS = 2.0
 REST_DRIFT_TOLERANCE = 0.02
 REST_DRIFT_FLOOR = 0.001
 PENETRATION_TOLERANCE = 0.005
-
-
-
 
 
 # ----- individual checks --------------------------------------------------------------------------
@@ -169,7 +163,7 @@ def run_checks(src, options: ConvertOptions | None = None, render: Path | None =
 
     if not isinstance(src, ArticulatedAsset) and Path(src).suffix.lower() == ".xml":
         return run_model_checks(Path(src), render)
-    asset = src if isinstance(src, ArticulatedAsset) else _load(src)
+    asset = load_source(src)
     report = CheckReport(asset.name)
     start = time.perf_counter()
     prepared = prepare(asset, options, progress=progress)
@@ -188,7 +182,8 @@ def run_checks(src, options: ConvertOptions | None = None, render: Path | None =
             "bodies": int(model.nbody - 1), "geoms": int(model.ngeom), "hulls": prepared.report.hulls,
             "hull_methods": prepared.report.methods, "coacd_calls": prepared.report.coacd.calls,
             "coacd_cache_hits": prepared.report.coacd.cache_hits, "convert_seconds": round(convert_s, 3),
-            "relief": summarize_relief(prepared.relief), "excluded": sorted(f"{a}|{b}" for a, b in prepared.excluded)})
+            "relief": summarize_relief(prepared.relief), "excluded": sorted(f"{a}|{b}" for a, b in prepared.excluded),
+            "coacd_failures": prepared.report.coacd_failures})
     with tempfile.TemporaryDirectory(prefix="spark_pybullet_") as tmp:
         loaded = load_in_pybullet(write_pybullet_urdf(prepared, Path(tmp)))
     expected = {name: len(s) for name, s in prepared.shapes.items()}
@@ -268,21 +263,3 @@ def run_model_checks(xml: Path, render: Path | None = None) -> CheckReport:
 
         render_check_strip(spec, Path(render))
     return report
-
-
-def summarize_relief(cuts) -> dict:
-    """Hinge-relief cuts per joint: the hulls bevelled, the deepest penetration removed (m)."""
-    out: dict[str, dict] = {}
-    for cut in cuts:
-        entry = out.setdefault(cut.joint, {"geoms": [], "cuts": 0, "max_depth": 0.0})
-        if cut.geom not in entry["geoms"]:
-            entry["geoms"].append(cut.geom)
-        entry["cuts"] += 1
-        entry["max_depth"] = round(max(entry["max_depth"], cut.depth), 5)
-    return out
-
-
-def _load(src) -> ArticulatedAsset:
-    from spark_bench.data import load_object
-
-    return load_object(Path(src))

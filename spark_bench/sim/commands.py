@@ -58,10 +58,11 @@ def options_from_args(args):
 
 
 def run_convert(args) -> int:
+    from spark_bench.data.readers import read_json
     from spark_bench.sim.converter import REPORT_JSON, convert
 
     path = convert(args.src, args.out, options_from_args(args), progress=not args.no_progress)
-    report = json.loads((path.parent / REPORT_JSON).read_text())
+    report = read_json(path.parent / REPORT_JSON)
     if args.json:
         print(json.dumps(report, indent=1, sort_keys=True))
     else:

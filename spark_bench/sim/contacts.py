@@ -15,6 +15,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from spark_bench.asset.model import ArticulatedAsset
+from spark_bench.sim.mujoco_gl import mujoco_module
 
 if TYPE_CHECKING:
     from spark_bench.sim.mjcf import PreparedObject
@@ -39,7 +40,7 @@ def geometric_parents(prepared: PreparedObject) -> dict[str, str]:
 
 def rest_overlaps(model, data, pairs: set[tuple[str, str]]) -> dict[tuple[str, str], float]:
     """Deepest penetration (positive, m) per ``(parent, child)`` body pair at the model's rest pose."""
-    import mujoco
+    mujoco = mujoco_module()
 
     mujoco.mj_resetData(model, data)
     mujoco.mj_forward(model, data)

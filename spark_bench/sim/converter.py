@@ -42,9 +42,9 @@ def convert(src: Path | str | ArticulatedAsset, out_dir: Path | str, options: Co
     :param progress: show CoACD progress
     :raises InputError: when ``src`` cannot be read, or MuJoCo rejects the model
     """
-    from spark_bench.sim.checks import summarize_relief
     from spark_bench.sim.mjcf import build_spec, prepare
     from spark_bench.sim.pybullet_io import write_pybullet_urdf
+    from spark_bench.sim.relief import summarize_relief
 
     start = time.perf_counter()
     asset = load_source(src)
@@ -73,7 +73,7 @@ def convert(src: Path | str | ArticulatedAsset, out_dir: Path | str, options: Co
         "hulls": prepared.report.hulls, "hull_methods": prepared.report.methods,
         "coacd": {"calls": prepared.report.coacd.calls, "cache_hits": prepared.report.coacd.cache_hits,
                   "cpu_seconds": round(prepared.report.coacd.coacd_cpu_s, 3),
-                  "failed": len(prepared.report.coacd.failed)},
+                  "failed": len(prepared.report.coacd.failed), "failures": prepared.report.coacd_failures},
         "cached_links": prepared.report.cached_links, "merged_hulls": prepared.report.merged,
         "excluded": {f"{a}|{b}": round(d, 6) for (a, b), d in prepared.excluded.items()},
         "relief": summarize_relief(prepared.relief),

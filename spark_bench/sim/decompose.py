@@ -8,8 +8,9 @@ conversions share one cache safely.
 
 CoACD is single-threaded per call; independent calls run in worker processes
 (:mod:`spark_bench.sim.coacd_worker`, started as scripts), largest mesh first, dealt round-robin. A
-worker crash (CoACD segfaults on some degenerate inputs) costs only its own meshes, which then fall
-back to their convex hull (``DecomposeStats.failed``).
+worker crash (CoACD segfaults or aborts on some degenerate inputs) or a call that runs over
+:data:`JOB_TIMEOUT_S` costs only its own mesh, which then falls back to its convex hull;
+``DecomposeStats.failed`` says which and why.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -27,22 +29,28 @@ from pathlib import Path
 
 import numpy as np
 
+from spark_bench.sim.file_cache import atomic_savez, entry_path, load_npz
 from spark_bench.sim.options import CoacdParams
 
 #: Bumped whenever the stored result of the same input would change.
 CACHE_VERSION = "coacd-cache-1"
+#: A CoACD call still running after this many seconds is taken as hung: its worker is killed and the
+#: mesh gets its convex hull. A safety bound, far above the calls of ``benchmarks/bench_convert.py``.
+JOB_TIMEOUT_S = 600.0
 
 Hull = tuple[np.ndarray, np.ndarray]  # (vertices (V, 3) float64, faces (F, 3) int64)
 
 
 @dataclass
 class DecomposeStats:
-    """What :func:`decompose_many` did: calls run, cache hits, CPU seconds spent in CoACD."""
+    """What :func:`decompose_many` did: calls run, cache hits, CPU seconds spent in CoACD, and the
+    meshes CoACD failed on (index in the input -> why: the worker's signal or exit status and the last
+    line it printed, or the time limit), which got their convex hull instead."""
 
     calls: int = 0
     cache_hits: int = 0
     coacd_cpu_s: float = 0.0
-    failed: list[int] = field(default_factory=list)
+    failed: dict[int, str] = field(default_factory=dict)
 
 
 def mesh_key(vertices: np.ndarray, faces: np.ndarray, params: CoacdParams) -> str:
@@ -58,51 +66,35 @@ def mesh_key(vertices: np.ndarray, faces: np.ndarray, params: CoacdParams) -> st
     return digest.hexdigest()
 
 
-def _cache_path(key: str, cache: Path) -> Path:
-    return cache / key[:2] / f"{key}.npz"
-
-
-def load_cached(key: str, cache: Path) -> list[Hull] | None:
-    """Hulls stored under ``key`` (centered), or None when absent or unreadable."""
-    path = _cache_path(key, cache)
-    if not path.is_file():
-        return None
-    try:
-        with np.load(path) as data:
-            vertices, faces = data["vertices"], data["faces"]
-            nv, nf = data["n_vertices"], data["n_faces"]
-    except (OSError, ValueError, KeyError):
-        return None  # a torn or foreign file: recompute and overwrite
-    hulls, v0, f0 = [], 0, 0
-    for a, b in zip(nv, nf):
-        hulls.append((vertices[v0:v0 + a].copy(), faces[f0:f0 + b].copy()))
-        v0, f0 = v0 + a, f0 + b
-    return hulls
-
-
-def atomic_savez(path: Path, arrays: dict[str, np.ndarray]) -> None:
-    """``np.savez`` to a temporary file beside ``path``, then rename: readers never see half a file."""
-    fd, tmp = tempfile.mkstemp(dir=Path(path).parent, suffix=".tmp.npz")
-    os.close(fd)
-    try:
-        np.savez(tmp, **arrays)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
-def store_cached(key: str, cache: Path, hulls: Sequence[Hull]) -> None:
-    """Write ``hulls`` under ``key``, atomically (write a temporary file, then rename)."""
-    path = _cache_path(key, cache)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    arrays = dict(
+def pack_hulls(hulls: Sequence[Hull]) -> dict[str, np.ndarray]:
+    """Hulls as four arrays: all vertices, all faces, and the vertex and face count of each hull
+    (the layout of cache entries and of :mod:`.coacd_worker` outputs)."""
+    return dict(
         vertices=np.concatenate([h[0] for h in hulls]) if hulls else np.zeros((0, 3)),
         faces=np.concatenate([h[1] for h in hulls]).astype(np.int64) if hulls else np.zeros((0, 3), np.int64),
         n_vertices=np.array([len(h[0]) for h in hulls], dtype=np.int64),
         n_faces=np.array([len(h[1]) for h in hulls], dtype=np.int64),
     )
-    atomic_savez(path, arrays)
+
+
+def unpack_hulls(data) -> list[Hull]:
+    """The hulls of :func:`pack_hulls` arrays (copies: ``data`` may be an open ``.npz``)."""
+    vertices, faces = data["vertices"], data["faces"]
+    hulls, v0, f0 = [], 0, 0
+    for a, b in zip(data["n_vertices"], data["n_faces"]):
+        hulls.append((vertices[v0:v0 + a].copy(), faces[f0:f0 + b].copy()))
+        v0, f0 = v0 + a, f0 + b
+    return hulls
+
+
+def load_cached(key: str, cache: Path) -> list[Hull] | None:
+    """Hulls stored under ``key`` (centered), or None when absent or unreadable."""
+    return load_npz(entry_path(cache, key), unpack_hulls)
+
+
+def store_cached(key: str, cache: Path, hulls: Sequence[Hull]) -> None:
+    """Write ``hulls`` under ``key``, atomically (write a temporary file, then rename)."""
+    atomic_savez(entry_path(cache, key), pack_hulls(hulls))
 
 
 def _hull_of(points: np.ndarray) -> Hull:
@@ -118,7 +110,7 @@ def _center(vertices: np.ndarray) -> np.ndarray:
 
 def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | None = None,
                    workers: int = 0, stats: DecomposeStats | None = None,
-                   progress: bool = False) -> list[list[Hull]]:
+                   progress: bool = False, timeout: float = JOB_TIMEOUT_S) -> list[list[Hull]]:
     """Decompose each mesh into convex hulls with CoACD, reusing and filling the cache.
 
     :param meshes: ``(vertices, faces)`` per mesh, each a closed (watertight) or open triangle mesh
@@ -127,6 +119,7 @@ def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | No
     :param workers: worker processes (0: one per CPU core)
     :param stats: filled with the number of calls, cache hits and CoACD CPU seconds
     :param progress: show a progress bar for the calls that run
+    :param timeout: seconds one CoACD call may take before its worker is killed as hung
     :returns: per mesh, its hulls as ``(vertices, faces)`` in the mesh's own coordinates
     """
     stats = stats if stats is not None else DecomposeStats()
@@ -142,12 +135,12 @@ def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | No
         else:
             todo.setdefault(key, []).append(index)  # identical parts decompose once
     jobs = sorted(todo.items(), key=lambda item: -len(meshes[item[1][0]][1]))
-    outputs = _run_jobs([(np.asarray(meshes[idx[0]][0], float) - centers[idx[0]], meshes[idx[0]][1])
-                         for _, idx in jobs], params, workers, progress)
-    for (key, indices), output in zip(jobs, outputs):
+    outputs, errors = _run_jobs([(np.asarray(meshes[idx[0]][0], float) - centers[idx[0]], meshes[idx[0]][1])
+                                 for _, idx in jobs], params, workers, progress, timeout)
+    for job, ((key, indices), output) in enumerate(zip(jobs, outputs)):
         stats.calls += 1
         if output is None:  # the worker died on this mesh: its convex hull stands in, uncached
-            stats.failed += indices
+            stats.failed.update({index: errors.get(job, "CoACD wrote no result") for index in indices})
             hulls = [_hull_of(np.asarray(meshes[indices[0]][0], float) - centers[indices[0]])]
         else:
             hulls, cpu = output
@@ -160,26 +153,46 @@ def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | No
 
 
 def _read_result(path: Path) -> tuple[list[Hull], float] | None:
-    if not path.is_file():
-        return None
-    with np.load(path) as data:
-        vertices, faces, cpu = data["vertices"], data["faces"], float(data["cpu"])
-        nv, nf = data["n_vertices"], data["n_faces"]
-    hulls, v0, f0 = [], 0, 0
-    for a, b in zip(nv, nf):
-        hulls.append((vertices[v0:v0 + a].copy(), faces[f0:f0 + b].copy()))
-        v0, f0 = v0 + a, f0 + b
-    return hulls, cpu
+    return load_npz(path, lambda data: (unpack_hulls(data), float(data["cpu"])))
 
 
-def _run_jobs(jobs: list[Hull], params: CoacdParams, workers: int, progress: bool
-              ) -> list[tuple[list[Hull], float] | None]:
+@dataclass
+class _Worker:
+    """A running worker process, its batch, and when it last finished a mesh (or started)."""
+
+    proc: subprocess.Popen
+    batch: list[Path]
+    stderr: Path
+    since: float
+    finished: int = 0
+
+    def outputs(self) -> int:
+        return sum(1 for p in self.batch if p.with_suffix(".out.npz").is_file())
+
+
+def _why_failed(worker: _Worker, timeout: float | None) -> str:
+    """One line: how the worker ended, and the last line it printed (CoACD's assertion, say)."""
+    if timeout is not None:
+        return f"CoACD ran over {timeout:g} s (taken as hung; worker killed)"
+    code = worker.proc.returncode
+    try:
+        how = f"killed by {signal.Signals(-code).name}" if code < 0 else f"exit status {code}"
+    except ValueError:
+        how = f"exit status {code}"
+    lines = [line.strip() for line in worker.stderr.read_text(errors="replace").splitlines() if line.strip()]
+    return f"CoACD worker {how}" + (f": {lines[-1][:200]}" if lines else "")
+
+
+def _run_jobs(jobs: list[Hull], params: CoacdParams, workers: int, progress: bool, timeout: float = JOB_TIMEOUT_S
+              ) -> tuple[list[tuple[list[Hull], float] | None], dict[int, str]]:
     """Run CoACD on ``jobs`` in ``workers`` worker processes (largest first, round-robin, so each
-    worker gets a similar share); a job whose worker crashed gives None."""
+    worker gets a similar share). Returns per job its hulls and CPU seconds, or None when its worker
+    crashed on it or it ran over ``timeout`` seconds; and for those jobs, why (job index -> line)."""
     if not jobs:
-        return []
+        return [], {}
     n_workers = max(1, min(workers or os.cpu_count() or 1, len(jobs)))
     script = str(Path(__file__).with_name("coacd_worker.py"))
+    errors: dict[int, str] = {}
     with tempfile.TemporaryDirectory(prefix="spark_coacd_") as tmp:
         paths = []
         for index, (vertices, faces) in enumerate(jobs):
@@ -187,29 +200,41 @@ def _run_jobs(jobs: list[Hull], params: CoacdParams, workers: int, progress: boo
             np.savez(path, vertices=np.asarray(vertices, np.float64), faces=np.asarray(faces, np.int64))
             paths.append(path)
         queue = [paths[k::n_workers] for k in range(n_workers)]
-        running: list[tuple[subprocess.Popen, list[Path]]] = []
+        running: list[_Worker] = []
         bar = _progress(len(jobs), progress)
-        done = 0
+        done = launched = 0
         while queue or running:
             while queue and len(running) < n_workers:
                 batch = queue.pop(0)
                 command = [sys.executable, script, json.dumps(params.as_kwargs())] + [str(p) for p in batch]
-                running.append((subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL),
-                                batch))
+                stderr = Path(tmp) / f"worker_{launched:05d}.err"
+                launched += 1
+                with open(stderr, "wb") as err:
+                    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=err)
+                running.append(_Worker(proc, batch, stderr, time.monotonic()))
             time.sleep(0.02)
-            for proc, batch in list(running):
-                if proc.poll() is None:
+            for worker in list(running):
+                now, finished = time.monotonic(), worker.outputs()
+                if finished > worker.finished:
+                    worker.finished, worker.since = finished, now
+                hung = worker.proc.poll() is None and now - worker.since > timeout
+                if hung:
+                    worker.proc.kill()
+                    worker.proc.wait()
+                elif worker.proc.poll() is None:
                     continue
-                running.remove((proc, batch))
-                missing = [p for p in batch if not p.with_suffix(".out.npz").is_file()]
-                if len(missing) > 1:  # the first missing mesh crashed the worker: skip it, redo the rest
-                    queue.append(missing[1:])
+                running.remove(worker)
+                missing = [p for p in worker.batch if not p.with_suffix(".out.npz").is_file()]
+                if missing:  # the first missing mesh crashed (or hung) the worker: skip it, redo the rest
+                    errors[paths.index(missing[0])] = _why_failed(worker, timeout if hung else None)
+                    if len(missing) > 1:
+                        queue.append(missing[1:])
             finished = sum(1 for p in paths if p.with_suffix(".out.npz").is_file())
             if finished > done:
                 bar.update(finished - done)
                 done = finished
         bar.close()
-        return [_read_result(p.with_suffix(".out.npz")) for p in paths]
+        return [_read_result(p.with_suffix(".out.npz")) for p in paths], errors
 
 
 def _progress(total: int, enabled: bool):

@@ -74,13 +74,15 @@ class CollisionShape:
 
 @dataclass
 class CollisionReport:
-    """Per-object summary of how the collision shapes were made."""
+    """Per-object summary of how the collision shapes were made; ``coacd_failures`` has one line per
+    part CoACD failed on (its link, and why), which got its convex hull instead."""
 
     hulls: dict[str, int] = field(default_factory=dict)
     methods: dict[str, int] = field(default_factory=dict)
     coacd: DecomposeStats = field(default_factory=DecomposeStats)
     merged: int = 0
     cached_links: int = 0
+    coacd_failures: list[str] = field(default_factory=list)
 
 
 # ----- convex hulls on plain arrays -------------------------------------------------------------
@@ -318,6 +320,8 @@ def object_collision_shapes(asset: ArticulatedAsset, options: ConvertOptions | N
     decomposed = decompose_many([(p.mesh.vertices, p.mesh.faces) for p in pending], options.coacd,
                                 cache=cache if options.use_cache else None, workers=options.workers,
                                 stats=report.coacd, progress=progress)
+    report.coacd_failures += [f"{pending[index].link}: {why} (convex hull used instead)"
+                              for index, why in sorted(report.coacd.failed.items())]
     for item, hulls in zip(pending, decomposed):
         for v, _ in hulls:
             if len(v) >= 4:

@@ -21,7 +21,6 @@ gripper or a scene can be added to the same spec.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,6 +31,7 @@ from spark_bench.asset.model import ArticulatedAsset, Link
 from spark_bench.errors import InputError
 from spark_bench.sim.contacts import add_contact_filters, geometric_parents, rest_overlaps
 from spark_bench.sim.hulls import CollisionReport, CollisionShape, object_collision_shapes, object_size
+from spark_bench.sim.mujoco_gl import mujoco_module
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.physical import (
     GRAVITY,
@@ -51,13 +51,6 @@ COLLISION_GROUP = 3
 #: Display colours of the collision hulls, one per link (cycled).
 HULL_COLOURS = [(0.90, 0.35, 0.25), (0.25, 0.60, 0.90), (0.35, 0.80, 0.35), (0.95, 0.75, 0.20),
                 (0.70, 0.40, 0.85), (0.20, 0.80, 0.80), (0.95, 0.50, 0.70), (0.55, 0.55, 0.55)]
-
-
-def _mujoco():
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    import mujoco
-
-    return mujoco
 
 
 @dataclass
@@ -120,7 +113,7 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     from spark_bench.sim.relief import relieve
     from spark_bench.sim.shape_cache import load_contacts, object_key, store_contacts
 
-    mujoco = _mujoco()
+    mujoco = mujoco_module()
     cache = cache_dir("coacd") if prepared.options.use_cache else None
     key = object_key(prepared) if cache is not None else None
     cached = load_contacts(cache, key) if cache is not None else None
@@ -232,7 +225,7 @@ def _links_size(prepared: PreparedObject, links: list[str]) -> float:
 
 # ----- spec assembly ------------------------------------------------------------------------------
 def _quat(rotation: np.ndarray) -> list[float]:
-    mujoco = _mujoco()
+    mujoco = mujoco_module()
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=np.float64).reshape(9))
     return quat.tolist()
@@ -268,7 +261,7 @@ class _MeshSink:
             Path(mesh_dir).mkdir(parents=True, exist_ok=True)
 
     def add(self, name: str, vertices: np.ndarray, faces: np.ndarray, shell: bool):
-        mujoco = _mujoco()
+        mujoco = mujoco_module()
         mesh = self.spec.add_mesh(name=name)
         if self.mesh_dir is None:
             mesh.uservert = np.asarray(vertices, np.float32).reshape(-1).tolist()
@@ -301,7 +294,7 @@ def _add_defaults(spec, options: ConvertOptions):
 
 def _add_collision_geoms(body, sink: _MeshSink, link: str, shapes: list[CollisionShape], default,
                          colour) -> None:
-    mujoco = _mujoco()
+    mujoco = mujoco_module()
     rgba = list(colour) + [1.0]
     for k, shape in enumerate(shapes):
         name = f"{link}_collision_{k}"
@@ -335,7 +328,7 @@ def assemble_spec(prepared: PreparedObject, mesh_dir: Path | None = None):
     :param prepared: output of :func:`prepare`
     :param mesh_dir: write meshes as OBJ files here and reference them (None: meshes inline)
     """
-    mujoco = _mujoco()
+    mujoco = mujoco_module()
     asset, options = prepared.asset, prepared.options
     spec = mujoco.MjSpec()
     spec.modelname = asset.name or "object"

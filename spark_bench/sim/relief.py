@@ -21,6 +21,7 @@ import numpy as np
 import trimesh
 
 from spark_bench.sim.hulls import CollisionShape
+from spark_bench.sim.mujoco_gl import mujoco_module
 
 #: Contacts within this fraction of the part's radius from the hinge axis are hinge-zone contacts.
 HINGE_ZONE = 0.15
@@ -77,7 +78,7 @@ def _radius(model, data, bodies: set[int], anchor: np.ndarray, axis: np.ndarray)
 def find_cuts(model, data, asset, gap: float) -> list[tuple]:
     """One kinematic sweep per revolute joint; returns ``(joint, link, index, normal, offset, depth,
     other)`` for every hinge-zone penetration (plane in the link frame)."""
-    import mujoco
+    mujoco = mujoco_module()
 
     cuts = []
     for joint in asset.movable_joints():
@@ -131,7 +132,7 @@ def relieve(prepared, compile_model, gap: float) -> list[ReliefCut]:
     :param compile_model: ``() -> MjModel`` of the current shapes, contact filters applied
     :param gap: clearance left behind a cut (m)
     """
-    import mujoco
+    mujoco = mujoco_module()
 
     done: list[ReliefCut] = []
     refused: set[tuple[str, int]] = set()
@@ -156,3 +157,15 @@ def relieve(prepared, compile_model, gap: float) -> list[ReliefCut]:
             prepared.shapes[link][index] = new
             done.append(ReliefCut(joint, link, f"{link}_collision_{index}", other, depth, removed))
     return done
+
+
+def summarize_relief(cuts) -> dict:
+    """Hinge-relief cuts per joint: the hulls bevelled, the deepest penetration removed (m)."""
+    out: dict[str, dict] = {}
+    for cut in cuts:
+        entry = out.setdefault(cut.joint, {"geoms": [], "cuts": 0, "max_depth": 0.0})
+        if cut.geom not in entry["geoms"]:
+            entry["geoms"].append(cut.geom)
+        entry["cuts"] += 1
+        entry["max_depth"] = round(max(entry["max_depth"], cut.depth), 5)
+    return out

@@ -3,25 +3,19 @@ collision hulls below, as one PNG."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
+
+from spark_bench.sim.mujoco_gl import mujoco_module
 
 #: Camera: in front of the object (its front faces -X), a little to the side and above.
 AZIMUTH, ELEVATION, DISTANCE = 25.0, -22.0, 1.35
 FRAME = 320
 
 
-def _mujoco():
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    import mujoco
-
-    return mujoco
-
-
 def _frame(renderer, model, data, camera, group: int) -> np.ndarray:
-    mujoco = _mujoco()
+    mujoco = mujoco_module()
     option = mujoco.MjvOption()
     option.geomgroup[:] = 0
     option.geomgroup[group] = 1
@@ -48,7 +42,7 @@ def model_bounds(model, data, group: int | None = None) -> tuple[np.ndarray, np.
 
 def open_poses(model) -> list[tuple[str, float]]:
     """``(joint, open value)`` of every hinge and slide: its upper limit, a quarter turn when unlimited."""
-    mujoco = _mujoco()
+    mujoco = mujoco_module()
     out = []
     for j in range(model.njnt):
         if int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
@@ -70,7 +64,7 @@ def render_check_strip(spec, out: Path, frame: int = FRAME) -> Path:
 
     from spark_bench.sim.mjcf import COLLISION_GROUP, VISUAL_GROUP
 
-    mujoco = _mujoco()
+    mujoco = mujoco_module()
     render_spec = spec.copy()
     render_spec.visual.global_.offwidth = frame
     render_spec.visual.global_.offheight = frame

@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
@@ -19,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from spark_bench.sim.decompose import atomic_savez
+from spark_bench.sim.file_cache import atomic_savez, atomic_write_text, entry_path, load_npz
 from spark_bench.sim.hulls import CollisionShape
 from spark_bench.sim.options import ConvertOptions
 
@@ -39,24 +37,31 @@ def link_key(meshes: Sequence[trimesh.Trimesh], ready: Sequence[CollisionShape],
     digest.update(json.dumps(geometry, sort_keys=True).encode())
     digest.update(np.round(np.float64(size), 9).tobytes())
     for mesh in meshes:
-        digest.update(np.round(np.asarray(mesh.vertices, np.float64) * 1e9).astype(np.int64).tobytes())
+        _hash_values(digest, mesh.vertices)
         digest.update(np.asarray(mesh.faces, np.int64).tobytes())
     for shape in ready:
-        digest.update(shape.kind.encode())
-        for array in (shape.origin, shape.size, shape.vertices):
-            if array is not None:
-                digest.update(np.round(np.asarray(array, np.float64) * 1e9).astype(np.int64).tobytes())
+        _hash_shape(digest, shape)
     return digest.hexdigest()
 
 
+def _hash_values(digest, array) -> None:
+    """Hash float values rounded to 1e-9 (a nanometre for lengths), so float noise does not change a key."""
+    digest.update(np.round(np.asarray(array, np.float64) * 1e9).astype(np.int64).tobytes())
+
+
+def _hash_shape(digest, shape: CollisionShape) -> None:
+    digest.update(shape.kind.encode())
+    for array in (shape.origin, shape.size, shape.vertices):
+        if array is not None:
+            _hash_values(digest, array)
+
+
 def _path(cache: Path, key: str) -> Path:
-    return Path(cache) / "links" / key[:2] / f"{key}.npz"
+    return entry_path(Path(cache) / "links", key)
 
 
 def store_shapes(cache: Path, key: str, shapes: Sequence[CollisionShape]) -> None:
     """Write ``shapes`` under ``key`` (atomically)."""
-    path = _path(cache, key)
-    path.parent.mkdir(parents=True, exist_ok=True)
     arrays: dict[str, np.ndarray] = {"methods": np.array(json.dumps([s.method for s in shapes]))}
     for k, shape in enumerate(shapes):
         arrays[f"{k}_kind"] = np.array(KINDS.index(shape.kind))
@@ -65,27 +70,23 @@ def store_shapes(cache: Path, key: str, shapes: Sequence[CollisionShape]) -> Non
         if shape.kind == "mesh":
             arrays[f"{k}_vertices"] = np.asarray(shape.vertices, np.float64)
             arrays[f"{k}_faces"] = np.asarray(shape.faces, np.int64)
-    atomic_savez(path, arrays)
+    atomic_savez(_path(cache, key), arrays)
 
 
 def load_shapes(cache: Path, key: str) -> list[CollisionShape] | None:
     """Shapes stored under ``key``, or None when absent or unreadable."""
-    path = _path(cache, key)
-    if not path.is_file():
-        return None
-    try:
-        with np.load(path) as data:
-            methods = json.loads(str(data["methods"]))
-            out = []
-            for k, method in enumerate(methods):
-                kind = KINDS[int(data[f"{k}_kind"])]
-                out.append(CollisionShape(
-                    kind, method, origin=data[f"{k}_origin"].copy(), size=data[f"{k}_size"].copy(),
-                    vertices=data[f"{k}_vertices"].copy() if kind == "mesh" else None,
-                    faces=data[f"{k}_faces"].copy() if kind == "mesh" else None))
-            return out
-    except (OSError, ValueError, KeyError, IndexError):
-        return None
+    return load_npz(_path(cache, key), _unpack_shapes)
+
+
+def _unpack_shapes(data) -> list[CollisionShape]:
+    out = []
+    for k, method in enumerate(json.loads(str(data["methods"]))):
+        kind = KINDS[int(data[f"{k}_kind"])]
+        out.append(CollisionShape(
+            kind, method, origin=data[f"{k}_origin"].copy(), size=data[f"{k}_size"].copy(),
+            vertices=data[f"{k}_vertices"].copy() if kind == "mesh" else None,
+            faces=data[f"{k}_faces"].copy() if kind == "mesh" else None))
+    return out
 
 
 # ----- whole-object contact resolution (exclusions and hinge relief) -------------------------------
@@ -99,14 +100,11 @@ def object_key(prepared) -> str:
     for joint in prepared.asset.joints.values():
         digest.update(json.dumps([joint.name, joint.type, joint.parent, joint.child]).encode())
         for array in (joint.origin, joint.axis, [joint.lower, joint.upper]):
-            digest.update(np.round(np.asarray(array, np.float64) * 1e9).astype(np.int64).tobytes())
+            _hash_values(digest, array)
     for name in sorted(prepared.shapes):
         digest.update(name.encode())
         for shape in prepared.shapes[name]:
-            digest.update(shape.kind.encode())
-            for array in (shape.origin, shape.size, shape.vertices):
-                if array is not None:
-                    digest.update(np.round(np.asarray(array, np.float64) * 1e9).astype(np.int64).tobytes())
+            _hash_shape(digest, shape)
     return digest.hexdigest()
 
 
@@ -118,19 +116,14 @@ def store_contacts(cache: Path, key: str, prepared) -> None:
         sub = hashlib.sha256(f"{key}/{name}".encode()).hexdigest()
         store_shapes(cache, sub, shapes)
         entry["links"][name] = sub
-    path = Path(cache) / "objects" / key[:2] / f"{key}.json"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    with os.fdopen(fd, "w") as handle:
-        json.dump(entry, handle)
-    os.replace(tmp, path)
+    atomic_write_text(entry_path(Path(cache) / "objects", key, ".json"), json.dumps(entry))
 
 
 def load_contacts(cache: Path, key: str):
     """``(shapes, excluded, relief)`` stored under ``key``, or None."""
     from spark_bench.sim.relief import ReliefCut
 
-    path = Path(cache) / "objects" / key[:2] / f"{key}.json"
+    path = entry_path(Path(cache) / "objects", key, ".json")
     if not path.is_file():
         return None
     try:

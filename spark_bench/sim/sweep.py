@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset
+from spark_bench.sim.mujoco_gl import mujoco_module
 from spark_bench.sim.results import CheckResult
 
 SWEEP_REACH = 0.9
@@ -33,15 +34,6 @@ class SweptJoint:
     lower: float
     upper: float
     rest: float
-
-
-def mujoco_module():
-    import os
-
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    import mujoco
-
-    return mujoco
 
 
 def swept_joints(asset: ArticulatedAsset) -> list[SweptJoint]:
@@ -231,5 +223,3 @@ def check_joint_sweep(spec, joints: list[SweptJoint]) -> CheckResult:
                              f"of its range (blocked: {what})")
     return CheckResult(not failed, worst, details)
 
-
-# ----- the whole report ---------------------------------------------------------------------------
