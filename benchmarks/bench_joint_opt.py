@@ -111,7 +111,6 @@ def profile_split(case_id, gt, camera, mask, part_masks, noise, settings) -> dic
 KEYS = ("axis_err", "pivot_err", "type_err")
 
 
-
 def resolve_bench(bench: str) -> Path:
     """A benchmark folder from a path or a named benchmark (built on first use)."""
     path = Path(bench).expanduser()
@@ -149,6 +148,7 @@ def run_case(case_dir: str, work: str, overrides: list[str], n_samples: int, cod
 
     torch.set_num_threads(1)
     from spark_bench.data import load_object
+    from spark_bench.data.readers import read_case
     from spark_bench.metrics import compute_metrics
     from spark_bench.spark import SparkConfig, run_ours
 
@@ -169,7 +169,7 @@ def run_case(case_dir: str, work: str, overrides: list[str], n_samples: int, cod
     for variant, folder in (("prior", out / "prior"), ("refined", out)):
         metrics = compute_metrics(load_object(folder), gt, n_samples=n_samples, seed=0, workers=1).to_dict()
         scores[variant] = {k: metrics[k] for k in KEYS}
-    row = {"case": case_dir.name, "category": json.loads((case_dir / "case.json").read_text())["category"],
+    row = {"case": case_dir.name, "category": str(read_case(case_dir).get("category", "")),
            "seconds": seconds, "cpu_seconds": cpu_seconds, "load": load, "timings": report["timings"], "scores": scores, "config": config.to_dict(), "code": code,
            "n_joints": len(report.get("movable_joints", []))}
     cached.write_text(json.dumps(row, indent=1))
@@ -331,7 +331,7 @@ def main() -> int:
     console = Console()
     if args.bench:
         return bench_main(args, console)
-    noise, settings = NoiseModel(), RefineSettings()
+    noise, settings = NoiseModel(), RefineSettings.from_config()
     problems = list(toy_problems(args.limit or 4))
     table = Table(title=f"joint optimization per object ({args.threads} threads)")
     for col in ("object", "search s", "final s", "total s", "x peer", "AxisErr b/a", "PivotErr b/a", "TypeErr b/a"):

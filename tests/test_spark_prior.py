@@ -111,3 +111,17 @@ def test_config_files_overrides_and_label(tmp_path):
         SparkConfig.from_dict({"geometry": {"backend": "dreams"}})
     with pytest.raises(InputError, match="needs prior.file_dir"):
         replace(SparkConfig(), prior=replace(SparkConfig().prior, backend="file")).validate()
+
+
+@pytest.mark.parametrize(("override", "words"), [
+    ("optimize.top_k=true", "optimize.top_k must be a number, got True"),
+    ("optimize.screen_local=[0.05, \"x\"]", "optimize.screen_local[1] must be a number, got 'x'"),
+    ("optimize.final_sizes=[64, false]", "optimize.final_sizes[1] must be a number"),
+    ("optimize.final_steps=7", "optimize.final_steps must be a list"),
+])
+def test_config_rejects_values_of_the_wrong_kind(override, words):
+    with pytest.raises(InputError, match=words.replace("[", r"\[").replace("]", r"\]")):
+        SparkConfig().with_overrides([override])
+    # numbers of the other kind are converted, in lists as in single settings
+    config = SparkConfig().with_overrides(["optimize.top_k=4.0", "optimize.screen_values_prismatic=[1, 2]"])
+    assert config.optimize.top_k == 4 and config.optimize.screen_values_prismatic == [1.0, 2.0]

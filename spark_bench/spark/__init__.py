@@ -7,10 +7,11 @@
    from :mod:`spark_bench.asset.torch_fk`)
 5. export (:mod:`.pipeline`): PartNet-Mobility object folders
 
-Entry point: :func:`run_ours` with a :class:`SparkConfig`.
+Entry point: :func:`run_ours` with a :class:`SparkConfig`. Both are loaded on first use, so that reading
+a configuration (or any one stage module) does not import torch.
 """
 
-from spark_bench.spark.config import SparkConfig
-from spark_bench.spark.pipeline import run_ours
+from spark_bench.lazy import lazy_exports
 
-__all__ = ["SparkConfig", "run_ours"]
+__all__, __getattr__ = lazy_exports(__name__, {"SparkConfig": "spark_bench.spark.config",
+                                               "run_ours": "spark_bench.spark.pipeline"})

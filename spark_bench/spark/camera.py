@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -62,19 +61,23 @@ def look_at_camera(position, target=(0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0), size: i
 
 def load_camera(path: str | Path) -> Camera:
     """Read a case's ``camera.json`` (see docs/formats.md)."""
+    from spark_bench.data.readers import read_json
+
     path = Path(path)
+    data = read_json(path, missing="camera file not found")
+    if not isinstance(data, dict):
+        raise InputError(path, "malformed camera: expected a JSON object")
     try:
-        data = json.loads(path.read_text())
         intrinsics = np.asarray(data["intrinsics"], dtype=float)
         world_to_camera = np.asarray(data["world_to_camera"], dtype=float)
         width, height = int(data["width"]), int(data["height"])
-    except FileNotFoundError:
-        raise InputError(path, "camera file not found") from None
-    except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
+    except (KeyError, TypeError, ValueError) as exc:
         raise InputError(path, f"malformed camera: {exc!r}") from None
     if intrinsics.shape != (3, 3) or world_to_camera.shape != (4, 4) or not (
             np.isfinite(intrinsics).all() and np.isfinite(world_to_camera).all()):
         raise InputError(path, "intrinsics must be 3x3 and world_to_camera 4x4, all finite")
+    if width <= 0 or height <= 0:
+        raise InputError(path, f"image size must be positive, got {width} x {height}")
     if data.get("convention", "opencv") != "opencv":
         raise InputError(path, f"unsupported camera convention {data.get('convention')!r}")
     return Camera(intrinsics, world_to_camera, width, height)

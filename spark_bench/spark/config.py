@@ -340,8 +340,10 @@ def _coerce(value, default, source, key):
         if not isinstance(value, bool):
             raise InputError(source, f"{key} must be true or false")
         return value
-    if isinstance(default, int | float) and not isinstance(value, bool):
+    if isinstance(default, int | float):
         try:
+            if isinstance(value, bool):  # int(True) is 1: a switch is no number
+                raise TypeError
             return type(default)(value)
         except (TypeError, ValueError):
             raise InputError(source, f"{key} must be a number, got {value!r}") from None
@@ -350,5 +352,8 @@ def _coerce(value, default, source, key):
     if isinstance(default, list):
         if not isinstance(value, list):
             raise InputError(source, f"{key} must be a list")
-        return list(value)
+        if not default:
+            return list(value)
+        # every list setting holds numbers of one kind: check each like a single setting of that kind
+        return [_coerce(item, default[0], source, f"{key}[{k}]") for k, item in enumerate(value)]
     return value

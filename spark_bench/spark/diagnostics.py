@@ -4,8 +4,9 @@ The official articulation metrics live in :mod:`spark_bench.metrics` (Hungarian 
 the prior comes from the annotation, each predicted joint moves exactly one ground-truth part of the same
 name, so matching by name is exact; these diagnostics use it to report before/after errors in
 ``spark_report.json`` and to calibrate :class:`~spark_bench.spark.prior.NoiseModel` without the metrics
-package. Definitions follow DESIGN.md: AxisErr (radians, sign ignored), PivotErr (distance between axis
-lines, revolute pairs only), TypeErr (continuous counts as revolute; a missing joint is an error).
+package's part matching. Per joint, the errors are the metrics' own (:mod:`spark_bench.metrics.articulation`):
+AxisErr (radians, sign ignored), PivotErr (distance between axis lines, revolute pairs only), TypeErr
+(continuous counts as revolute; a missing joint is an error).
 """
 
 from __future__ import annotations
@@ -15,28 +16,7 @@ from dataclasses import replace
 
 import numpy as np
 
-
-def axis_error(a, b) -> float:
-    """Angle between two directions, sign ignored, in [0, pi/2]."""
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    cos = abs(float(a @ b)) / (np.linalg.norm(a) * np.linalg.norm(b))
-    return float(np.arccos(min(1.0, cos)))
-
-
-def line_distance(p1, d1, p2, d2) -> float:
-    """Distance between two lines (point, direction); parallel lines use the point-to-line distance."""
-    p1, d1, p2, d2 = (np.asarray(v, float) for v in (p1, d1, p2, d2))
-    d1, d2 = d1 / np.linalg.norm(d1), d2 / np.linalg.norm(d2)
-    cross = np.cross(d1, d2)
-    norm = np.linalg.norm(cross)
-    diff = p2 - p1
-    if norm < 1e-8:
-        return float(np.linalg.norm(diff - (diff @ d1) * d1))
-    return float(abs(diff @ cross) / norm)
-
-
-def _kind(joint_type: str) -> str:
-    return "revolute" if joint_type == "continuous" else joint_type
+from spark_bench.metrics.articulation import axis_error, line_distance, type_class
 
 
 def joint_errors(predicted: Sequence[dict], truth: Sequence[dict]) -> dict:
@@ -48,19 +28,19 @@ def joint_errors(predicted: Sequence[dict], truth: Sequence[dict]) -> dict:
     by_child = {j["child"]: j for j in predicted}
     rows = []
     for gt in truth:
-        if _kind(gt["type"]) == "fixed":
+        if type_class(gt["type"]) == "fixed":
             continue
         pred = by_child.get(gt["child"])
         if pred is None:
             rows.append({"joint": gt["name"], "axis_err": None, "pivot_err": None, "type_err": 1.0})
             continue
-        both_rotational = _kind(gt["type"]) == "revolute" and _kind(pred["type"]) == "revolute"
+        both_rotational = type_class(gt["type"]) == "revolute" and type_class(pred["type"]) == "revolute"
         rows.append({
             "joint": gt["name"],
             "axis_err": axis_error(pred["axis"], gt["axis"]),
             "pivot_err": line_distance(pred["origin"], pred["axis"], gt["origin"], gt["axis"])
             if both_rotational else None,
-            "type_err": float(_kind(pred["type"]) != _kind(gt["type"])),
+            "type_err": float(type_class(pred["type"]) != type_class(gt["type"])),
         })
 
     def mean(key):

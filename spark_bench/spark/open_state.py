@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from spark_bench.data.readers import read_case
 from spark_bench.errors import InputError
 from spark_bench.spark.remote import image_data_url, post_json, with_retries
 
@@ -67,12 +68,16 @@ def dataset_open_state(case_dir: Path) -> OpenState:
 
 
 def _link_masks(seg: np.ndarray, case_dir: Path) -> dict[str, np.ndarray]:
-    """Per-link masks of a segmentation (value k + 1 = ``case.json`` link k); none without case.json."""
-    case_path = Path(case_dir) / "case.json"
-    try:
-        links = json.loads(case_path.read_text())["links"]
-    except (OSError, json.JSONDecodeError, KeyError, TypeError):
+    """Per-link masks of a segmentation (value k + 1 = ``case.json`` link k); none without case.json.
+
+    :raises InputError: naming ``case.json`` when it is malformed or its ``links`` is not a list
+    """
+    if not (Path(case_dir) / "case.json").is_file():
         return {}
+    links = read_case(case_dir).get("links")
+    if not isinstance(links, list):
+        raise InputError(Path(case_dir) / "case.json",
+                         '"links" must be the list of link names that open_seg.png labels index')
     present = set(np.unique(seg).tolist()) - {0}
     return {str(links[k - 1]): (seg == k).astype(np.float64) for k in sorted(present) if 0 < k <= len(links)}
 

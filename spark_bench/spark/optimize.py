@@ -67,12 +67,13 @@ class Stage:
 @dataclass
 class LossWeights:
     """Weights of the objective: ``w_edge``, ``lambda_t`` (pivot), ``lambda_theta`` (open value), and
-    ``w_part``, the weight of the per-part coverage term (used when the open state has part masks)."""
+    ``w_part``, the weight of the per-part coverage term (used when the open state has part masks).
+    Their defaults are the ``optimize`` section's (:class:`~spark_bench.spark.config.OptimizeConfig`)."""
 
-    w_edge: float = 0.2
-    lambda_t: float = 0.01
-    lambda_theta: float = 0.001
-    w_part: float = 0.5
+    w_edge: float
+    lambda_t: float
+    lambda_theta: float
+    w_part: float
 
 
 @dataclass
@@ -391,7 +392,7 @@ def _welded(mesh):
 
 
 def fit(scene: OpenStateScene, hypotheses: dict[str, Hypothesis], active: list[str], stages: list[Stage],
-        weights: LossWeights, lr_pivot: float = 0.01, lr_value: float = 0.03) -> FitResult:
+        weights: LossWeights, lr_pivot: float, lr_value: float) -> FitResult:
     """Adam on the pivot offsets and open values of the ``active`` joints, coarse to fine.
 
     :param scene: the asset, camera and target

@@ -34,27 +34,11 @@ from spark_bench.spark.geometry import (
     spark_geometry,
 )
 from spark_bench.spark.open_state import OpenState, dataset_open_state, http_open_state
-from spark_bench.spark.optimize import LossWeights, OpenStateScene, Stage
+from spark_bench.spark.optimize import OpenStateScene
 from spark_bench.spark.prior import annotation_prior, file_prior
 from spark_bench.spark.refine import RefineSettings, refine
 from spark_bench.spark.structure import PriorStructure
 from spark_bench.spark.vlm import request_structure
-
-
-def refine_settings(config: SparkConfig, discrete: bool) -> RefineSettings:
-    """The optimizer's settings from the ``optimize`` section."""
-    opt = config.optimize
-    return RefineSettings(
-        screen=Stage(opt.screen_size, opt.screen_tau, 0), short_steps=opt.short_steps,
-        short_fine=Stage(opt.short_fine_size, opt.short_fine_tau, opt.short_fine_steps), top_k=opt.top_k,
-        final=[Stage(s, t, n) for s, t, n in zip(opt.final_sizes, opt.final_taus, opt.final_steps)],
-        weights=LossWeights(opt.w_edge, opt.lambda_t, opt.lambda_theta, opt.w_part), refine_discrete=discrete,
-        include_fixed=opt.include_fixed, sweeps=opt.sweeps, max_faces=opt.max_faces, lr_pivot=opt.lr_pivot,
-        lr_value=opt.lr_value, score_size=opt.score_size, screen_score_size=opt.screen_score_size,
-        margin_rel=opt.margin_rel, margin_abs=opt.margin_abs,
-        screen_values={"revolute": tuple(opt.screen_values_revolute),
-                       "prismatic": tuple(opt.screen_values_prismatic)},
-        screen_blur=opt.screen_blur, screen_local=tuple(opt.screen_local), small_part=opt.small_part)
 
 
 @contextmanager
@@ -178,20 +162,24 @@ def _optimize(config: SparkConfig, case_dir: Path, prior: PriorStructure, prior_
     tick = time.perf_counter()
     open_state = _open_state(config, case_dir)
     camera = load_camera(Path(case_dir) / "camera.json")
+    if open_state.mask.shape != (camera.height, camera.width):
+        # the optimizer compares renders from this camera with the mask pixel for pixel
+        raise InputError(open_state.source, f"open-state mask is {open_state.mask.shape[1]} x "
+                                            f"{open_state.mask.shape[0]} px, camera.json says "
+                                            f"{camera.width} x {camera.height}")
     timings["open_state"] = time.perf_counter() - tick
-    discrete = config.optimize.refine == "render"
     start_asset = prior_asset
     if config.optimize.refine == "vlm":  # the paper's re-prediction of type and axis, then the fit
         tick = time.perf_counter()
-        image = (Path(case_dir) / "input.png").read_bytes()
-        reprior, _ = request_structure(config.vlm, image, geometry.names, geometry.labels, refine_from=prior)
+        reprior, _ = request_structure(config.vlm, _input_image(case_dir), geometry.names, geometry.labels,
+                                       refine_from=prior)
         start_asset = assemble_asset(reprior, geometry, name=prior_asset.name, category=prior_asset.category)
         timings["vlm_refine"] = time.perf_counter() - tick
     tick = time.perf_counter()
     with torch_threads(config.optimize.threads):
         part_masks = _part_masks(config, open_state, geometry, start_asset)
         scene = OpenStateScene(start_asset, camera, open_state.mask, config.optimize.max_faces, part_masks)
-        result = refine(start_asset, scene, refine_settings(config, discrete))
+        result = refine(start_asset, scene, RefineSettings.from_config(config.optimize))
     timings["joint_optimization"] = time.perf_counter() - tick
     timings.update({f"opt_{k}": v for k, v in result.timings.items()})
     return result.asset, {

@@ -7,7 +7,6 @@ corrupts it with :class:`NoiseModel`. Rows made with it say ``prior=annotation``
 
 from __future__ import annotations
 
-import json
 import zlib
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -15,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset
-from spark_bench.errors import InputError
+from spark_bench.data.readers import read_json
 from spark_bench.spark.geometry import group_parts
 from spark_bench.spark.structure import (
     CANONICAL_AXES,
@@ -138,12 +137,7 @@ def file_prior(folder: str | Path, case_id: str, known_links: list[str] | None =
     """The ``file`` backend: ``<folder>/<case id>.json`` holds a coarse-URDF answer (e.g. a recorded
     VLM run's ``prior.json``)."""
     path = Path(folder) / f"{case_id}.json"
-    if not path.is_file():
-        raise InputError(path, "no prior answer file for this case")
-    try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"malformed JSON: {exc}") from None
+    data = read_json(path, missing="no prior answer file for this case")
     out = parse_structure(data, path, known_links, upper_table)
     out.source = "file"
     return out

@@ -36,12 +36,13 @@ from __future__ import annotations
 
 import time
 from contextlib import contextmanager
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset
-from spark_bench.spark.assemble import apply_pivot_offset, joint_summary, set_joint
+from spark_bench.spark.assemble import apply_pivot_offset, set_joint
+from spark_bench.spark.config import OptimizeConfig
 from spark_bench.spark.optimize import (
     FitResult,
     Hypothesis,
@@ -56,11 +57,15 @@ from spark_bench.spark.structure import CANONICAL_AXES, OBJECT_TO_WORLD, axis_ve
 
 @dataclass
 class RefineSettings:
-    """Knobs of the native joint optimization (see the module docstring).
+    """Knobs of the native joint optimization (see the module docstring), in the form the search uses.
+
+    Their defaults live in one place, the ``optimize`` section of the configuration
+    (:class:`~spark_bench.spark.config.OptimizeConfig`, which documents each): build these with
+    :meth:`from_config`.
 
     :param screen: the coarse level the short fits start at
     :param short_steps: Adam steps of each finalist's short fit at the screening level
-    :param short_fine: a finer level the short fit continues at (None: none)
+    :param short_fine: a finer level the short fit continues at (None or 0 steps: none)
     :param top_k: candidates per joint that get a short fit
     :param final: the levels of the final joint fit, coarse to fine
     :param weights: loss weights
@@ -77,8 +82,7 @@ class RefineSettings:
     :param margin_rel: a candidate of another type or axis must beat the prior's score by this fraction
         of it (and by ``margin_abs`` at least) to replace it
     :param margin_abs: the smallest margin
-    :param screen_values: open values tried for each candidate while screening, by type (prismatic up to
-        1.3: a lid lifted off a pot travels more than a drawer)
+    :param screen_values: open values tried for each candidate while screening, by type
     :param screen_blur: Gaussian blur (px) of the screening score (see ``OpenStateScene.seg_score``)
     :param screen_local: steps of the local search of the open value of the best screened candidates
         (radians; for prismatic joints, fractions of the value)
@@ -87,28 +91,43 @@ class RefineSettings:
         handle, hinged at its end, lost its true hinge and took another axis)
     """
 
-    screen: Stage = field(default_factory=lambda: Stage(32, 1.0, 0))
-    short_steps: int = 12
-    short_fine: Stage | None = field(default_factory=lambda: Stage(64, 0.7, 12))
-    top_k: int = 3
-    final: list[Stage] = field(default_factory=lambda: [Stage(64, 0.7, 40), Stage(128, 0.6, 30)])
-    weights: LossWeights = field(default_factory=LossWeights)
-    refine_discrete: bool = True
-    include_fixed: bool = False
-    sweeps: int = 2
-    max_faces: int = 600
-    lr_pivot: float = 0.01
-    lr_value: float = 0.03
-    score_size: int = 128
-    screen_score_size: int = 64
-    margin_rel: float = 0.1
-    margin_abs: float = 0.01
-    screen_values: dict = field(default_factory=lambda: {
-        "revolute": (0.3, 0.5, 0.7, 0.9, 1.1, 1.3, 1.5, 1.7, 1.9),
-        "prismatic": (0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.3)})
-    screen_blur: float = 1.0
-    screen_local: tuple = (0.06, 0.03)
-    small_part: float = 0.0
+    screen: Stage
+    short_steps: int
+    short_fine: Stage | None
+    top_k: int
+    final: list[Stage]
+    weights: LossWeights
+    refine_discrete: bool
+    include_fixed: bool
+    sweeps: int
+    max_faces: int
+    lr_pivot: float
+    lr_value: float
+    score_size: int
+    screen_score_size: int
+    margin_rel: float
+    margin_abs: float
+    screen_values: dict[str, tuple[float, ...]]
+    screen_blur: float
+    screen_local: tuple[float, ...]
+    small_part: float
+
+    @classmethod
+    def from_config(cls, opt: OptimizeConfig | None = None) -> RefineSettings:
+        """The settings of an ``optimize`` section (default: its defaults); the type/axis search runs
+        when ``opt.refine`` is ``render`` (``vlm`` and ``none`` fit the given joints only)."""
+        opt = opt or OptimizeConfig()
+        return cls(
+            screen=Stage(opt.screen_size, opt.screen_tau, 0), short_steps=opt.short_steps,
+            short_fine=Stage(opt.short_fine_size, opt.short_fine_tau, opt.short_fine_steps), top_k=opt.top_k,
+            final=[Stage(s, t, n) for s, t, n in zip(opt.final_sizes, opt.final_taus, opt.final_steps)],
+            weights=LossWeights(opt.w_edge, opt.lambda_t, opt.lambda_theta, opt.w_part),
+            refine_discrete=opt.refine == "render", include_fixed=opt.include_fixed, sweeps=opt.sweeps,
+            max_faces=opt.max_faces, lr_pivot=opt.lr_pivot, lr_value=opt.lr_value, score_size=opt.score_size,
+            screen_score_size=opt.screen_score_size, margin_rel=opt.margin_rel, margin_abs=opt.margin_abs,
+            screen_values={"revolute": tuple(opt.screen_values_revolute),
+                           "prismatic": tuple(opt.screen_values_prismatic)},
+            screen_blur=opt.screen_blur, screen_local=tuple(opt.screen_local), small_part=opt.small_part)
 
     def short_stages(self) -> list[Stage]:
         """The stages of every finalist's short fit."""
@@ -392,14 +411,12 @@ def _decide(fitted: list[tuple], prior_hyp: Hypothesis, rest_score: float, setti
 def _is_small_part(scene: OpenStateScene, name: str, fraction: float) -> bool:
     """Whether the joint's part is small next to the whole object (its rest bounding-box diagonal below
     ``fraction`` of the object's): knobs and buttons, whose pivot starts at the box edges all look alike."""
+    if fraction <= 0:
+        return False
     asset = scene.asset
     part = _part_vertices(asset, name)
-    if not len(part) or fraction <= 0:
+    if not len(part):
         return False
     whole = np.concatenate([m.vertices for m in asset.link_meshes().values()])
     return bool(np.ptp(part, axis=0).max() < fraction * np.ptp(whole, axis=0).max())
 
-
-def joints_report(asset: ArticulatedAsset, hypotheses: dict[str, Hypothesis]) -> list[dict]:
-    """World-frame joints of ``asset`` for the movable hypotheses (case.json form)."""
-    return joint_summary(asset, list(hypotheses))

@@ -10,8 +10,8 @@ The model ("halo", the default): a pixel whose centre lies inside any projected 
 it is ``2 sigmoid(-d / tau)`` with ``d`` the Euclidean distance in pixels from the centre to the nearest
 projected triangle. ``d`` is exactly the distance to the silhouette, computed as the largest signed
 distance over triangles, so the image is continuous in the vertices and its gradient moves the
-silhouette's edges. We measured SoftRas's aggregation (the union ``1 - prod(1 - sigmoid(sd_f / tau))``,
-kept as ``aggregate="softras"``) and a per-pixel maximum of ``sigmoid(sd_f / tau)``: both draw seams
+silhouette's edges. We measured SoftRas's aggregation (the union ``1 - prod(1 - sigmoid(sd_f / tau))``)
+and a per-pixel maximum of ``sigmoid(sd_f / tau)``: both draw seams
 inside the silhouette, wherever two triangles share an edge (diagonals of thin parts, a door touching
 the carcass), and those seams bias the fit (a hinge moved by 0.03 lowered the loss of the true joints);
 the union also over-covers by 6-14 % at shared silhouette edges and vertices. The halo model has no
@@ -124,15 +124,9 @@ class SoftSilhouetteRenderer:
     :param size: image width and height in pixels
     :param tau: edge softness in pixels (the sigmoid's scale)
     :param cutoff: pairs farther than ``cutoff * tau`` pixels outside a triangle are skipped
-    :param aggregate: ``halo`` (default, see the module docstring) or ``softras`` (SoftRas's union of
-        per-triangle sigmoids of the signed distance, kept for comparison)
     """
 
-    def __init__(self, camera: Camera, size: int, tau: float = 0.7, cutoff: float = HALO_CUTOFF,
-                 aggregate: str = "halo"):
-        if aggregate not in ("halo", "softras"):
-            raise ValueError(f"aggregate must be 'halo' or 'softras', got {aggregate!r}")
-        self.aggregate = aggregate
+    def __init__(self, camera: Camera, size: int, tau: float = 0.7, cutoff: float = HALO_CUTOFF):
         self.camera = camera.resized(size)
         self.size = int(size)
         self.tau = float(tau)
@@ -144,7 +138,7 @@ class SoftSilhouetteRenderer:
 
         With ``groups``, one silhouette per group of faces, (n_groups, size, size) (e.g. one per part):
         the whole object's silhouette is their per-pixel maximum, since the halo is monotone in the
-        distance (``halo`` aggregation only).
+        distance.
 
         :param vertices: (N, 3) world-space vertices (float32 or float64)
         :param faces: (F, 3) int64 vertex indices
@@ -158,12 +152,6 @@ class SoftSilhouetteRenderer:
         n = self.size
         pixel, face, px, py = _pixel_pairs(tri, n, n, self.cutoff * self.tau)
         centres = torch.stack([px, py], dim=1).to(vertices.dtype) + 0.5
-        if self.aggregate == "softras":
-            sd = signed_distance(centres, tri[face])
-            if groups is not None:
-                raise ValueError("grouped rendering needs aggregate='halo'")
-            log_empty = torch.zeros(n * n, dtype=vertices.dtype).index_add(0, pixel, -F.softplus(sd / self.tau))
-            return (1.0 - torch.exp(log_empty)).reshape(n, n)
         count = 1
         keys = pixel
         if groups is not None:
@@ -249,7 +237,7 @@ def rasterize_labels(vertices: np.ndarray, faces: np.ndarray, face_labels: np.nd
     :param face_labels: (F,) positive integer label per face
     :param camera: the view; the image has its size
     """
-    return rasterize_labels_depth(vertices, faces, face_labels, camera)[0]
+    return rasterize_labels_depth_batch(np.asarray(vertices, float)[None], faces, face_labels, camera)[0][0]
 
 
 def asset_label_image(asset, q, camera: Camera) -> np.ndarray:
@@ -271,18 +259,12 @@ def open_part_masks(asset, camera: Camera) -> dict[str, np.ndarray]:
     return {n: (labels == k + 1).astype(float) for k, n in enumerate(asset.links) if asset.links[n].has_geometry}
 
 
-def rasterize_labels_depth(vertices: np.ndarray, faces: np.ndarray, face_labels: np.ndarray, camera: Camera
-                           ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`rasterize_labels` and its (H, W) z-buffer of inverse depths (``1/z``, 0 where empty):
-    two label images of disjoint face sets compose into the image of both by keeping the larger ``1/z``
-    per pixel (the discrete refinement rasterizes the parts that do not move once per joint)."""
-    labels, inv_depth = rasterize_labels_depth_batch(np.asarray(vertices, float)[None], faces, face_labels, camera)
-    return labels[0], inv_depth[0]
-
-
 def rasterize_labels_depth_batch(vertices: np.ndarray, faces: np.ndarray, face_labels: np.ndarray,
                                  camera: Camera) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`rasterize_labels_depth` of ``B`` poses of one mesh at once, (B, H, W) each.
+    """:func:`rasterize_labels` of ``B`` poses of one mesh at once, (B, H, W) each, and their z-buffers
+    of inverse depths (``1/z``, 0 where empty): two label images of disjoint face sets compose into the
+    image of both by keeping the larger ``1/z`` per pixel (:func:`compose_labels`; the discrete
+    refinement rasterizes the parts that do not move once per joint).
 
     One call for many poses (the discrete refinement scores a part at many open values): the per-call
     overhead of the tensor operations is paid once, and the pixel pairs of all poses are formed together.

@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 import torch
 
+from spark_bench.asset.transforms import axis_angle_matrix
 from spark_bench.spark.render import compose_labels, rasterize_labels_depth_batch
 
 #: Poses rasterized per batched call (bounds the memory of the pixel pairs).
@@ -105,9 +106,7 @@ def rigid_motions(hypotheses: Sequence, parent_pose: np.ndarray, origin: np.ndar
             translations[k] = hyp.value * direction
             continue
         centre = parent_pose[:3, :3] @ (origin[:3, 3] + np.asarray(hyp.pivot_offset, float)) + parent_pose[:3, 3]
-        cross = np.array([[0, -direction[2], direction[1]], [direction[2], 0, -direction[0]],
-                          [-direction[1], direction[0], 0]])
-        rotation = np.eye(3) + np.sin(hyp.value) * cross + (1 - np.cos(hyp.value)) * (cross @ cross)
+        rotation = axis_angle_matrix(direction, hyp.value)
         rotations[k], translations[k] = rotation, centre - rotation @ centre
     return rotations, translations
 

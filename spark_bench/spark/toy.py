@@ -106,10 +106,12 @@ def write_toy_case(case_dir, asset: ArticulatedAsset | None = None, camera: Came
             "joints": joints, "normalization": {"center": [0, 0, 0], "scale": 1.0},
             "image_size": camera.width, "view_seed": 0}
     (case_dir / "case.json").write_text(json.dumps(case, indent=1))
-    focal = float(camera.intrinsics[0, 0])
+    focal = float(camera.intrinsics[1, 1])
+    camera_to_world = np.linalg.inv(camera.world_to_camera)
     (case_dir / "camera.json").write_text(json.dumps({
         "width": camera.width, "height": camera.height,
-        "fov_deg": float(np.degrees(2 * np.arctan(camera.height / 2 / focal))), "distance": 4.0,
+        "fov_deg": float(np.degrees(2 * np.arctan(camera.height / 2 / focal))),
+        "distance": float(np.linalg.norm(camera_to_world[:3, 3])),
         "intrinsics": camera.intrinsics.tolist(), "world_to_camera": camera.world_to_camera.tolist(),
-        "camera_to_world": np.linalg.inv(camera.world_to_camera).tolist(),
-        "position": np.linalg.inv(camera.world_to_camera)[:3, 3].tolist(), "convention": "opencv"}))
+        "camera_to_world": camera_to_world.tolist(), "position": camera_to_world[:3, 3].tolist(),
+        "convention": "opencv"}))
