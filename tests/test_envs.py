@@ -166,6 +166,23 @@ def test_case_folder_maps_to_its_ground_truth(tmp_path):
         asset_folder(tmp_path / "absent")
 
 
+def test_default_cabinet_is_generated_once_per_generator_version(tmp_path, monkeypatch):
+    from spark_bench.data import load_object
+    from spark_bench.data.synth import GENERATOR_VERSION
+    from spark_bench.envs import assets
+
+    monkeypatch.setenv("SPARK_BENCH_HOME", str(tmp_path))
+    folder = assets.default_asset_path()
+    assert folder.parent == tmp_path / "envs" and assets.has_kinds(load_object(folder, load_meshes=False))
+    marker = tmp_path / "envs" / f"default_cabinet_v{GENERATOR_VERSION}.txt"
+    assert marker.read_text() == folder.name
+    (folder / "mobility.urdf").write_text("<robot/>")  # a cache hit does not regenerate
+    assert assets.default_asset_path() == folder and (folder / "mobility.urdf").read_text() == "<robot/>"
+    monkeypatch.setattr(assets, "_synth_generator", lambda: (lambda *a: pytest.fail("regenerated"), "0.0-other"))
+    with pytest.raises(pytest.fail.Exception, match="regenerated"):  # another generator version: generated anew
+        assets.default_asset_path()
+
+
 def test_sparse_reward_and_rgb_render():
     env = gym.make("SparkDoor-v0", asset="procedural:0", reward_type="sparse", render_mode="rgb_array",
                    width=160, height=120)

@@ -90,6 +90,20 @@ def test_train_pipeline_writes_model_curve_and_transfer(tmp_path):
     assert stats.episodes == 1
 
 
+def test_load_model_names_a_broken_train_json(tmp_path):
+    from spark_bench.errors import InputError
+    from spark_bench.rl.train import load_model
+
+    (tmp_path / "model.zip").write_bytes(b"PK")
+    (tmp_path / "train.json").write_text('{"algo": ')
+    with pytest.raises(InputError, match="malformed JSON") as err:
+        load_model(tmp_path)
+    assert "train.json" in str(err.value)
+    (tmp_path / "train.json").write_text('{"algo": "td3"}')
+    with pytest.raises(InputError, match="unknown algorithm 'td3'"):
+        load_model(tmp_path / "model.zip")
+
+
 @pytest.mark.slow
 def test_sac_trains_a_few_steps(tmp_path):
     from spark_bench.rl.train import train

@@ -34,11 +34,12 @@ def asset_folder(path: str | Path) -> Path:
 
 
 def _synth_generator():
+    """The synth generator's ``generate_object`` and its version, or None when it is not installed."""
     try:
-        from spark_bench.data.synth import generate_object
+        from spark_bench.data.synth import GENERATOR_VERSION, generate_object
     except ImportError:
         return None
-    return generate_object
+    return generate_object, GENERATOR_VERSION
 
 
 def has_kinds(asset: ArticulatedAsset) -> bool:
@@ -51,24 +52,26 @@ def default_asset_path() -> Path | None:
     """The default cabinet's folder (generated on first use), or None without the synth generator.
 
     The first seed from :data:`DEFAULT_SEED` whose object has both a drawer and a door is used, so
-    both environments run on the same cabinet.
+    both environments run on the same cabinet. The cache is kept per generator version (a marker file
+    names the folder), so a new generator regenerates it.
     """
-    generate = _synth_generator()
-    if generate is None:
+    generator = _synth_generator()
+    if generator is None:
         return None
+    generate, version = generator
     from spark_bench.data import load_object
     from spark_bench.paths import cache_dir
 
     root = cache_dir("envs")
-    marker = root / f"{DEFAULT_NAME}.txt"
+    marker = root / f"{DEFAULT_NAME}_v{version}.txt"
     if marker.is_file():
-        folder = Path(marker.read_text().strip())
+        folder = root / marker.read_text().strip()
         if (folder / "mobility.urdf").is_file():
             return folder
     for seed in range(DEFAULT_SEED, DEFAULT_SEED + 50):
         folder = Path(generate("StorageFurniture", seed, root, f"{DEFAULT_NAME}_{seed}"))
         if has_kinds(load_object(folder, load_meshes=False)):
-            marker.write_text(str(folder))
+            marker.write_text(folder.name)
             return folder
     return None
 

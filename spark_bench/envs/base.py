@@ -18,7 +18,7 @@ import mujoco  # noqa: E402  (after MUJOCO_GL)
 
 from spark_bench.envs.assets import AssetLike, asset_key, load_asset  # noqa: E402
 from spark_bench.envs.gripper import finger_target  # noqa: E402
-from spark_bench.envs.scene import N_SUBSTEPS, Scene, build_scene  # noqa: E402
+from spark_bench.envs.scene import N_SUBSTEPS, TIMESTEP, Scene, build_scene  # noqa: E402
 
 #: Largest TCP displacement per step (action 1.0), m.
 MAX_STEP = 0.02
@@ -68,7 +68,7 @@ class SparkArticulationEnv(gym.Env):
     :param seed: seeds the start-state noise (same as the first ``reset(seed=...)``)
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": int(round(1.0 / (N_SUBSTEPS * 0.004)))}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": int(round(1.0 / (N_SUBSTEPS * TIMESTEP)))}
     joint_kind = "prismatic"
 
     def __init__(self, asset: AssetLike = None, joint: str | None = None, target_fraction: float = 0.75,
@@ -159,7 +159,7 @@ class SparkArticulationEnv(gym.Env):
         dist = float(obs[18])
         reach = 1.0 - np.tanh(10.0 * dist)
         grasped = float(dist < GRASP_RADIUS and bool(np.all(self._touching())))
-        progress = float(np.clip(obs[14] / self.target_fraction, 0.0, 1.0))
+        progress = float(min(max(obs[14] / self.target_fraction, 0.0), 1.0))  # np.clip costs 3 us on a scalar
         success = float(obs[14] >= self.target_fraction)
         return {"reach": float(reach), "grasp": grasped, "progress": progress, "success": success}
 

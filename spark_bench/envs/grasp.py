@@ -44,9 +44,15 @@ LEVEL_BIN = 0.002
 FACE_DENSITY = 0.1
 #: Surface samples per part.
 N_SAMPLES = 20000
+#: A cluster of surface samples is a feature (not noise) when it holds this many points, and (for the
+#: part's own samples) this fraction of them.
+MIN_CLUSTER = 20
+MIN_CLUSTER_FRACTION = 0.002
 #: Cell size (m) of the front-face raster used to find a notch.
 NOTCH_CELL = 0.003
-#: Smallest notch extent (m) the closed fingers (pads 12 mm tall, 24 mm wide) can enter.
+#: Smallest extent (m), both ways, of an uncovered region of the front for it to count as a notch. (The
+#: pads' height is fitted to the notch's depth, :data:`spark_bench.envs.scene.NOTCH_CLEARANCE`; across its
+#: width the closed default fingers are 24 mm, two 12 mm pads.)
 NOTCH_MIN = 0.02
 #: Largest notch extent (m) along its open edge: beyond this (and beyond :data:`NOTCH_MAX_FRACTION` of
 #: that edge) it is a gap between parts, not a notch.
@@ -175,6 +181,11 @@ def clusters(points: np.ndarray, radius: float = 0.015) -> list[np.ndarray]:
     return sorted(groups, key=len, reverse=True)
 
 
+def _min_cluster(n_points: int) -> int:
+    """The fewest of a part's ``n_points`` surface samples a feature's cluster holds."""
+    return max(MIN_CLUSTER, int(MIN_CLUSTER_FRACTION * n_points))
+
+
 def _handle_links(asset: ArticulatedAsset, links: list[str]) -> list[str]:
     out = []
     for name in links:
@@ -238,8 +249,9 @@ def rasterise_front(part, n: np.ndarray, basis: np.ndarray, face: float, cell: f
 
 def find_notch(image: np.ndarray, lo: np.ndarray, cell: float = NOTCH_CELL) -> list[Notch]:
     """Notches of a rasterised front (:func:`rasterise_front`): uncovered regions that open onto one
-    edge of the front's bounding box, at least :data:`NOTCH_MIN` across both ways and at most
-    :data:`NOTCH_MAX` along that edge."""
+    edge of the front's bounding box, fill at least 70 % of their own bounding box, are at least
+    :data:`NOTCH_MIN` across both ways, and along that edge at most :data:`NOTCH_MAX` or
+    :data:`NOTCH_MAX_FRACTION` of the edge, whichever is longer."""
     if image.size == 0:
         return []
     labels, _ = ndimage.label(~image)
@@ -271,12 +283,8 @@ def carried_links(asset: ArticulatedAsset, joint: str, links: list[str]) -> list
 
     :param links: the joint's own part (:meth:`ArticulatedAsset.part_of_joint`)
     """
-    subtree, stack = set(), [asset.joints[joint].child]
-    while stack:
-        link = stack.pop()
-        subtree.add(link)
-        stack.extend(j.child for j in asset.joints.values() if j.parent == link and j.child not in subtree)
-    return [name for name in asset.links if name in subtree and name not in links]
+    moving, own = set(asset.moving_links(joint)), set(links)
+    return [name for name in asset.links if name in moving and name not in own]
 
 
 def on_handle(handle: np.ndarray, basis: np.ndarray, origin: np.ndarray | None, axis: np.ndarray) -> np.ndarray:
@@ -321,7 +329,7 @@ def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> 
     if edge - float(origin @ radial) < TAB_MIN_REACH:
         return None
     tip = points[depth > edge + HANDLE_MIN_PROUD]
-    groups = [g for g in clusters(tip) if len(g) >= max(20, int(0.002 * len(points)))]
+    groups = [g for g in clusters(tip) if len(g) >= _min_cluster(len(points))]
     if not groups:
         return None
     basis = _perpendicular_basis(radial)
@@ -367,13 +375,12 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
     if labelled:
         handle_pts = sample_surface(asset.mesh(links=labelled), 4000, seed=seed)
         # one link may hold several pieces (a wide drawer's two knobs): grasp one of them, not between
-        groups = [g for g in clusters(handle_pts) if len(g) >= 20] or [np.arange(len(handle_pts))]
+        groups = [g for g in clusters(handle_pts) if len(g) >= MIN_CLUSTER] or [np.arange(len(handle_pts))]
         source = "label"
     else:
         proud = np.flatnonzero(depth > face + HANDLE_MIN_PROUD)
         handle_pts = points[proud]
-        min_size = max(20, int(0.002 * len(points)))
-        groups = [g for g in clusters(handle_pts) if len(g) >= min_size]
+        groups = [g for g in clusters(handle_pts) if len(g) >= _min_cluster(len(points))]
         source = "geometry"
     if not groups:
         # a handle hinged to the part (a door's lever or knob) is the part's handle too: the one in front
@@ -381,7 +388,7 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
         if carried:
             handle_pts = sample_surface(asset.mesh(links=carried), 4000, seed=seed)
             groups = [g for g in clusters(handle_pts)
-                      if len(g) >= 20 and np.median(handle_pts[g] @ n) > face + HANDLE_MIN_PROUD]
+                      if len(g) >= MIN_CLUSTER and np.median(handle_pts[g] @ n) > face + HANDLE_MIN_PROUD]
             source = "label"
     if groups:
         scores = [lateral_score(handle_pts[g]) for g in groups]

@@ -27,8 +27,10 @@ N_SUBSTEPS = 10
 #: lets a pinched handle creep out of the pads under a steady pull (measured: 7 of 117 synth drawers
 #: slipped off at 55-70 % open); 10 makes the grip hold.
 IMPRATIO = 10.0
-#: Room (m) left between the pads and a notch's edges, across the closing direction.
+#: Room (m) left between the pads and a notch's edges, along its depth (the pads' height direction), and
+#: the lowest pads a notch gets, m.
 NOTCH_CLEARANCE = 0.014
+NOTCH_MIN_PAD_HEIGHT = 0.008
 #: Contact ``solref`` of pads thinned to fit beside a handle: the stiffest MuJoCo allows at this step
 #: (2 steps), so that a 3 mm pad squeezing a 5 mm lip sinks about 0.5 mm into it, not 2 mm (at 0.02 s).
 #: The default pads keep MuJoCo's default, which the opener's grasps were tuned on.
@@ -102,6 +104,21 @@ def workspace_box(asset: ArticulatedAsset, margin: float = WORKSPACE_MARGIN) -> 
     return np.stack([np.minimum(rest[0], opened[0]) - margin, np.maximum(rest[1], opened[1]) + margin])
 
 
+def fitted_gripper(grasp: GraspTarget, gripper: GripperConfig | None = None) -> GripperConfig:
+    """The gripper fitted to ``grasp``: pads lowered to enter a notch with room to spare, or thinned to fit
+    into the gaps beside the handle (:func:`~spark_bench.envs.pads.plan_pads` planned them for ``gripper``).
+
+    :param gripper: the gripper to fit (default: :class:`GripperConfig`'s defaults)
+    """
+    base = gripper or GripperConfig()
+    if grasp.inside_grip and grasp.notch_size is not None:
+        height = max(grasp.notch_size[0] - NOTCH_CLEARANCE, NOTCH_MIN_PAD_HEIGHT)
+        return replace(base, pad_height=float(min(base.pad_height, height)))
+    if grasp.pad_thickness is not None:
+        return replace(base, pad_thickness=min(base.pad_thickness, grasp.pad_thickness), pad_solref=THIN_PAD_SOLREF)
+    return base
+
+
 def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
                 gripper: GripperConfig | None = None) -> Scene:
     """Compile the object with the gripper, for opening ``joint`` (or the first joint of ``kind``).
@@ -130,15 +147,8 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     spec.visual.headlight.diffuse = [0.6, 0.6, 0.6]
     spec.worldbody.add_light(pos=[-2.0, -1.0, 3.0], dir=[0.5, 0.25, -0.8], diffuse=[0.5, 0.5, 0.5])
     wrist = asset.joint_frames()[chosen.name][1] if chosen.is_rotational else None
-    if gripper is None and grasp.inside_grip and grasp.notch_size is not None:
-        # pads low enough to enter the notch with room to spare
-        gripper = GripperConfig(pad_height=float(np.clip(grasp.notch_size[0] - NOTCH_CLEARANCE, 0.008, 0.024)))
-    if grasp.pad_thickness is not None:
-        # pads thin enough to fit into the gaps beside the handle (find_grasp planned them for this gripper)
-        base = gripper or GripperConfig()
-        gripper = replace(base, pad_thickness=min(base.pad_thickness, grasp.pad_thickness), pad_solref=THIN_PAD_SOLREF)
     handles = add_gripper(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
-                          workspace=workspace, config=gripper)
+                          workspace=workspace, config=fitted_gripper(grasp, gripper))
     try:
         model = spec.compile()
     except ValueError as exc:

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-ENV_IDS = ("SparkDrawer-v0", "SparkDoor-v0")
+from spark_bench.envs.registration import ENVIRONMENTS  # light: ids and entry-point strings
+
+ENV_IDS = tuple(ENVIRONMENTS)
 
 
 def _env_args(parser: argparse.ArgumentParser) -> None:

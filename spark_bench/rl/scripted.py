@@ -25,6 +25,9 @@ from spark_bench.envs.gripper import grip_command
 PREGRASP_OFFSET = 0.06
 #: How close (m) the TCP must come to a waypoint before the next phase.
 WAYPOINT_TOLERANCE = 0.008
+#: Steps after which the pre-grasp and the (direct) approach phases move on even if short of their waypoint.
+PREGRASP_STEPS = 30
+APPROACH_STEPS = 20
 #: Steps spent closing the fingers.
 CLOSE_STEPS = 6
 #: Path length (m) the opening target leads the TCP by (the action saturates at 0.02 m per step).
@@ -106,8 +109,8 @@ class ScriptedOpener:
         angle = np.arctan2(np.dot(self.axis, np.cross(a, b)), np.dot(a, b))
         return rotate_about(direction, np.zeros(3), self.axis, angle)
 
-    def _open_target(self, tcp: np.ndarray, grasp: np.ndarray) -> np.ndarray:
-        press = PRESS_OFFSET * self._turned(self.press, grasp)
+    def _open_target(self, tcp: np.ndarray, press: np.ndarray) -> np.ndarray:
+        """The next TCP target while opening: ``pull_step`` along the planned line or arc, plus ``press``."""
         if not self.rotational:
             return tcp + self.pull_step * self.axis + press
         v = tcp - self.pivot
@@ -146,11 +149,11 @@ class ScriptedOpener:
             if aligned:  # on the approach line, not just near the waypoint
                 error = error - np.dot(error, outward) * outward
             tolerance = self.lateral_tolerance if aligned else WAYPOINT_TOLERANCE
-            if np.linalg.norm(error) < tolerance or self.phase_steps > 30:
+            if np.linalg.norm(error) < tolerance or self.phase_steps > PREGRASP_STEPS:
                 self._next("approach")
         elif self.phase == "approach":
             target = self._aligned_target(tcp, grasp, self._turned(self.outward, grasp)) if aligned else grasp
-            limit = ALIGNED_APPROACH_STEPS if aligned else 20
+            limit = ALIGNED_APPROACH_STEPS if aligned else APPROACH_STEPS
             if np.linalg.norm(grasp - tcp) < WAYPOINT_TOLERANCE or self.phase_steps > limit:
                 self._next("press" if self.inside_grip else "close")
         elif self.phase == "press":
@@ -164,7 +167,7 @@ class ScriptedOpener:
             if self.phase_steps >= CLOSE_STEPS:
                 self._next("open")
         else:
-            target, grip = self._open_target(tcp, grasp), hold
+            target, grip = self._open_target(tcp, press), hold
         action = np.empty(4, dtype=np.float32)
         action[:3] = np.clip((target - tcp) / MAX_STEP, -1.0, 1.0)
         action[3] = grip

@@ -55,11 +55,11 @@ class TrainResult:
     wall_s: float = 0.0
 
 
-def _algo_class(algo: str):
+def _algo_class(algo: str, where: str | Path | None = None):
+    if algo not in ALGOS:  # before the (slow) stable-baselines3 import
+        raise InputError(where, f"unknown algorithm {algo!r} (choose from {', '.join(ALGOS)})")
     from stable_baselines3 import PPO, SAC
 
-    if algo not in ALGOS:
-        raise InputError(None, f"unknown algorithm {algo!r} (choose from {', '.join(ALGOS)})")
     return {"ppo": PPO, "sac": SAC}[algo]
 
 
@@ -71,11 +71,16 @@ def load_model(path: str | Path):
         path = path / "model.zip"
     if not path.is_file():
         raise InputError(path, "no such model file")
-    meta = path.parent / "train.json"
-    algos = [json.loads(meta.read_text())["algo"]] if meta.is_file() else list(ALGOS)
+    from spark_bench.data.readers import read_json
+
+    meta_path = path.parent / "train.json"
+    meta = read_json(meta_path, default={})
+    if not isinstance(meta, dict):
+        raise InputError(meta_path, "expected a JSON object")
+    algos = [meta["algo"]] if "algo" in meta else list(ALGOS)
     for algo in algos:
         try:
-            return _algo_class(algo).load(path, device="cpu")
+            return _algo_class(algo, meta_path).load(path, device="cpu")
         except (ValueError, KeyError, RuntimeError):
             continue
     raise InputError(path, "not a stable-baselines3 PPO or SAC model")
