@@ -293,6 +293,12 @@ def test_named_benchmark_builds_once(isolated_home, monkeypatch):
     assert not benchmarks.is_built(folder, spec) and benchmarks.is_built(folder)
     benchmarks.ensure_benchmark("synth-tiny", progress=False)
     assert benchmarks.is_built(folder, spec)
+    # a damaged marker (truncated, or JSON of another shape) is a stale build too, never a crash
+    good = (folder / benchmarks.BUILT_MARKER).read_text()
+    for damaged in ("{", "[1, 2]"):
+        (folder / benchmarks.BUILT_MARKER).write_text(damaged)
+        assert not benchmarks.is_built(folder, spec) and benchmarks._is_stale(spec, folder)
+    (folder / benchmarks.BUILT_MARKER).write_text(good)
     with pytest.raises(SparkBenchError, match="unknown benchmark"):
         benchmarks.ensure_benchmark("nope")
     assert benchmarks.BENCHMARKS["synth-v1"].n_objects == 50

@@ -1,16 +1,13 @@
 """The torch FK matches the NumPy FK and differentiates correctly (joint values, axes, origins)."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 import torch
+from conftest import real_object_path
 
 from spark_bench.asset.torch_fk import link_poses_torch
 from spark_bench.spark.assemble import apply_pivot_offset
 from spark_bench.spark.toy import toy_cabinet
-
-REAL = Path(__file__).resolve().parents[1].parent / "shared" / "real_objects"
 
 
 def _random_q(asset, rng):
@@ -37,12 +34,9 @@ def test_matches_numpy_fk_on_toy():
 @pytest.mark.real
 @pytest.mark.parametrize("object_id", ["3763", "7179", "45780"])
 def test_matches_numpy_fk_on_real_objects(object_id):
-    folder = REAL / object_id
-    if not folder.is_dir():
-        pytest.skip(f"{folder} is absent (real PartNet-Mobility objects are not shipped)")
     from spark_bench.data import load_object
 
-    asset = load_object(folder, load_meshes=False)
+    asset = load_object(real_object_path(object_id), load_meshes=False)
     _check_parity(asset, _random_q(asset, np.random.default_rng(1)))
 
 

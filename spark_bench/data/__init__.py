@@ -1,15 +1,17 @@
 """Datasets: readers for object folders, the procedural ``synth`` generator, rendering, and
 benchmark-case preparation.
 
-Heavy pieces (MuJoCo rendering, preparation) are imported on first use of their names.
+Every name is imported on first use: even the readers pull in trimesh and yourdfpy, which
+``spark-bench --help`` (it imports this package's ``commands``) should not pay for.
 """
 
 from __future__ import annotations
 
-from spark_bench.data.readers import find_urdf, load_object
 from spark_bench.lazy import lazy_exports
 
 _LAZY = {
+    "find_urdf": "spark_bench.data.readers",
+    "load_object": "spark_bench.data.readers",
     "prepare_case": "spark_bench.data.prepare",
     "prepare_benchmark": "spark_bench.data.prepare",
     "PrepareOptions": "spark_bench.data.prepare",
@@ -25,4 +27,4 @@ _LAZY = {
 }
 
 _lazy_names, __getattr__ = lazy_exports(__name__, _LAZY)
-__all__ = ["find_urdf", "load_object", *_lazy_names]
+__all__ = _lazy_names

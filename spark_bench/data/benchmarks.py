@@ -15,8 +15,9 @@ import shutil
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from spark_bench.data.prepare import PrepareOptions, bench_lock, prepare_benchmark, read_manifest
-from spark_bench.errors import SparkBenchError
+from spark_bench.data.prepare import CASES_DIR, PrepareOptions, bench_lock, prepare_benchmark, read_manifest
+from spark_bench.data.readers import read_case, read_json
+from spark_bench.errors import InputError, SparkBenchError
 from spark_bench.paths import cache_dir
 
 #: Written last into a built benchmark folder; its content says how the benchmark was made.
@@ -68,6 +69,16 @@ def expected_marker(spec: BenchmarkSpec) -> dict:
             "generator_version": GENERATOR_VERSION, "options": asdict(spec.options)}
 
 
+def _json_object(path: Path) -> dict | None:
+    """A JSON object file of our own making; None when it is absent, malformed or not an object
+    (the build it belongs to then counts as unfinished or stale, never as an error)."""
+    try:
+        found = read_json(path, default=None)
+    except InputError:
+        return None
+    return found if isinstance(found, dict) else None
+
+
 def is_built(folder: Path, spec: BenchmarkSpec | None = None) -> bool:
     """Whether ``folder`` holds a finished build (of ``spec``, when given)."""
     marker = Path(folder) / BUILT_MARKER
@@ -75,11 +86,8 @@ def is_built(folder: Path, spec: BenchmarkSpec | None = None) -> bool:
         return False
     if spec is None:
         return True
-    try:
-        found = json.loads(marker.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError):
-        return False
-    return {k: found.get(k) for k in expected_marker(spec)} == expected_marker(spec)
+    found, expected = _json_object(marker), expected_marker(spec)
+    return found is not None and {k: found.get(k) for k in expected} == expected
 
 
 def _is_stale(spec: BenchmarkSpec, folder: Path) -> bool:
@@ -88,11 +96,8 @@ def _is_stale(spec: BenchmarkSpec, folder: Path) -> bool:
         return not is_built(folder, spec)
     synth_manifest = folder / OBJECTS_DIR / "synth_manifest.json"
     if synth_manifest.is_file():
-        try:
-            version = json.loads(synth_manifest.read_text()).get("version")
-        except (json.JSONDecodeError, UnicodeDecodeError):
-            return True
-        return version != expected_marker(spec)["generator_version"]
+        found = _json_object(synth_manifest)
+        return found is None or found.get("version") != expected_marker(spec)["generator_version"]
     return False
 
 
@@ -122,8 +127,7 @@ def build_benchmark(spec: BenchmarkSpec, folder: Path, workers: int = 1, progres
         first = next(iter(manifest["failed"].items()))
         raise SparkBenchError(f"benchmark {spec.name}: {len(manifest['failed'])} case(s) failed, "
                               f"e.g. {first[0]}: {first[1]} (see {folder / 'manifest.json'})")
-    categories = {json.loads((folder / "cases" / c / "case.json").read_text()).get("category")
-                  for c in manifest["cases"]}
+    categories = {read_case(folder / CASES_DIR / c).get("category") for c in manifest["cases"]}
     if len(manifest["cases"]) != spec.n_objects or len(categories) < spec.min_categories:
         raise SparkBenchError(f"benchmark {spec.name}: built {len(manifest['cases'])} cases over "
                               f"{len(categories)} categories, expected {spec.n_objects} over at least "

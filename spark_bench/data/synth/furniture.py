@@ -8,7 +8,7 @@ from spark_bench.data.synth import palette
 from spark_bench.data.synth.cabinet import CabinetStyle, Cell, Column, add_cabinet
 from spark_bench.data.synth.common import X, Y, Z, choice, handle_style, legs, new_object, wood_style_colors
 from spark_bench.data.synth.handles import handle_solids, place_on_face, rotary_knob
-from spark_bench.data.synth.primitives import box, cylinder
+from spark_bench.data.synth.primitives import RGBA, Solid, box, cylinder
 from spark_bench.data.synth.spec import JointSpec, ObjectSpec
 
 STORAGE_LAYOUTS = ("mixed", "dresser", "sideboard", "cupboard", "wardrobe", "apothecary", "nightstand", "wall")
@@ -201,6 +201,19 @@ def storage_box(rng: np.random.Generator) -> ObjectSpec:
     return spec
 
 
+def _frame(w: float, h: float, fw: float, fd: float, bottom: tuple[float, float], color: RGBA,
+           density: float) -> list[Solid]:
+    """A door or window frame around the opening ``|x| < w / 2``, ``bottom[1] < y < h``: two posts of
+    width ``fw`` from ``bottom[0]`` up to ``h + fw``, the head above the opening and the sill (or
+    bottom rail) from ``bottom[0]`` to ``bottom[1]`` between the posts; ``fd`` deep, centered on z = 0.
+    """
+    y0, y1 = bottom
+    return [box((-0.5 * w - fw, y0, -0.5 * fd), (-0.5 * w, h + fw, 0.5 * fd), color, density),
+            box((0.5 * w, y0, -0.5 * fd), (0.5 * w + fw, h + fw, 0.5 * fd), color, density),
+            box((-0.5 * w, h, -0.5 * fd), (0.5 * w, h + fw, 0.5 * fd), color, density),
+            box((-0.5 * w, y0, -0.5 * fd), (0.5 * w, y1, 0.5 * fd), color, density)]
+
+
 def door(rng: np.random.Generator) -> ObjectSpec:
     spec = new_object("Door", semantic="static")
     body = spec.part("body")
@@ -210,10 +223,7 @@ def door(rng: np.random.Generator) -> ObjectSpec:
     leaf_c = frame_c if rng.uniform() < 0.5 else palette.jitter(rng, palette.WOOD[palette.pick(rng, palette.WOOD)])
     dens = palette.DENSITY["wood"]
     sill = 0.01
-    body.solids += [box((-0.5 * w - fw, 0, -0.5 * fd), (-0.5 * w, h + fw, 0.5 * fd), frame_c, dens),
-                    box((0.5 * w, 0, -0.5 * fd), (0.5 * w + fw, h + fw, 0.5 * fd), frame_c, dens),
-                    box((-0.5 * w, h, -0.5 * fd), (0.5 * w, h + fw, 0.5 * fd), frame_c, dens),
-                    box((-0.5 * w, 0, -0.5 * fd), (0.5 * w, sill, 0.5 * fd), frame_c, dens)]
+    body.solids += _frame(w, h, fw, fd, (0, sill), frame_c, dens)
     gap, t = 0.004, rng.uniform(0.035, 0.045)
     hinge = choice(rng, ["left", "right"])
     x0, x1, y0, y1 = -0.5 * w + gap, 0.5 * w - gap, sill + 0.008, h - gap
@@ -262,10 +272,7 @@ def window(rng: np.random.Generator) -> ObjectSpec:
     frame_c = palette.jitter(rng, choice(rng, [palette.WOOD["white"], palette.WOOD["oak"], palette.METAL["graphite"],
                                                palette.WOOD["walnut"]]))
     dens = palette.DENSITY["wood"]
-    body.solids += [box((-0.5 * w - fw, -fw, -0.5 * fd), (-0.5 * w, h + fw, 0.5 * fd), frame_c, dens),
-                    box((0.5 * w, -fw, -0.5 * fd), (0.5 * w + fw, h + fw, 0.5 * fd), frame_c, dens),
-                    box((-0.5 * w, h, -0.5 * fd), (0.5 * w, h + fw, 0.5 * fd), frame_c, dens),
-                    box((-0.5 * w, -fw, -0.5 * fd), (0.5 * w, 0, 0.5 * fd), frame_c, dens)]
+    body.solids += _frame(w, h, fw, fd, (-fw, 0), frame_c, dens)
     kind = choice(rng, ["casement", "double_casement", "sliding", "awning"])
     gap, t, rail = 0.004, rng.uniform(0.035, 0.05), rng.uniform(0.04, 0.06)
     z1 = 0.5 * fd

@@ -12,8 +12,6 @@ import numpy as np
 from spark_bench.data.synth.primitives import RGBA, Solid, box, cylinder, place
 
 HANDLE_STYLES = ("bar", "square_bar", "loop", "knob", "edge", "recessed")
-#: Handle styles that are separate solids (``recessed`` is a notch cut into the front itself).
-SOLID_STYLES = ("bar", "square_bar", "loop", "knob", "edge")
 X, Y, Z = np.eye(3)
 
 
