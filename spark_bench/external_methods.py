@@ -143,14 +143,11 @@ class CommandMethod:
     def arguments(self, case: CaseInput, out_dir: Path) -> list[str]:
         """The argument list for ``case``, placeholders filled."""
         values = {"out": str(out_dir), "case_id": case.case_id}
-        getters = {"image": lambda: case.image, "camera": lambda: case.case_dir / "camera.json",
-                   "case_dir": lambda: case.case_dir, "open_image": lambda: case.open_image,
-                   "masks": lambda: case.masks}
-        needs = {"camera": "camera", "case_dir": "gt", "image": "image", "open_image": "open_image",
-                 "masks": "masks"}
-        for key, getter in getters.items():
-            if needs[key] in self.inputs:
-                values[key] = str(getter())
+        for kind in ("image", "camera", "open_image", "masks"):
+            if kind in self.inputs:
+                values[kind] = str(case.path(kind))
+        if "gt" in self.inputs:  # the whole case folder holds the ground truth
+            values["case_dir"] = str(case.case_dir)
         try:
             return [arg.format(**values) for arg in self.template.argv]
         except (KeyError, IndexError, ValueError) as exc:

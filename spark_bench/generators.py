@@ -20,7 +20,6 @@ Built in:
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
@@ -38,6 +37,9 @@ INPUT_KINDS = ("image", "camera", "masks", "open_image", "part_meshes", "gt")
 ENTRY_POINT_GROUP = "spark_bench.methods"
 #: File the runner writes beside a finished generation; its presence makes the generation cached.
 GENERATION_MARKER = ".spark_bench_generation.json"
+#: The case file or folder behind each input kind that is one (docs/formats.md).
+CASE_FILES = {"image": "input.png", "camera": "camera.json", "masks": "input_seg.png", "open_image": "open.png",
+              "gt": "gt"}
 
 
 class GenerationError(SparkBenchError):
@@ -98,39 +100,44 @@ class CaseInput:
         if kind not in self.allowed:
             raise PermissionError(f"case {self.case_id}: this method did not declare input {kind!r}")
 
+    def path(self, kind: str) -> Path:
+        """The case file behind input ``kind`` (a key of :data:`CASE_FILES`).
+
+        :raises PermissionError: when the method did not declare ``kind``
+        """
+        self._need(kind)
+        return self.case_dir / CASE_FILES[kind]
+
     @property
     def image(self) -> Path:
         """The input RGB image (rest state)."""
-        self._need("image")
-        return self.case_dir / "input.png"
+        return self.path("image")
 
     @property
     def camera(self) -> dict:
         """``camera.json``: intrinsics and pose (OpenCV convention, benchmark frame)."""
-        self._need("camera")
-        path = self.case_dir / "camera.json"
-        try:
-            return json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise InputError(path, f"cannot read camera: {exc}") from None
+        from spark_bench.data.readers import read_json
+
+        path = self.path("camera")
+        camera = read_json(path, missing="camera file not found")
+        if not isinstance(camera, dict):
+            raise InputError(path, "expected a JSON object")
+        return camera
 
     @property
     def masks(self) -> Path:
         """The 16-bit part-index image of the input view."""
-        self._need("masks")
-        return self.case_dir / "input_seg.png"
+        return self.path("masks")
 
     @property
     def open_image(self) -> Path:
         """The RGB image with every movable joint open."""
-        self._need("open_image")
-        return self.case_dir / "open.png"
+        return self.path("open_image")
 
     @property
     def gt_dir(self) -> Path:
         """The ground-truth object folder."""
-        self._need("gt")
-        return self.case_dir / "gt"
+        return self.path("gt")
 
     def part_meshes(self) -> PartMeshes:
         """The ground truth's part meshes at rest and its tree; joint types and parameters stripped."""
@@ -170,6 +177,19 @@ class Generation:
     def to_json(self) -> dict:
         return {"folder": str(self.folder), "info": self.info, "shape_metrics_valid": self.shape_metrics_valid,
                 "variants": {k: str(v) for k, v in self.variants.items()}}
+
+    @classmethod
+    def from_json(cls, data) -> Generation:
+        """The inverse of :meth:`to_json`.
+
+        :raises ValueError: when ``data`` is not such an object
+        """
+        try:
+            return cls(Path(data["folder"]), dict(data.get("info", {})),
+                       {k: Path(v) for k, v in data.get("variants", {}).items()},
+                       bool(data.get("shape_metrics_valid", True)))
+        except (KeyError, TypeError, AttributeError) as exc:
+            raise ValueError(f"not a generation record: {exc!r}") from None
 
     @classmethod
     def from_result(cls, result, out_dir: Path) -> Generation:

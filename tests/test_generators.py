@@ -60,6 +60,30 @@ def test_case_input_refuses_undeclared_inputs(tmp_path):
     assert not hasattr(parts, "joints")  # no joint parameters reach the method
 
 
+def test_case_camera_is_read_and_a_bad_one_names_its_file(tmp_path):
+    bench = make_tiny_bench(tmp_path, n=1)
+    case_dir = bench / "cases" / "cab0"
+    case = CaseInput("cab0", case_dir, "", frozenset({"camera"}))
+    assert case.camera["width"] == 64 and len(case.camera["world_to_camera"]) == 4
+    assert case.path("camera") == case_dir / "camera.json"
+    for text, problem in (('{"width": 64,', "malformed JSON"), ("[1, 2]", "expected a JSON object"), (None, "not found")):
+        if text is None:
+            (case_dir / "camera.json").unlink()
+        else:
+            (case_dir / "camera.json").write_text(text)
+        with pytest.raises(InputError, match=rf"camera\.json: .*{problem}"):
+            _ = case.camera
+
+
+def test_generation_json_round_trip(tmp_path):
+    g = Generation(tmp_path / "x", {"prior": "annotation"}, {"v": tmp_path / "v"}, shape_metrics_valid=False)
+    back = Generation.from_json(json.loads(json.dumps(g.to_json())))
+    assert back == g
+    for bad in ({}, [], {"folder": "x", "variants": 3}):
+        with pytest.raises(ValueError, match="not a generation record"):
+            Generation.from_json(bad)
+
+
 def test_generation_from_result(tmp_path):
     assert Generation.from_result(None, tmp_path).folder == tmp_path
     g = Generation.from_result({"folder": str(tmp_path / "x"), "variants": {"v": str(tmp_path / "v")},
@@ -121,8 +145,8 @@ def test_command_failure_reports_last_stderr_line(tmp_path):
         method.generate(CaseInput("cab0", bench / "cases" / "cab0", "", frozenset(method.inputs)), out)
     # the shell never sees the template: a ';' stays one argument
     methods.write_text('[methods.a]\ncommand = ["echo", "{out}; rm -rf /"]\n')
-    args = make_generator("a", methods_file=str(methods)).arguments(
-        CaseInput("cab0", bench / "cases" / "cab0", "", frozenset({"image"})), out)
+    method = make_generator("a", methods_file=str(methods))
+    args = method.arguments(CaseInput("cab0", bench / "cases" / "cab0", "", frozenset(method.inputs)), out)
     assert args == ["echo", f"{out}; rm -rf /"]
 
 

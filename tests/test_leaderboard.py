@@ -143,3 +143,20 @@ def test_html_page_renders_in_headless_chromium(tmp_path, store):
     palette5 = np.all(np.abs(image - np.array([253, 207, 158])) <= 3, axis=2)
     assert palette5.sum() > 100
     shutil.rmtree(tmp_path / "profile", ignore_errors=True)
+
+
+def test_read_camera_default_and_bad_file(tmp_path):
+    from spark_bench.bench.render import default_camera, read_camera
+    from spark_bench.data.camera import CameraView
+    from spark_bench.errors import InputError
+
+    assert read_camera(tmp_path / "absent.json") == default_camera()
+    view = CameraView.from_json(default_camera(64))  # the default is a valid camera.json
+    assert view.fov_deg == pytest.approx(40.0) and view.position.tolist() == pytest.approx([-3.2, -1.6, 1.6])
+    bad = tmp_path / "camera.json"
+    bad.write_text('{"width": 64')
+    with pytest.raises(InputError, match=r"camera\.json: malformed JSON"):
+        read_camera(bad)
+    bad.write_text('{"width": 64, "height": 64}')
+    with pytest.raises(InputError, match=r"camera\.json: malformed camera"):
+        read_camera(bad)

@@ -32,11 +32,11 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
-from scipy.spatial import cKDTree
 
 from spark_bench.asset.mesh import merge_meshes, sample_triangles
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
 from spark_bench.generators import CaseInput, Generation, PartMeshes
+from spark_bench.metrics.shape import KDTree, build_tree, nearest_distances
 
 AXES = np.eye(3)
 #: The six ray directions: +x, -x, +y, -y, +z, -z.
@@ -133,7 +133,7 @@ def _samples(mesh: trimesh.Trimesh, n: int, seed: int) -> np.ndarray | None:
 # ----- the cues ----------------------------------------------------------------------------------------
 def contact_points(part_points: np.ndarray, parent_points: np.ndarray, eps: float) -> np.ndarray:
     """Part points within ``eps`` of the parent; if none, the 2% closest (a part may float a little)."""
-    distances = cKDTree(parent_points).query(part_points, k=1)[0]
+    distances = nearest_distances(part_points, parent_points)
     close = distances < eps
     if close.sum() < 5:
         close = distances <= np.quantile(distances, 0.02)
@@ -198,15 +198,15 @@ def is_round(points: np.ndarray, axis: np.ndarray) -> bool:
 
 # ----- the decisions -------------------------------------------------------------------------------------
 def hinge_edge(points: np.ndarray, contact: np.ndarray, normal: np.ndarray, band: float,
-               neighbours: cKDTree | None = None, eps: float = 0.03) -> tuple[np.ndarray, np.ndarray, dict]:
+               neighbours: KDTree | None = None, eps: float = 0.03) -> tuple[np.ndarray, np.ndarray, dict]:
     """The hinge of a slab facing ``normal``: ``(axis, pivot, evidence)``.
 
     :param points: the slab's surface samples
     :param contact: its contact points with the parent
     :param normal: unit outward normal (the free side)
     :param band: edge band width as a fraction of the slab's extent across the edge
-    :param neighbours: samples of the other moving parts: an edge that meets another moving part (the
-        middle of a double door) is not a hinge
+    :param neighbours: a tree (:func:`~spark_bench.metrics.shape.build_tree`) on samples of the other
+        moving parts: an edge that meets another moving part (the middle of a double door) is not a hinge
     :param eps: contact distance
     """
     k = int(np.argmax(np.abs(normal)))
@@ -226,7 +226,7 @@ def hinge_edge(points: np.ndarray, contact: np.ndarray, normal: np.ndarray, band
                 score += abs(handle[across] - edge) / width
             if neighbours is not None:
                 edge_points = points[np.abs(points[:, across] - edge) < band * width]
-                if len(edge_points) and np.mean(neighbours.query(edge_points, k=1)[0] < eps) > 0.2:
+                if len(edge_points) and np.mean(nearest_distances(edge_points, neighbours) < eps) > 0.2:
                     score -= 0.5
             if vertical_face and along == 2:
                 score += 0.3  # doors on vertical faces mostly hinge on a vertical edge
@@ -288,7 +288,7 @@ def estimate_joint(parts: PartMeshes, link: str, options: GeometryOptions) -> Jo
         return JointEstimate(link, "continuous", free, center, 2 * np.pi, "cap", evidence)
     others_mesh = _mesh_of(parts, [n for n in parts.meshes if n not in subtree and n not in parent_links])
     other_points = _samples(others_mesh, options.n_parent_samples, options.seed + 2)
-    neighbours = cKDTree(other_points) if other_points is not None else None
+    neighbours = build_tree(other_points) if other_points is not None else None
     if extents[free_axis] < options.slab_ratio * min(extents[others]):
         axis, pivot, more = hinge_edge(points, contact, free, options.edge_band, neighbours, options.contact_eps)
         kind = "door" if abs(free[2]) < 0.5 else "lid"

@@ -1,7 +1,7 @@
 """The ``oracle`` method: the ground-truth object itself, the sanity check of the whole pipeline.
 
-Every articulation error of the oracle is zero and its shape metrics are zero up to sampling noise;
-its sim-readiness is that of the ground truth. A benchmark where the oracle scores anything else has
+Every articulation error of the oracle is zero and so is its Chamfer distance (the copied files load to
+the same surfaces, sampled with the same seed); its sim-readiness is that of the ground truth. A benchmark where the oracle scores anything else has
 a bug in a metric, a check or the case preparation.
 """
 

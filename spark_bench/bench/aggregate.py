@@ -13,6 +13,8 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 
+from spark_bench.bench.store import METRIC_COLUMNS
+
 #: The metric keys of ``eval --json`` and of the leaderboard, in table order.
 SHAPE_KEYS = ("cd", "fscore@0.1", "fscore@0.5")
 ARTICULATION_KEYS = ("axis_err", "pivot_err", "type_err")
@@ -22,8 +24,6 @@ SUMMARY_KEYS = (*SHAPE_KEYS, *ARTICULATION_KEYS, *RATE_KEYS)
 HIGHER_IS_BETTER = {"cd": False, "fscore@0.1": True, "fscore@0.5": True, "axis_err": False,
                     "pivot_err": False, "type_err": False, "sim_pass_rate": True, "open_success_rate": True,
                     "rl_success_rate": True, "cd_open": False}
-_ROW_COLUMN = {"cd": "cd", "fscore@0.1": "fscore_01", "fscore@0.5": "fscore_05", "cd_open": "cd_open",
-               "axis_err": "axis_err", "pivot_err": "pivot_err", "type_err": "type_err"}
 
 
 def _mean(values: Iterable[float | None]) -> float | None:
@@ -32,7 +32,7 @@ def _mean(values: Iterable[float | None]) -> float | None:
 
 
 def _value(row: dict, key: str):
-    column = _ROW_COLUMN[key]
+    column = METRIC_COLUMNS[key]
     value = row.get(column)
     return value if value is not None else row.get("metrics", {}).get(key)
 

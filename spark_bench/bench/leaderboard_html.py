@@ -86,17 +86,30 @@ def bar_chart(table: Table, path: Path) -> Path | None:
     return path
 
 
-def _render_cell(folder: str | Path | None, camera: dict, state: str, target: Path) -> str:
-    from spark_bench.bench.render import render_folder
+STATES = ("rest", "open")
+
+
+def _render_cells(folder: str | Path | None, camera: dict, stem: Path) -> list[str]:
+    """One cell per state of :data:`STATES`: the object folder rendered into ``<stem>_<state>.png``
+    (kept when already there), loaded once for all of them."""
+    from spark_bench.bench.render import load_for_render, render_state
 
     if not folder:
-        return "<td class='na'>no prediction</td>"
-    try:
-        if not target.is_file():
-            render_folder(Path(folder), camera, state, RENDER_SIZE).save(target)
-    except Exception as exc:  # a broken prediction must not break the page
-        return f"<td class='na'>cannot render: {html_escape(type(exc).__name__)}</td>"
-    return f"<td><img src='{html_escape(target.parent.name + '/' + target.name)}' alt='{state}'></td>"
+        return ["<td class='na'>no prediction</td>"] * len(STATES)
+    asset = None
+    cells = []
+    for state in STATES:
+        target = stem.with_name(f"{stem.name}_{state}.png")
+        try:
+            if not target.is_file():
+                if asset is None:
+                    asset = load_for_render(Path(folder))
+                render_state(asset, camera, state, RENDER_SIZE).save(target)
+        except Exception as exc:  # a broken prediction must not break the page
+            cells.append(f"<td class='na'>cannot render: {html_escape(type(exc).__name__)}</td>")
+            continue
+        cells.append(f"<td><img src='{html_escape(target.parent.name + '/' + target.name)}' alt='{state}'></td>")
+    return cells
 
 
 def _gallery(board: Leaderboard, assets: Path, max_cases: int) -> str:
@@ -118,17 +131,16 @@ def _gallery(board: Leaderboard, assets: Path, max_cases: int) -> str:
         cells = [f"<td><b>{html_escape(case_id)}</b><br>"
                  + (f"<img src='{assets.name}/{image.name}' alt='input'>" if has_input else "no input image")
                  + "<br>input</td>"]
-        header = ["<th>case</th>", "<th>ground truth<br>rest</th>", "<th>ground truth<br>open</th>"]
-        cells += [_render_cell(case_dir / "gt", camera, s, assets / f"{stem}_gt_{s}.png") for s in ("rest", "open")]
+        header = ["<th>case</th>", *[f"<th>ground truth<br>{s}</th>" for s in STATES]]
+        cells += _render_cells(case_dir / "gt", camera, assets / f"{stem}_gt")
         for k, entry in enumerate(board.entries):
-            header += [f"<th>{html_escape(entry.name)}<br>{s}</th>" for s in ("rest", "open")]
+            header += [f"<th>{html_escape(entry.name)}<br>{s}</th>" for s in STATES]
             row = by_case[case_id].get(k)
             if row is None or row["status"] != "ok":
                 why = "not run" if row is None else f"failed: {row['stage']}"
-                cells += [f"<td class='na'>{html_escape(why)}</td>"] * 2
+                cells += [f"<td class='na'>{html_escape(why)}</td>"] * len(STATES)
                 continue
-            cells += [_render_cell(row["prediction_dir"], camera, s, assets / f"{stem}_m{k}_{s}.png")
-                      for s in ("rest", "open")]
+            cells += _render_cells(row["prediction_dir"], camera, assets / f"{stem}_m{k}")
         if n == 0:
             lines.append("<tr>" + "".join(header) + "</tr>")
         lines.append("<tr>" + "".join(cells) + "</tr>")

@@ -57,15 +57,20 @@ def predicted_axes_in_gt_frame(pred, gt, alignment=None, gt_to_world=None
     return out
 
 
-def ground_truth_at_source_size(gt_folder: str | Path):
+def ground_truth_at_source_size(gt_folder: str | Path, gt=None):
     """``(gt asset, 4x4 from its files' frame to metres)``: a case's ``gt/`` is normalized to the
-    benchmark frame, and the robot must open the object at its real size (identity elsewhere)."""
+    benchmark frame, and the robot must open the object at its real size (identity elsewhere).
+
+    :param gt_folder: the ground-truth object folder
+    :param gt: the asset of ``gt_folder`` when already loaded (not changed: a case's is scaled as a copy,
+        any other is returned as is)
+    """
     from spark_bench.asset.ops import similarity_asset
     from spark_bench.data import load_object
     from spark_bench.data.readers import case_to_source_frame
 
     gt_folder = Path(gt_folder)
-    gt = load_object(gt_folder)
+    gt = load_object(gt_folder) if gt is None else gt
     case_dir = gt_folder.parent
     if not (case_dir / "case.json").is_file():
         return gt, np.eye(4)
@@ -89,7 +94,7 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     from spark_bench.rl.scripted import open_with_ground_truth, open_with_joint
 
     gt_files = load_object(gt_folder)
-    gt, to_source = ground_truth_at_source_size(gt_folder)
+    gt, to_source = ground_truth_at_source_size(gt_folder, gt_files)
     pred = load_object(pred_folder)
     matched = {m["gt_joint"]: m["pred_joint"] for m in metrics.get("matching", [])}
     axes = predicted_axes_in_gt_frame(pred, gt_files, metrics.get("alignment"), to_source)
@@ -150,7 +155,7 @@ def rl_transfer(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, o
     from spark_bench.rl.train import load_model, train
 
     gt_files, pred_files = load_object(gt_folder), load_object(pred_folder)
-    gt, to_source = ground_truth_at_source_size(gt_folder)
+    gt, to_source = ground_truth_at_source_size(gt_folder, gt_files)
     # the prediction where (and as large as) the metrics matched it with the real object
     pred = similarity_asset(pred_files, to_source @ prediction_to_gt_world(pred_files, gt_files,
                                                                           metrics.get("alignment")))

@@ -7,7 +7,6 @@ whether a door swings the right way; not a substitute for the MuJoCo renders of 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -15,32 +14,36 @@ from PIL import Image, ImageDraw
 
 from spark_bench.asset.model import ArticulatedAsset
 
-#: Triangles drawn per render at most (larger meshes are subsampled by face, area-weighted order kept).
+#: Triangles drawn per render at most (larger meshes are subsampled: a seeded uniform choice of faces).
 MAX_TRIANGLES = 30_000
 LIGHT = np.array([-0.4, -0.3, 0.85])
+#: Where :func:`default_camera` stands: in front of the object (front towards -X), a little to the side
+#: and above, looking at the origin.
+DEFAULT_POSITION = (-3.2, -1.6, 1.6)
+DEFAULT_FOV_DEG = 40.0
 
 
 def default_camera(size: int = 256) -> dict:
-    """A camera in front of the object (front towards -X), a little to the side and above."""
-    position = np.array([-3.2, -1.6, 1.6])
-    forward = -position / np.linalg.norm(position)
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
-    world_to_camera = np.eye(4)
-    world_to_camera[:3, :3] = np.stack([right, down, forward])
-    world_to_camera[:3, 3] = -world_to_camera[:3, :3] @ position
-    f = (size / 2) / np.tan(np.radians(40.0) / 2)
-    return {"width": size, "height": size, "intrinsics": [[f, 0, size / 2], [0, f, size / 2], [0, 0, 1]],
-            "world_to_camera": world_to_camera.tolist()}
+    """The ``camera.json`` object of a square view from :data:`DEFAULT_POSITION`."""
+    from spark_bench.data.camera import CameraView, look_at
+
+    return CameraView(int(size), int(size), DEFAULT_FOV_DEG, look_at(DEFAULT_POSITION)).to_json()
 
 
 def read_camera(path: Path) -> dict:
-    """``camera.json``, or :func:`default_camera` when it is absent or unreadable."""
-    try:
-        return json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError):
+    """``camera.json``, or :func:`default_camera` when there is none.
+
+    :raises InputError: naming the file when it is malformed (checked as
+        :meth:`~spark_bench.data.camera.CameraView.from_json` checks it)
+    """
+    from spark_bench.data.camera import CameraView
+    from spark_bench.data.readers import read_json
+
+    camera = read_json(path, default=None)
+    if camera is None:
         return default_camera()
+    CameraView.from_json(camera, source=path)
+    return camera
 
 
 def _scaled_camera(camera: dict, size: int) -> tuple[np.ndarray, np.ndarray, int, int]:
@@ -92,12 +95,20 @@ def render_asset(asset: ArticulatedAsset, camera: dict, q=None, size: int = 256,
     return image
 
 
-def render_folder(folder: Path, camera: dict, state: str = "rest", size: int = 256) -> Image.Image:
-    """Render an object folder in its own benchmark frame (normalized by its own box, as the metrics
-    compare it), at ``rest`` or ``open``."""
+def load_for_render(folder: Path) -> ArticulatedAsset:
+    """An object folder in its own benchmark frame (normalized by its own box, as the metrics compare it)."""
     from spark_bench.asset.ops import normalize_asset
     from spark_bench.data import load_object
 
-    asset, _, _ = normalize_asset(load_object(folder))
-    q = asset.open_configuration() if state == "open" else None
-    return render_asset(asset, camera, q, size)
+    return normalize_asset(load_object(folder))[0]
+
+
+def render_state(asset: ArticulatedAsset, camera: dict, state: str = "rest", size: int = 256) -> Image.Image:
+    """:func:`render_asset` at ``rest`` or ``open`` (every movable joint at its upper limit)."""
+    return render_asset(asset, camera, asset.open_configuration() if state == "open" else None, size)
+
+
+def render_folder(folder: Path, camera: dict, state: str = "rest", size: int = 256) -> Image.Image:
+    """Render an object folder in its own benchmark frame at ``rest`` or ``open``; to render several
+    states, load once with :func:`load_for_render` and call :func:`render_state` for each."""
+    return render_state(load_for_render(folder), camera, state, size)

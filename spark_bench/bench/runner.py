@@ -25,7 +25,7 @@ from pathlib import Path
 from spark_bench import CONVENTION_VERSION, __version__
 from spark_bench.bench.executors import EXECUTORS, run_local, run_ray, usable_cores
 from spark_bench.bench.store import METRIC_COLUMNS, ResultsStore, config_hash, now
-from spark_bench.data.readers import read_case
+from spark_bench.data.readers import read_case, read_json
 from spark_bench.errors import InputError, SparkBenchError
 from spark_bench.generators import (
     GENERATION_MARKER,
@@ -147,12 +147,7 @@ def resolve_bench(bench: str | None) -> tuple[str, Path]:
 
 def _manifest(folder: Path) -> dict:
     path = folder / "manifest.json"
-    if not path.is_file():
-        raise InputError(folder, "not a benchmark folder (no manifest.json)")
-    try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(path, f"malformed JSON: {exc}") from None
+    data = read_json(path, missing="not a benchmark folder (no manifest.json)")
     if not isinstance(data, dict) or not isinstance(data.get("cases"), list):
         raise InputError(path, "expected an object with a 'cases' list")
     return data
@@ -208,11 +203,8 @@ def generate_cached(task: CaseTask, generator) -> tuple[Generation, bool]:
     marker = out_dir / GENERATION_MARKER
     if marker.is_file():
         try:
-            data = json.loads(marker.read_text())
-            return Generation(Path(data["folder"]), data.get("info", {}),
-                              {k: Path(v) for k, v in data.get("variants", {}).items()},
-                              bool(data.get("shape_metrics_valid", True))), True
-        except (json.JSONDecodeError, KeyError, OSError):
+            return Generation.from_json(read_json(marker)), True
+        except (InputError, OSError, ValueError):
             pass  # a damaged marker: generate again
     if out_dir.exists():
         shutil.rmtree(out_dir)

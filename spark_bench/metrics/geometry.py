@@ -14,6 +14,7 @@ from spark_bench.asset.model import ArticulatedAsset, Configuration
 from spark_bench.asset.transforms import transform_points
 from spark_bench.errors import InputError
 from spark_bench.metrics.articulation import JointAxis
+from spark_bench.metrics.sampling import triangle_areas
 
 
 def _where(asset: ArticulatedAsset) -> str:
@@ -67,10 +68,7 @@ def posed_triangles(asset: ArticulatedAsset, q: Configuration | None = None,
 
 def has_area(triangles: np.ndarray) -> bool:
     """Whether the triangles have a positive total area (something to sample)."""
-    if len(triangles) == 0:
-        return False
-    cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    return bool(np.linalg.norm(cross, axis=1).sum() > 0.0)
+    return len(triangles) > 0 and bool(triangle_areas(triangles).sum() > 0.0)
 
 
 def benchmark_transform(asset: ArticulatedAsset) -> np.ndarray:

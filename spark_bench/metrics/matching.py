@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from spark_bench.metrics.shape import chamfer_distance
+from spark_bench.metrics.shape import build_tree, nearest_distances
 
 #: Weight of the tie-break term (values in [0, 1]) next to Chamfer distances in benchmark-frame units:
 #: far below any Chamfer difference that means something, far above floating-point noise.
@@ -48,10 +48,15 @@ def part_cost_matrix(pred_parts: Sequence[np.ndarray | None], gt_parts: Sequence
     :param workers: threads for the nearest-neighbour queries
     """
     cost = np.full((len(pred_parts), len(gt_parts)), np.inf)
-    for i, pred in enumerate(pred_parts):
-        for j, gt in enumerate(gt_parts):
+    # one tree per part, not one per pair: the same numbers as chamfer_distance on every pair
+    pred_trees = [None if p is None else build_tree(p) for p in pred_parts]
+    gt_trees = [None if g is None else build_tree(g) for g in gt_parts]
+    for i, (pred, pred_tree) in enumerate(zip(pred_parts, pred_trees)):
+        for j, (gt, gt_tree) in enumerate(zip(gt_parts, gt_trees)):
             if pred is not None and gt is not None:
-                cost[i, j] = chamfer_distance(pred, gt, workers)
+                d_pg = nearest_distances(pred, gt_tree, workers)
+                d_gp = nearest_distances(gt, pred_tree, workers)
+                cost[i, j] = float(d_pg.mean() + d_gp.mean())
     return cost
 
 

@@ -65,19 +65,6 @@ def sample_triangles(triangles: np.ndarray, n: int, seed: int = 0) -> np.ndarray
     return out
 
 
-def sample_mesh_arrays(vertices: np.ndarray, faces: np.ndarray, n: int, seed: int = 0) -> np.ndarray:
-    """``n`` uniform surface samples of the mesh ``(vertices, faces)``; see :func:`sample_triangles`.
-
-    :param vertices: (V, 3) vertex positions
-    :param faces: (F, 3) vertex indices
-    :param n: number of points
-    :param seed: generator seed
-    """
-    vertices = np.asarray(vertices, dtype=np.float64)
-    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
-    return sample_triangles(vertices[faces], n, seed)
-
-
 def sample_pair(triangles_a: np.ndarray, triangles_b: np.ndarray, n: int, seed: int = 0
                 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`sample_triangles` on two surfaces with the same ``n`` and ``seed``, in two threads

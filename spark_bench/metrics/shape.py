@@ -17,6 +17,7 @@ from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import cache
 
 import numpy as np
 from pykdtree.kdtree import KDTree
@@ -34,6 +35,16 @@ def build_tree(points: np.ndarray) -> KDTree:
     return KDTree(np.ascontiguousarray(points, dtype=np.float64), leafsize=LEAF_SIZE)
 
 
+@cache
+def _thread_controller():
+    """threadpoolctl's view of the loaded thread pools, found once per process: finding them scans the
+    process's loaded libraries (about 1 ms), too slow to repeat for every query of an ICP loop.
+    pykdtree's OpenMP runtime is loaded with this module, so a view taken later always holds it."""
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
+
+
 @contextmanager
 def thread_limit(workers: int) -> Iterator[None]:
     """At most ``workers`` OpenMP threads for pykdtree's queries inside the block (-1: no limit).
@@ -44,9 +55,7 @@ def thread_limit(workers: int) -> Iterator[None]:
     if workers is None or workers < 1:
         yield
         return
-    from threadpoolctl import threadpool_limits
-
-    with threadpool_limits(limits=workers, user_api="openmp"):
+    with _thread_controller().limit(limits=workers, user_api="openmp"):
         yield
 
 
