@@ -27,8 +27,6 @@ import tempfile
 import time
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-
 REAL = Path(__file__).resolve().parents[2] / "shared" / "real_objects"
 IDS = ("41083", "40147", "45780", "7179", "47645", "102442", "3763")
 
@@ -67,7 +65,7 @@ def ours(src: Path, home: Path, out: Path) -> dict:
 
 def mujoco_import(src: Path) -> dict:
     """MuJoCo's URDF importer on the same file, and the same sweep where it compiles."""
-    from spark_bench.sim.mujoco_gl import mujoco_module
+    from spark_bench.mujoco_gl import mujoco_module
     from spark_bench.sim.sweep import check_joint_sweep, swept_joints_of_model
 
     mujoco = mujoco_module()

@@ -21,16 +21,16 @@ import tempfile
 import time
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+import gymnasium as gym
+import numpy as np
+from rich.console import Console
+from rich.table import Table
 
-import gymnasium as gym  # noqa: E402
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-from rich.console import Console  # noqa: E402
-from rich.table import Table  # noqa: E402
+import spark_bench  # noqa: F401  (registers the environments)
+from spark_bench.envs.scene import N_SUBSTEPS
+from spark_bench.mujoco_gl import mujoco_module
 
-import spark_bench  # noqa: E402,F401
-from spark_bench.envs.scene import N_SUBSTEPS  # noqa: E402
+mujoco = mujoco_module()
 
 REAL = Path(__file__).resolve().parents[1].parent / "shared" / "real_objects"
 METAWORLD_STEPS_PER_S, METAWORLD_OVERHEAD = 2500.0, 4.0

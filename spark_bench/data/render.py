@@ -10,7 +10,6 @@ projection is exactly the view's OpenCV intrinsics (``tests/test_render.py`` che
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -20,8 +19,7 @@ import trimesh
 from spark_bench.asset.mesh import drop_degenerate_faces
 from spark_bench.asset.model import ArticulatedAsset, Configuration
 from spark_bench.data.camera import CameraView
-
-os.environ.setdefault("MUJOCO_GL", "egl")
+from spark_bench.mujoco_gl import mujoco_module
 
 #: Background colour of the renders (a neutral grey: white and black parts both stand out), RGB in [0, 1].
 BACKGROUND = (0.78, 0.78, 0.78)
@@ -56,13 +54,6 @@ class Rendering:
         return self.segmentation == self.links.index(link) + 1
 
 
-def _mujoco():
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    import mujoco
-
-    return mujoco
-
-
 def _clean_for_mujoco(mesh: trimesh.Trimesh) -> trimesh.Trimesh | None:
     """The mesh without zero-area faces (MuJoCo rejects degenerate meshes); None when nothing is left."""
     cleaned = drop_degenerate_faces(mesh.vertices, mesh.faces)
@@ -70,7 +61,7 @@ def _clean_for_mujoco(mesh: trimesh.Trimesh) -> trimesh.Trimesh | None:
 
 
 def _rotation_to_quat(rotation: np.ndarray) -> np.ndarray:
-    mujoco = _mujoco()
+    mujoco = mujoco_module()
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=np.float64).reshape(9))
     return quat
@@ -84,7 +75,7 @@ def mujoco_camera_quat(view: CameraView) -> np.ndarray:
 
 def _scene_spec(width: int, height: int, background=BACKGROUND):
     """The empty scene: lights, sky, camera and offscreen buffer; bodies are added by the caller."""
-    mujoco = _mujoco()
+    mujoco = mujoco_module()
     spec = mujoco.MjSpec()
     spec.modelname = "spark_bench_render"
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
@@ -129,7 +120,7 @@ class AssetRenderer:
 
     def __init__(self, asset: ArticulatedAsset, width: int = 512, height: int | None = None,
                  links: Sequence[str] | None = None, background=BACKGROUND):
-        mujoco = _mujoco()
+        mujoco = mujoco_module()
         self.asset = asset
         self.width, self.height = int(width), int(height or width)
         self.links = list(links) if links is not None else list(asset.links)
@@ -173,7 +164,7 @@ class AssetRenderer:
         self._renderer = None
 
     def _get_renderer(self, width: int, height: int):
-        mujoco = _mujoco()
+        mujoco = mujoco_module()
         if width > self.width or height > self.height:
             raise ValueError(f"image {width}x{height} exceeds the renderer's {self.width}x{self.height}")
         r = self._renderer
@@ -203,7 +194,7 @@ class AssetRenderer:
         :param q: joint values by name; missing joints at rest
         :param segmentation: also render the label image (otherwise it is all zeros)
         """
-        mujoco = _mujoco()
+        mujoco = mujoco_module()
         self.pose(q)
         self.set_view(view)
         mujoco.mj_forward(self.model, self.data)

@@ -6,19 +6,18 @@
 
 from __future__ import annotations
 
-import os
 from functools import lru_cache
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-import mujoco  # noqa: E402  (after MUJOCO_GL)
+from spark_bench.envs.assets import AssetLike, asset_key, load_asset
+from spark_bench.envs.gripper import finger_target
+from spark_bench.envs.scene import N_SUBSTEPS, TIMESTEP, Scene, build_scene
+from spark_bench.mujoco_gl import mujoco_module
 
-from spark_bench.envs.assets import AssetLike, asset_key, load_asset  # noqa: E402
-from spark_bench.envs.gripper import finger_target  # noqa: E402
-from spark_bench.envs.scene import N_SUBSTEPS, TIMESTEP, Scene, build_scene  # noqa: E402
+mujoco = mujoco_module()
 
 #: Largest TCP displacement per step (action 1.0), m.
 MAX_STEP = 0.02

@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset
+from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.converter import load_source
-from spark_bench.sim.mujoco_gl import mujoco_module
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.relief import summarize_relief
 from spark_bench.sim.results import CheckReport, CheckResult

@@ -15,7 +15,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from spark_bench.asset.model import ArticulatedAsset
-from spark_bench.sim.mujoco_gl import mujoco_module
+from spark_bench.mujoco_gl import mujoco_module
 
 if TYPE_CHECKING:
     from spark_bench.sim.mjcf import PreparedObject

@@ -29,9 +29,9 @@ import numpy as np
 from spark_bench.asset.mesh import drop_degenerate_faces
 from spark_bench.asset.model import ArticulatedAsset, Link
 from spark_bench.errors import InputError
+from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.contacts import add_contact_filters, geometric_parents, rest_overlaps
 from spark_bench.sim.hulls import CollisionReport, CollisionShape, object_collision_shapes, object_size
-from spark_bench.sim.mujoco_gl import mujoco_module
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.physical import (
     GRAVITY,

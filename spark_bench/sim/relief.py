@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.hulls import CollisionShape
-from spark_bench.sim.mujoco_gl import mujoco_module
 
 #: Contacts within this fraction of the part's radius from the hinge axis are hinge-zone contacts.
 HINGE_ZONE = 0.15

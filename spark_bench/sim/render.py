@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from spark_bench.sim.mujoco_gl import mujoco_module
+from spark_bench.mujoco_gl import mujoco_module
 
 #: Camera: in front of the object (its front faces -X), a little to the side and above.
 AZIMUTH, ELEVATION, DISTANCE = 25.0, -22.0, 1.35

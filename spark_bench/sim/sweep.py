@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset
-from spark_bench.sim.mujoco_gl import mujoco_module
+from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.results import CheckResult
 
 SWEEP_REACH = 0.9
