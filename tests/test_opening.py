@@ -11,10 +11,10 @@ from helpers_bench import write_case
 
 from spark_bench.asset import write_object_folder
 from spark_bench.asset.ops import similarity_asset
-from spark_bench.bench.opening import ground_truth_at_source_size, open_with_predicted_joints
+from spark_bench.bench.opening import open_with_predicted_joints
 from spark_bench.data import load_object
 from spark_bench.data.readers import case_to_source_frame
-from spark_bench.envs.assets import load_asset
+from spark_bench.envs.assets import at_source_size, load_asset
 from spark_bench.envs.cabinet import procedural_cabinet
 from spark_bench.errors import InputError
 
@@ -30,7 +30,7 @@ def identity_matching(asset) -> dict:
 
 def test_case_ground_truth_comes_back_at_source_size(case_dir):
     source = procedural_cabinet(seed=0)
-    gt, to_source = ground_truth_at_source_size(case_dir / "gt")
+    gt, to_source = at_source_size(load_object(case_dir / "gt"), case_dir / "gt")
     np.testing.assert_allclose(gt.bounds(), source.bounds(), atol=1e-6)
     assert load_object(case_dir / "gt").bounds().max() == pytest.approx(1.0)  # the files: benchmark frame
     # the environments see the same object when given the case
@@ -77,5 +77,5 @@ def test_bad_normalization_is_a_clear_error(case_dir, tmp_path):
     case["normalization"]["scale"] = -2.0
     (broken / "case.json").write_text(json.dumps(case))
     with pytest.raises(InputError, match="bad normalization") as info:
-        ground_truth_at_source_size(broken / "gt")
+        at_source_size(load_object(broken / "gt"), broken / "gt")
     assert str(broken / "case.json") in str(info.value)

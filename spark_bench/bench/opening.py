@@ -57,27 +57,6 @@ def predicted_axes_in_gt_frame(pred, gt, alignment=None, gt_to_world=None
     return out
 
 
-def ground_truth_at_source_size(gt_folder: str | Path, gt=None):
-    """``(gt asset, 4x4 from its files' frame to metres)``: a case's ``gt/`` is normalized to the
-    benchmark frame, and the robot must open the object at its real size (identity elsewhere).
-
-    :param gt_folder: the ground-truth object folder
-    :param gt: the asset of ``gt_folder`` when already loaded (not changed: a case's is scaled as a copy,
-        any other is returned as is)
-    """
-    from spark_bench.asset.ops import similarity_asset
-    from spark_bench.data import load_object
-    from spark_bench.data.readers import case_to_source_frame
-
-    gt_folder = Path(gt_folder)
-    gt = load_object(gt_folder) if gt is None else gt
-    case_dir = gt_folder.parent
-    if not (case_dir / "case.json").is_file():
-        return gt, np.eye(4)
-    to_source = case_to_source_frame(case_dir)
-    return similarity_asset(gt, to_source), to_source
-
-
 def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, seed: int = 0,
                                max_steps: int = 200) -> dict:
     """Open every ground-truth drawer and door with the matched predicted joint.
@@ -90,11 +69,12 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     :returns: ``{"success_rate": fraction opened (None when nothing can be opened), "joints": {...}}``
     """
     from spark_bench.data import load_object
+    from spark_bench.envs.assets import at_source_size
     from spark_bench.rl.rollout import make_env
     from spark_bench.rl.scripted import open_with_ground_truth, open_with_joint
 
     gt_files = load_object(gt_folder)
-    gt, to_source = ground_truth_at_source_size(gt_folder, gt_files)
+    gt, to_source = at_source_size(gt_files, gt_folder)
     pred = load_object(pred_folder)
     matched = {m["gt_joint"]: m["pred_joint"] for m in metrics.get("matching", [])}
     axes = predicted_axes_in_gt_frame(pred, gt_files, metrics.get("alignment"), to_source)
@@ -151,11 +131,12 @@ def rl_transfer(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, o
     """
     from spark_bench.asset.ops import similarity_asset
     from spark_bench.data import load_object
+    from spark_bench.envs.assets import at_source_size
     from spark_bench.rl.rollout import ModelPolicy, make_env, run_episodes
     from spark_bench.rl.train import load_model, train
 
     gt_files, pred_files = load_object(gt_folder), load_object(pred_folder)
-    gt, to_source = ground_truth_at_source_size(gt_folder, gt_files)
+    gt, to_source = at_source_size(gt_files, gt_folder)
     # the prediction where (and as large as) the metrics matched it with the real object
     pred = similarity_asset(pred_files, to_source @ prediction_to_gt_world(pred_files, gt_files,
                                                                           metrics.get("alignment")))

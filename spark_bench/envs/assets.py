@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.errors import InputError
 
@@ -113,17 +115,22 @@ def load_asset(asset: AssetLike) -> tuple[ArticulatedAsset, str]:
     from spark_bench.data import load_object
 
     folder = asset_folder(asset)
-    loaded = load_object(folder)
-    case_dir = folder.parent
-    if folder.name == "gt" and (case_dir / "case.json").is_file():
-        loaded = source_size(loaded, case_dir)
-    return loaded, str(folder.resolve())
+    return at_source_size(load_object(folder), folder)[0], str(folder.resolve())
 
 
-def source_size(gt: ArticulatedAsset, case_dir: str | Path) -> ArticulatedAsset:
-    """A benchmark case's ground truth back at its source's size and place (metres): cases store it
-    normalized to [-1, 1]^3, and a robot must open the real object, not one scaled to two metres."""
+def at_source_size(asset: ArticulatedAsset, folder: str | Path) -> tuple[ArticulatedAsset, np.ndarray]:
+    """``(asset, 4x4 from its files' frame to metres)`` for the asset read from object folder ``folder``.
+
+    A benchmark case's ground truth (a ``gt/`` folder beside ``case.json``) is stored normalized to
+    [-1, 1]^3, and a robot must open the real object, not one scaled to two metres: it comes back (as a
+    copy) at its source's size and place with ``case.json``'s normalization. Any other asset is returned
+    as is, with the identity.
+    """
+    folder = Path(folder)
+    if folder.name != "gt" or not (folder.parent / "case.json").is_file():
+        return asset, np.eye(4)
     from spark_bench.asset.ops import similarity_asset
     from spark_bench.data.readers import case_to_source_frame
 
-    return similarity_asset(gt, case_to_source_frame(case_dir))
+    to_source = case_to_source_frame(folder.parent)
+    return similarity_asset(asset, to_source), to_source
