@@ -20,7 +20,6 @@ from spark_bench.metrics.align import rotation_z
 from spark_bench.metrics.report import format_table
 
 N = 20_000  # samples per shape: enough for 1e-3 agreement with the analytic values
-REAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "real_objects"
 
 
 def box(extents, center=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:
@@ -288,10 +287,8 @@ def test_cli_bad_input_exits_2(tmp_path, capsys):
 
 
 @pytest.mark.real
-def test_real_object_against_itself():
-    folder = REAL / "40147"
-    if not folder.is_dir():
-        pytest.skip(f"{folder} is absent (real PartNet-Mobility objects are not shipped)")
+def test_real_object_against_itself(real_object):
+    folder = real_object("40147")
     from spark_bench.data import load_object
 
     asset = load_object(folder)
