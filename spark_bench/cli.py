@@ -20,7 +20,7 @@ COMMAND_MODULES = (
     "spark_bench.metrics.commands",
     "spark_bench.sim.commands",
     "spark_bench.rl.commands",
-    "spark_bench.bench.commands",
+    "spark_bench.evaluation.commands",
 )
 
 

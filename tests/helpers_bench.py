@@ -11,7 +11,7 @@ from spark_bench.envs.cabinet import procedural_cabinet
 
 def write_case(folder: Path, case_id: str, asset, category: str = "StorageFurniture") -> Path:
     """One case in the format of docs/formats.md (renders from the software renderer)."""
-    from spark_bench.bench.render import default_camera, render_asset
+    from spark_bench.evaluation.render import default_camera, render_asset
 
     case_dir = folder / "cases" / case_id
     normalized, center, scale = normalize_asset(asset)

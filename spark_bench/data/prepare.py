@@ -29,7 +29,7 @@ CASES_DIR = "cases"
 MANIFEST = "manifest.json"
 CASE_FILE = "case.json"
 CONTACT_SHEET = "contact_sheet.png"
-#: Stages timed by :func:`prepare_case` (``benchmarks/bench_prepare.py`` reports them); the timer also
+#: Stages timed by :func:`prepare_case` (``benchmarks/measure_prepare.py`` reports them); the timer also
 #: holds ``render.scene``, the part of ``render`` spent building the MuJoCo scene.
 STAGES = ("load", "merge", "watertight", "normalize_write", "render")
 

@@ -8,7 +8,7 @@ ground-truth point and ``d_gp`` the other way round::
 
 PartCrafter computes the nearest neighbours with scikit-learn's ``NearestNeighbors`` (a single-threaded
 k-d tree); here pykdtree's k-d trees answer the same exact queries, in float64, on every core (OpenMP).
-The distances are bit-identical to scikit-learn's on the same samples (``benchmarks/bench_metrics.py``).
+The distances are bit-identical to scikit-learn's on the same samples (``benchmarks/measure_metrics.py``).
 """
 
 from __future__ import annotations

@@ -35,7 +35,7 @@ from spark_bench.sim.options import CoacdParams
 #: Bumped whenever the stored result of the same input would change.
 CACHE_VERSION = "coacd-cache-1"
 #: A CoACD call still running after this many seconds is taken as hung: its worker is killed and the
-#: mesh gets its convex hull. A safety bound, far above the calls of ``benchmarks/bench_convert.py``.
+#: mesh gets its convex hull. A safety bound, far above the calls of ``benchmarks/measure_convert.py``.
 JOB_TIMEOUT_S = 600.0
 
 Hull = tuple[np.ndarray, np.ndarray]  # (vertices (V, 3) float64, faces (F, 3) int64)

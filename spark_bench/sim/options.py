@@ -1,7 +1,7 @@
 """Options of the asset -> simulation conversion, as one plain dataclass shared by every module.
 
 Defaults were chosen by measurement on the seven shared PartNet-Mobility objects and the ``synth``
-dataset (see ``benchmarks/bench_convert.py`` and the module docstrings for the numbers).
+dataset (see ``benchmarks/measure_convert.py`` and the module docstrings for the numbers).
 """
 
 from __future__ import annotations

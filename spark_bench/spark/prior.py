@@ -54,7 +54,7 @@ class NoiseModel:
     :func:`~spark_bench.spark.diagnostics.calibrate_noise` (6 iterations, mean over seeds 0-7, joints
     matched by part name): from (0.2, 0.2, 0.19) it settled at ``p_type = 0.213``, ``p_axis = 0.204``,
     ``sigma_origin = 0.203``, where the expected prior errors are AxisErr 0.3135, PivotErr 0.2388,
-    TypeErr 0.201 (``python benchmarks/bench_joint_opt.py --bench synth-v1 --calibrate`` redoes it). One
+    TypeErr 0.201 (``python benchmarks/measure_joint_opt.py --bench synth-v1 --calibrate`` redoes it). One
     seed's draw on 50 objects scatters around these means.
 
     :param p_type: probability of a type flip

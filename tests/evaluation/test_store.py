@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from spark_bench.bench.store import ResultsStore, config_hash, export_rows
+from spark_bench.evaluation.store import ResultsStore, config_hash, export_rows
 from spark_bench.errors import InputError
 
 

@@ -11,7 +11,7 @@ from helpers_bench import write_case
 
 from spark_bench.asset import write_object_folder
 from spark_bench.asset.ops import similarity_asset
-from spark_bench.bench.opening import open_with_predicted_joints
+from spark_bench.evaluation.opening import open_with_predicted_joints
 from spark_bench.data import load_object
 from spark_bench.data.readers import case_to_source_frame
 from spark_bench.envs.assets import at_source_size, load_asset

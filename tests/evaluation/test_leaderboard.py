@@ -13,8 +13,8 @@ import pytest
 from helpers_bench import make_tiny_bench
 from test_eval import FAST
 
-from spark_bench.bench.leaderboard import build_leaderboard, render, to_csv, to_latex, to_markdown
-from spark_bench.bench.store import ResultsStore
+from spark_bench.evaluation.leaderboard import build_leaderboard, render, to_csv, to_latex, to_markdown
+from spark_bench.evaluation.store import ResultsStore
 
 CHROMIUM = Path("/usr/bin/chromium")
 
@@ -81,7 +81,7 @@ def test_markdown_latex_csv(store):
 
 
 def test_leaderboard_command_every_format(tmp_path, capsys, isolated_home):
-    from spark_bench.bench.runner import run_eval
+    from spark_bench.evaluation.runner import run_eval
     from spark_bench.cli import main
     from spark_bench.generators import MethodSpec
 
@@ -108,7 +108,7 @@ def test_renders_differ_between_rest_and_open(tmp_path):
     import numpy as np
     from PIL import Image
 
-    from spark_bench.bench.render import read_camera, render_folder
+    from spark_bench.evaluation.render import read_camera, render_folder
 
     bench = make_tiny_bench(tmp_path, n=1)
     case = bench / "cases" / "cab0"
@@ -146,7 +146,7 @@ def test_html_page_renders_in_headless_chromium(tmp_path, store):
 
 
 def test_read_camera_default_and_bad_file(tmp_path):
-    from spark_bench.bench.render import default_camera, read_camera
+    from spark_bench.evaluation.render import default_camera, read_camera
     from spark_bench.data.camera import CameraView
     from spark_bench.errors import InputError
 

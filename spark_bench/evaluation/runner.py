@@ -23,8 +23,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from spark_bench import CONVENTION_VERSION, __version__
-from spark_bench.bench.executors import EXECUTORS, run_local, run_ray, usable_cores
-from spark_bench.bench.store import METRIC_COLUMNS, ResultsStore, config_hash, now
+from spark_bench.evaluation.executors import EXECUTORS, run_local, run_ray, usable_cores
+from spark_bench.evaluation.store import METRIC_COLUMNS, ResultsStore, config_hash, now
 from spark_bench.data.readers import read_case, read_json
 from spark_bench.errors import InputError, SparkBenchError
 from spark_bench.generators import (
@@ -251,13 +251,13 @@ def _sim_checks(pred_folder: Path) -> dict:
 
 
 def _scripted_open(pred_folder: Path, gt_folder: Path, metrics: dict, seed: int) -> dict:
-    from spark_bench.bench.opening import open_with_predicted_joints
+    from spark_bench.evaluation.opening import open_with_predicted_joints
 
     return open_with_predicted_joints(pred_folder, gt_folder, metrics, seed=seed)
 
 
 def _rl_transfer(pred_folder: Path, gt_folder: Path, metrics: dict, out_dir: Path, options: EvalOptions) -> dict:
-    from spark_bench.bench.opening import rl_transfer
+    from spark_bench.evaluation.opening import rl_transfer
 
     return rl_transfer(pred_folder, gt_folder, metrics, out_dir, timesteps=options.rl_timesteps, seed=options.seed)
 
@@ -450,7 +450,7 @@ def run_eval(spec: MethodSpec, bench: str | None = None, options: EvalOptions | 
                 run_local(tasks, evaluate_case, _failed_rows, workers, on_rows)
         rows = [r for r in store.rows(bench=run.bench, label=run.label, where=[("config_hash", run.config_hash)])
                 if r["case_id"] in set(all_ids)]
-    from spark_bench.bench.aggregate import summarize
+    from spark_bench.evaluation.aggregate import summarize
 
     main_rows = [r for r in rows if r["variant"] == ""]
     return EvalSummary(run=run, n_cases=len(all_ids), n_failed=sum(r["status"] == "failed" for r in main_rows),

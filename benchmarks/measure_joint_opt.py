@@ -1,9 +1,9 @@
 """Time SPARK's native joint optimization per object, show where the time goes, and on a benchmark,
 reproduce the paper's Table 4 ablation (prior vs joint optimization) per category.
 
-    python benchmarks/bench_joint_opt.py                         # toy cabinets, noisy priors (offline)
-    python benchmarks/bench_joint_opt.py --bench synth-v1 --jobs 2   # Table 4 on synth-v1 (run_ours)
-    python benchmarks/bench_joint_opt.py --bench synth-v1 --calibrate  # fit the prior's noise model first
+    python benchmarks/measure_joint_opt.py                         # toy cabinets, noisy priors (offline)
+    python benchmarks/measure_joint_opt.py --bench synth-v1 --jobs 2   # Table 4 on synth-v1 (run_ours)
+    python benchmarks/measure_joint_opt.py --bench synth-v1 --calibrate  # fit the prior's noise model first
 
 Toy mode, per object: seconds for the discrete search and the final fit, the prior's and the refined
 joint errors (matched by part name), and the total as a multiple of one forward+backward soft render at
@@ -322,7 +322,7 @@ def main() -> int:
                         help="torch CPU threads (1: on a busy 2-core machine, 2 threads ran 20x slower)")
     parser.add_argument("--jobs", type=int, default=1, help="benchmark mode: cases run in parallel")
     parser.add_argument("--n-samples", type=int, default=5000, help="benchmark mode: metric surface samples")
-    parser.add_argument("--work", default="~/.cache/spark-bench/bench_joint_opt", help="benchmark mode: outputs")
+    parser.add_argument("--work", default="~/.cache/spark-bench/measure_joint_opt", help="benchmark mode: outputs")
     parser.add_argument("--set", action="append", default=[], help="config override section.key=value")
     parser.add_argument("--calibrate", action="store_true", help="benchmark mode: calibrate the noise model first")
     parser.add_argument("--calibration-seeds", type=int, default=8)

@@ -419,7 +419,7 @@ def _eval(bench: Path, config: Path, capsys, home: Path) -> dict:
 
 
 def _rows(home: Path) -> list[dict]:
-    from spark_bench.bench.store import ResultsStore
+    from spark_bench.evaluation.store import ResultsStore
 
     with ResultsStore(home / "results.sqlite") as store:
         return store.rows()

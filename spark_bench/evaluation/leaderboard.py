@@ -23,8 +23,8 @@ import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from spark_bench.bench.aggregate import ARTICULATION_KEYS, HIGHER_IS_BETTER, SHAPE_KEYS, summarize
-from spark_bench.bench.store import ResultsStore
+from spark_bench.evaluation.aggregate import ARTICULATION_KEYS, HIGHER_IS_BETTER, SHAPE_KEYS, summarize
+from spark_bench.evaluation.store import ResultsStore
 from spark_bench.errors import SparkBenchError
 
 FORMATS = ("md", "latex", "html", "csv")
@@ -287,7 +287,7 @@ def render(board: Leaderboard, fmt: str, per_category: bool = False, out: Path |
     if fmt == "html":
         if out is None:
             raise SparkBenchError("the HTML leaderboard needs an output file for its images")
-        from spark_bench.bench.leaderboard_html import to_html
+        from spark_bench.evaluation.leaderboard_html import to_html
 
         return to_html(board, Path(out), per_category, max_cases)
     raise SparkBenchError(f"unknown format {fmt!r}; choose from {', '.join(FORMATS)}")

@@ -2,7 +2,7 @@
 workers, and report the 2-worker speed-up against the 1-worker run measured here.
 
 Each configuration starts from an empty results store and an empty generation cache, so nothing is
-reused between them. Run: ``python benchmarks/bench_eval.py [--bench synth-v1] [--methods oracle,geometry]``
+reused between them. Run: ``python benchmarks/measure_eval.py [--bench synth-v1] [--methods oracle,geometry]``
 (``--cases 10`` for a quick look; ``--no-sim`` to time the metrics alone).
 """
 
@@ -28,8 +28,8 @@ def _pin_to_cores(n: int) -> list[int]:
 
 
 def _one_run(method: str, bench: str, workers: int, sim: bool, n_samples: int, cases, root: Path) -> dict:
-    from spark_bench.bench.runner import EvalOptions, run_eval
-    from spark_bench.bench.store import ResultsStore
+    from spark_bench.evaluation.runner import EvalOptions, run_eval
+    from spark_bench.evaluation.store import ResultsStore
     from spark_bench.generators import MethodSpec
 
     db = root / f"{method}-{workers}.sqlite"
@@ -58,7 +58,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
 
     cores = _pin_to_cores(2)
-    from spark_bench.bench.runner import bench_cases, resolve_bench
+    from spark_bench.evaluation.runner import bench_cases, resolve_bench
 
     t0 = time.perf_counter()
     name, folder = resolve_bench(args.bench)  # builds synth-v1 on first use

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 
-from spark_bench.bench.store import METRIC_COLUMNS
+from spark_bench.evaluation.store import METRIC_COLUMNS
 
 #: The metric keys of ``eval --json`` and of the leaderboard, in table order.
 SHAPE_KEYS = ("cd", "fscore@0.1", "fscore@0.5")

@@ -63,13 +63,13 @@ def add_commands(subparsers) -> None:
 
 
 def _db(args) -> Path:
-    from spark_bench.bench.runner import default_db
+    from spark_bench.evaluation.runner import default_db
 
     return Path(args.db).expanduser() if args.db else default_db()
 
 
 def run_eval_command(args) -> int:
-    from spark_bench.bench.runner import EvalOptions, run_eval, usable_cores
+    from spark_bench.evaluation.runner import EvalOptions, run_eval, usable_cores
     from spark_bench.generators import MethodSpec
 
     def absolute(path: str | None) -> str | None:  # workers may run elsewhere: no relative paths
@@ -88,7 +88,7 @@ def run_eval_command(args) -> int:
     if args.json:
         print(json.dumps(summary.to_json()))
         return 0
-    from spark_bench.bench.leaderboard import fmt_value
+    from spark_bench.evaluation.leaderboard import fmt_value
 
     print(f"{summary.run.label} on {summary.run.bench}: {summary.n_cases} cases, {summary.n_failed} failed, "
           f"{summary.n_skipped} already done, {summary.seconds:.1f} s")
@@ -100,7 +100,7 @@ def run_eval_command(args) -> int:
 
 
 def run_export_command(args) -> int:
-    from spark_bench.bench.store import ResultsStore, export_rows
+    from spark_bench.evaluation.store import ResultsStore, export_rows
 
     out = Path(args.out or f"results.{args.format}")
     with ResultsStore(_db(args)) as store:
@@ -111,8 +111,8 @@ def run_export_command(args) -> int:
 
 
 def run_leaderboard_command(args) -> int:
-    from spark_bench.bench.leaderboard import build_leaderboard, render
-    from spark_bench.bench.store import ResultsStore
+    from spark_bench.evaluation.leaderboard import build_leaderboard, render
+    from spark_bench.evaluation.store import ResultsStore
     from spark_bench.errors import SparkBenchError
 
     with ResultsStore(_db(args)) as store:

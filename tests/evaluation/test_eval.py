@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from helpers_bench import copy_object, make_tiny_bench
 
-from spark_bench.bench.runner import EvalOptions, bench_cases, run_eval
-from spark_bench.bench.store import ResultsStore
+from spark_bench.evaluation.runner import EvalOptions, bench_cases, run_eval
+from spark_bench.evaluation.store import ResultsStore
 from spark_bench.cli import main
 from spark_bench.generators import MethodSpec
 
@@ -270,7 +270,7 @@ def test_a_case_that_kills_its_worker_fails_alone(tiny_bench, tmp_path):
 def test_generation_cache_marker_and_bad_manifest(tiny_bench, tmp_path):
     """A finished generation is read back from its marker; a damaged marker means generate again; a bad
     manifest is an input error naming the file."""
-    from spark_bench.bench.runner import CaseTask, generate_cached, resolve_bench, run_identity
+    from spark_bench.evaluation.runner import CaseTask, generate_cached, resolve_bench, run_identity
     from spark_bench.errors import InputError
     from spark_bench.generators import GENERATION_MARKER, make_generator
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import textwrap
 from pathlib import Path
 
-from spark_bench.bench.leaderboard import (
+from spark_bench.evaluation.leaderboard import (
     HEADERS,
     OPEN_SUCCESS_NOTE,
     PALETTE,
@@ -92,7 +92,7 @@ STATES = ("rest", "open")
 def _render_cells(folder: str | Path | None, camera: dict, stem: Path) -> list[str]:
     """One cell per state of :data:`STATES`: the object folder rendered into ``<stem>_<state>.png``
     (kept when already there), loaded once for all of them."""
-    from spark_bench.bench.render import load_for_render, render_state
+    from spark_bench.evaluation.render import load_for_render, render_state
 
     if not folder:
         return ["<td class='na'>no prediction</td>"] * len(STATES)
@@ -113,7 +113,7 @@ def _render_cells(folder: str | Path | None, camera: dict, stem: Path) -> list[s
 
 
 def _gallery(board: Leaderboard, assets: Path, max_cases: int) -> str:
-    from spark_bench.bench.render import read_camera
+    from spark_bench.evaluation.render import read_camera
 
     by_case: dict[str, dict[int, dict]] = {}
     case_dirs: dict[str, str] = {}

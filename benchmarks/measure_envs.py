@@ -9,7 +9,7 @@
 3. **Training**: PPO and SAC on the default drawer for ``--train-minutes`` each: success rate reached,
    environment steps and wall time (``--skip-train`` to skip).
 
-Run: ``python benchmarks/bench_envs.py [--synth 30] [--train-minutes 30] [--skip-train] [--out DIR]``.
+Run: ``python benchmarks/measure_envs.py [--synth 30] [--train-minutes 30] [--skip-train] [--out DIR]``.
 """
 
 from __future__ import annotations
@@ -142,7 +142,7 @@ def write_training_md(rows: list[dict], results: Path, note: str = "") -> Path:
 
     results.mkdir(parents=True, exist_ok=True)
     lines = ["# Training on the default drawer (SparkDrawer-v0, no kwargs)", "",
-             "Produced by `python benchmarks/bench_envs.py` (training part), on the 2 shared CPU cores",
+             "Produced by `python benchmarks/measure_envs.py` (training part), on the 2 shared CPU cores",
              f"({os.cpu_count()} visible; other jobs were running). Evaluation: 20 episodes with the",
              "deterministic policy every 20k (PPO) / 5k (SAC) environment steps; wall time includes evaluations.",
              *([note] if note else []), "",
@@ -172,7 +172,7 @@ def write_scripted_md(report: dict, n_synth: int, results: Path) -> Path:
     results.mkdir(parents=True, exist_ok=True)
     load = report.get("load", {})
     lines = ["# Opening environments: speed and the scripted opener", "",
-             "Produced by `python benchmarks/bench_envs.py --skip-train --results benchmarks/results` on "
+             "Produced by `python benchmarks/measure_envs.py --skip-train --results benchmarks/results` on "
              f"{os.cpu_count()} visible CPU cores shared with other engineers' jobs (1-minute load average "
              f"{load.get('start', float('nan')):.1f} at the start, {load.get('end', float('nan')):.1f} at the end): "
              "absolute steps/s vary with that load; the overhead ratios compare runs interleaved in the same "
@@ -242,7 +242,7 @@ def main() -> None:
         return
     if args.only_train:
         report["training"] = training(args.train_minutes, out / "train", algos)
-        (out / "bench_envs.json").write_text(json.dumps(report, indent=2, default=float))
+        (out / "measure_envs.json").write_text(json.dumps(report, indent=2, default=float))
         console.print(report["training"])
         return
 
@@ -260,7 +260,7 @@ def main() -> None:
     console.print(table)
 
     if args.only_speed:
-        (out / "bench_envs.json").write_text(json.dumps(report, indent=2, default=float))
+        (out / "measure_envs.json").write_text(json.dumps(report, indent=2, default=float))
         return
     synth, real = scripted_study(args.synth, out)
     report["scripted_synth"], report["scripted_real"] = synth, real
@@ -284,10 +284,10 @@ def main() -> None:
                           f"{row['wall_s']:.0f} s (best {row['best_success']:.2f} at {row['best_at_steps']} steps, "
                           f"{row['best_at_wall_s']:.0f} s); curve {row['curve']}")
     report["load"]["end"] = os.getloadavg()[0]
-    (out / "bench_envs.json").write_text(json.dumps(report, indent=2, default=float))
+    (out / "measure_envs.json").write_text(json.dumps(report, indent=2, default=float))
     if args.results is not None:
         console.print(f"wrote {write_scripted_md(report, args.synth, args.results)}")
-    console.print(f"report: {out / 'bench_envs.json'}")
+    console.print(f"report: {out / 'measure_envs.json'}")
 
 
 if __name__ == "__main__":
