@@ -30,7 +30,7 @@ def _pin_to_cores(n: int) -> list[int]:
 def _one_run(method: str, bench: str, workers: int, sim: bool, n_samples: int, cases, root: Path) -> dict:
     from spark_bench.evaluation.runner import EvalOptions, run_eval
     from spark_bench.evaluation.store import ResultsStore
-    from spark_bench.generators import MethodSpec
+    from spark_bench.methods.base import MethodSpec
 
     db = root / f"{method}-{workers}.sqlite"
     start = time.perf_counter()
@@ -58,12 +58,13 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
 
     cores = _pin_to_cores(2)
-    from spark_bench.evaluation.runner import bench_cases, resolve_bench
+    from spark_bench.data.case import Benchmark
+    from spark_bench.evaluation.runner import resolve_bench
 
     t0 = time.perf_counter()
     name, folder = resolve_bench(args.bench)  # builds synth-v1 on first use
     print(f"benchmark {name} at {folder} ready in {time.perf_counter() - t0:.1f} s; cores {cores}", flush=True)
-    cases = bench_cases(folder)
+    cases = Benchmark(folder).case_ids()
     if args.cases:
         cases = cases[:args.cases]
     results = []

@@ -113,8 +113,10 @@ KEYS = ("axis_err", "pivot_err", "type_err")
 
 def resolve_bench(bench: str) -> Path:
     """A benchmark folder from a path or a named benchmark (built on first use)."""
+    from spark_bench.data.case import Benchmark
+
     path = Path(bench).expanduser()
-    if (path / "cases").is_dir():
+    if Benchmark(path).cases_dir.is_dir():
         return path
     from spark_bench.data import ensure_benchmark
 
@@ -122,7 +124,10 @@ def resolve_bench(bench: str) -> Path:
 
 
 def case_dirs(bench: Path, limit: int | None) -> list[Path]:
-    cases = sorted(p for p in (bench / "cases").iterdir() if (p / "case.json").is_file())
+    from spark_bench.data.case import Benchmark
+
+    benchmark = Benchmark(bench)
+    cases = [benchmark.case_dir(c) for c in benchmark.complete_case_ids()]
     return cases[:limit] if limit else cases
 
 
@@ -148,7 +153,8 @@ def run_case(case_dir: str, work: str, overrides: list[str], n_samples: int, cod
 
     torch.set_num_threads(1)
     from spark_bench.data import load_object
-    from spark_bench.data.readers import read_case
+    from spark_bench.data.case import BenchmarkCase
+    from spark_bench.methods.ours import ours_case
     from spark_bench.metrics import compute_metrics
     from spark_bench.spark import SparkConfig, run_ours
 
@@ -161,15 +167,16 @@ def run_case(case_dir: str, work: str, overrides: list[str], n_samples: int, cod
             return row
     load_before = os.getloadavg()[0]
     start, start_cpu = time.perf_counter(), time.process_time()
-    report = run_ours(case_dir, out, config)
+    case = ours_case(case_dir, config)  # what the runner hands ``ours``: the declared inputs only
+    report = run_ours(case, out, config)
     seconds, cpu_seconds = time.perf_counter() - start, time.process_time() - start_cpu
     load = (load_before + os.getloadavg()[0]) / 2
-    gt = load_object(case_dir / "gt")
+    gt = BenchmarkCase(case_dir).load_gt()  # the scorer's ground truth, not the method's
     scores = {}
     for variant, folder in (("prior", out / "prior"), ("refined", out)):
         metrics = compute_metrics(load_object(folder), gt, n_samples=n_samples, seed=0, workers=1).to_dict()
         scores[variant] = {k: metrics[k] for k in KEYS}
-    row = {"case": case_dir.name, "category": str(read_case(case_dir).get("category", "")),
+    row = {"case": case_dir.name, "category": case.category,
            "seconds": seconds, "cpu_seconds": cpu_seconds, "load": load, "timings": report["timings"], "scores": scores, "config": config.to_dict(), "code": code,
            "n_joints": len(report.get("movable_joints", []))}
     cached.write_text(json.dumps(row, indent=1))
@@ -294,10 +301,10 @@ def bench_main(args, console: Console) -> int:
     if args.calibrate:
         from dataclasses import asdict
 
-        from spark_bench.data import load_object
+        from spark_bench.data.case import BenchmarkCase
         from spark_bench.spark.diagnostics import calibrate_noise
 
-        gts = [(c.name, load_object(c / "gt")) for c in cases]
+        gts = [(c.name, BenchmarkCase(c).load_gt()) for c in cases]
         noise, measured = calibrate_noise(gts, NoiseModel(), seeds=range(args.calibration_seeds),
                                           progress=console.print)
         console.print(f"calibrated noise model: {asdict(noise)}; prior errors (name-matched) {measured}")

@@ -23,6 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from spark_bench.data.case import BenchmarkCase
 from spark_bench.data.prepare import STAGES, PrepareOptions, StageTimer, ground_truth_asset, prepare_case
 from spark_bench.data.readers import load_object
 
@@ -78,7 +79,7 @@ def run_object(object_id: str, out: Path, options: PrepareOptions, peer_resoluti
     ground_truth_asset(source, resolution=peer_resolution, n_min=options.n_min, timer=peer_timer)
     faces_out = sum(r["n_faces"] for r in record["watertight"]["links"].values())
     return {"id": object_id, "category": record["category"], "seconds": timer.seconds,
-            "faces_in": faces_in, "faces_out": faces_out, "gt_mb": folder_megabytes(out / object_id / "gt"),
+            "faces_in": faces_in, "faces_out": faces_out, "gt_mb": folder_megabytes(BenchmarkCase(out / object_id).gt_dir),
             "parts": cumulative_by_part(profile), "peer_watertight": peer_timer.seconds.get("watertight", 0.0),
             "methods": sorted({r["method"] for r in record["watertight"]["links"].values()})}
 

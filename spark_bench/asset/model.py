@@ -91,6 +91,8 @@ class Link:
     :param semantic_joint: PartNet-Mobility joint word from ``semantics.txt``
         (``hinge``, ``slider``, ``free``, ``heavy``, ``static``)
     :param annotations: extra per-link annotations, e.g. GAPartNet's ``category`` and ``bbox``
+    :param skipped_meshes: mesh files of the source that were skipped because they have no surface
+        (missing, empty, no faces) while others of the link have one, each as ``"role: problem"``
     """
 
     name: str
@@ -99,6 +101,7 @@ class Link:
     label: str = ""
     semantic_joint: str = ""
     annotations: dict = field(default_factory=dict)
+    skipped_meshes: list[str] = field(default_factory=list)
 
     def merged_mesh(self) -> trimesh.Trimesh:
         """All visuals as one mesh in the link frame, by vertex-face concatenation (no processing)."""

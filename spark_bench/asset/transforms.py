@@ -5,6 +5,21 @@ from __future__ import annotations
 import numpy as np
 
 
+def unit(vector, what: str | None = None) -> np.ndarray:
+    """``vector`` (as float64) scaled to unit length.
+
+    :param vector: a vector
+    :param what: what the vector is, for the error message; when given, a zero or non-finite vector is
+        a ``ValueError`` ("``what`` [x, y, z] has no direction"); when None it is divided all the same
+        (NumPy gives NaN or inf entries, with its RuntimeWarning)
+    """
+    vector = np.asarray(vector, dtype=np.float64)
+    norm = np.linalg.norm(vector)
+    if what is not None and (not np.isfinite(norm) or norm <= 0.0):
+        raise ValueError(f"{what} {vector.tolist()} has no direction")
+    return vector / norm
+
+
 def rpy_to_matrix(rpy) -> np.ndarray:
     """3x3 rotation from URDF roll-pitch-yaw (fixed axes X, then Y, then Z): ``R = Rz(y) Ry(p) Rx(r)``."""
     r, p, y = (float(v) for v in rpy)

@@ -2,8 +2,14 @@
 
 Reading validates what yourdfpy does not: no DTD or XML entities (no expansion, no external fetch),
 unique link and joint names, a single tree (no cycles, one parent per link), finite non-zero axes,
-mesh paths that stay inside the object folder and exist. Every problem raises
+mesh paths that stay inside the object folder, and meshes with a surface. Every problem raises
 :class:`~spark_bench.errors.InputError` naming the file.
+
+A mesh file with no surface (missing, empty, no vertices, vertices but no faces) is an
+:class:`EmptyMeshError`. As in PartNet-Mobility, whose URDFs keep listing part files that had no faces
+(SAPIEN skips them), such a file is skipped, with a warning and a note in :attr:`Link.skipped_meshes`,
+when another visual (collision) of the same link has a surface; a link whose every visual (every
+collision) mesh has none is an input error naming the link and each file.
 """
 
 from __future__ import annotations
@@ -33,6 +39,11 @@ from spark_bench.asset.transforms import transform_points
 from spark_bench.errors import InputError
 
 MAX_URDF_BYTES = 50_000_000
+logger = logging.getLogger(__name__)
+
+
+class EmptyMeshError(InputError):
+    """A mesh file with no surface: missing, empty (0 bytes), no vertices, or vertices but no faces."""
 
 
 # ----- reading --------------------------------------------------------------------------------
@@ -98,7 +109,7 @@ def _resolve_mesh_path(urdf_path: Path, folder: Path, filename: str) -> Path:
     if not resolved.is_relative_to(folder):
         raise InputError(urdf_path, f"mesh path {filename!r} escapes the object folder")
     if not resolved.is_file():
-        raise InputError(urdf_path, f"mesh file {filename!r} not found")
+        raise EmptyMeshError(urdf_path, f"mesh file {filename!r} not found")
     return resolved
 
 
@@ -123,29 +134,40 @@ def load_mesh_file(path: Path) -> tuple[trimesh.Trimesh, tuple[float, float, flo
     """One mesh file (OBJ, GLB, STL, ...) as a single unprocessed mesh and its mean material colour.
 
     Scenes (several objects, GLB node trees) are flattened with their node transforms and merged.
+
+    :raises EmptyMeshError: the file is empty, or holds no vertices, or vertices but no faces
+    :raises InputError: the file cannot be parsed, or has NaN or infinite coordinates
     """
     from spark_bench.asset.mesh import merge_meshes
 
+    if path.stat().st_size == 0:
+        raise EmptyMeshError(path, "mesh file is empty (0 bytes)")
     try:
         with warnings.catch_warnings():  # trimesh warns about texture UVs it cannot use: not our concern
             warnings.simplefilter("ignore")
             loaded = trimesh.load(str(path), process=False, maintain_order=True)
     except Exception as exc:  # trimesh raises many kinds on broken files
         raise InputError(path, f"cannot read mesh: {type(exc).__name__}: {exc}") from None
-    colors, parts = [], []
+    colors, parts, n_vertices = [], [], 0
     if isinstance(loaded, trimesh.Scene):
         for node in loaded.graph.nodes_geometry:
             transform, geom_name = loaded.graph[node]
             geom = loaded.geometry[geom_name]
+            n_vertices += len(getattr(geom, "vertices", ()))
             if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
                 continue
             parts.append(trimesh.Trimesh(transform_points(transform, geom.vertices), geom.faces, process=False))
             colors.append((_material_rgba(geom), geom.area))
     elif isinstance(loaded, trimesh.Trimesh):
-        parts.append(trimesh.Trimesh(loaded.vertices, loaded.faces, process=False))
-        colors.append((_material_rgba(loaded), loaded.area))
+        n_vertices = len(loaded.vertices)
+        if len(loaded.faces):
+            parts.append(trimesh.Trimesh(loaded.vertices, loaded.faces, process=False))
+            colors.append((_material_rgba(loaded), loaded.area))
     else:  # point clouds and paths have no surface
-        raise InputError(path, f"mesh file holds no triangles ({type(loaded).__name__})")
+        n_vertices = len(getattr(loaded, "vertices", ()))
+    if not parts:
+        raise EmptyMeshError(path, f"mesh file has {n_vertices} vertices but no faces" if n_vertices
+                             else "mesh file has no vertices")
     mesh = merge_meshes(parts)
     if not np.all(np.isfinite(mesh.vertices)):
         raise InputError(path, "mesh has NaN or infinite vertex coordinates")
@@ -175,6 +197,7 @@ def _origin(element) -> np.ndarray:
 
 def _read_link(urdf_path: Path, folder: Path, ylink, materials: dict, cache: dict, load_meshes: bool) -> Link:
     link = Link(name=ylink.name)
+    empty: dict[str, list[str]] = {"visual": [], "collision": []}  # mesh files with no surface, by role
     for visual in ylink.visuals:
         geom = visual.geometry
         rgba = None
@@ -185,7 +208,11 @@ def _read_link(urdf_path: Path, folder: Path, ylink, materials: dict, cache: dic
         if geom.mesh is not None:
             if not load_meshes:
                 continue
-            mesh, file_rgba, source = _geometry_mesh(urdf_path, folder, geom.mesh, cache)
+            try:
+                mesh, file_rgba, source = _geometry_mesh(urdf_path, folder, geom.mesh, cache)
+            except EmptyMeshError as exc:
+                empty["visual"].append(_empty_problem(exc, geom.mesh.filename))
+                continue
             mesh.apply_transform(_origin(visual))
             link.visuals.append(Visual(mesh=mesh, rgba=rgba or file_rgba or (0.7, 0.7, 0.7, 1.0), source=source))
         else:
@@ -197,13 +224,32 @@ def _read_link(urdf_path: Path, folder: Path, ylink, materials: dict, cache: dic
         if geom.mesh is not None:
             if not load_meshes:
                 continue
-            mesh, _, source = _geometry_mesh(urdf_path, folder, geom.mesh, cache)
+            try:
+                mesh, _, source = _geometry_mesh(urdf_path, folder, geom.mesh, cache)
+            except EmptyMeshError as exc:
+                empty["collision"].append(_empty_problem(exc, geom.mesh.filename))
+                continue
             link.collisions.append(Collision("mesh", origin=_origin(collision), mesh=mesh, source=source))
         else:
             prim = _primitive(urdf_path, ylink.name, geom, _origin(collision))
             if prim is not None:
                 link.collisions.append(prim)
+    for role, shapes in (("visual", link.visuals), ("collision", link.collisions)):
+        if empty[role] and not shapes:
+            raise InputError(urdf_path, f"link {ylink.name!r} has no {role} mesh with a surface: "
+                                        + "; ".join(empty[role]))
+        for problem in empty[role]:
+            logger.warning("%s: link %r: skipped a %s mesh with no surface (the link has others): %s",
+                           urdf_path, ylink.name, role, problem)
+            link.skipped_meshes.append(f"{role}: {problem}")
     return link
+
+
+def _empty_problem(exc: EmptyMeshError, filename: str) -> str:
+    """The problem of an :class:`EmptyMeshError`, naming the mesh file as the URDF writes it."""
+    if repr(filename) in exc.problem:
+        return exc.problem
+    return exc.problem.replace("mesh file", f"mesh file {filename!r}", 1)
 
 
 def _primitive(urdf_path, link_name, geom, origin) -> Collision | None:

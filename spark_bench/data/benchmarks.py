@@ -15,8 +15,9 @@ import shutil
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from spark_bench.data.prepare import CASES_DIR, PrepareOptions, bench_lock, prepare_benchmark, read_manifest
-from spark_bench.data.readers import read_case, read_json
+from spark_bench.data.case import Benchmark
+from spark_bench.data.prepare import PrepareOptions, bench_lock, prepare_benchmark
+from spark_bench.data.readers import read_json
 from spark_bench.errors import InputError, SparkBenchError
 from spark_bench.paths import cache_dir
 
@@ -94,7 +95,9 @@ def _is_stale(spec: BenchmarkSpec, folder: Path) -> bool:
     """A finished build of other settings, or generated objects of another generator version."""
     if (folder / BUILT_MARKER).is_file():
         return not is_built(folder, spec)
-    synth_manifest = folder / OBJECTS_DIR / "synth_manifest.json"
+    from spark_bench.data.synth.generate import SYNTH_MANIFEST
+
+    synth_manifest = folder / OBJECTS_DIR / SYNTH_MANIFEST
     if synth_manifest.is_file():
         found = _json_object(synth_manifest)
         return found is None or found.get("version") != expected_marker(spec)["generator_version"]
@@ -120,14 +123,15 @@ def _generate_objects(spec: BenchmarkSpec, folder: Path, progress: bool) -> Path
 def build_benchmark(spec: BenchmarkSpec, folder: Path, workers: int = 1, progress: bool = True) -> Path:
     """Generate and prepare ``spec`` into ``folder`` (resuming whatever is there); returns ``folder``."""
     folder.mkdir(parents=True, exist_ok=True)
+    bench = Benchmark(folder)
     objects = _generate_objects(spec, folder, progress)
     manifest = prepare_benchmark(objects, folder, options=spec.options, workers=workers, progress=progress,
                                  name=spec.name)
     if manifest["failed"]:
         first = next(iter(manifest["failed"].items()))
         raise SparkBenchError(f"benchmark {spec.name}: {len(manifest['failed'])} case(s) failed, "
-                              f"e.g. {first[0]}: {first[1]} (see {folder / 'manifest.json'})")
-    categories = {read_case(folder / CASES_DIR / c).get("category") for c in manifest["cases"]}
+                              f"e.g. {first[0]}: {first[1]} (see {bench.manifest_path})")
+    categories = {bench.case(c).record.get("category") for c in manifest["cases"]}
     if len(manifest["cases"]) != spec.n_objects or len(categories) < spec.min_categories:
         raise SparkBenchError(f"benchmark {spec.name}: built {len(manifest['cases'])} cases over "
                               f"{len(categories)} categories, expected {spec.n_objects} over at least "
@@ -155,5 +159,5 @@ def ensure_benchmark(name: str = DEFAULT_BENCHMARK, rebuild: bool = False, worke
             shutil.rmtree(folder)
         if not is_built(folder, spec):  # another process may have finished it while we waited
             build_benchmark(spec, folder, workers=workers, progress=progress)
-    read_manifest(folder)
+    Benchmark(folder).manifest()  # a readable manifest, or an input error naming it
     return folder

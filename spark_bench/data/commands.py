@@ -25,7 +25,7 @@ def add_commands(subparsers) -> None:
 
     prepare = sub.add_parser("prepare", help="turn object folders into benchmark cases",
                              description="Merge, make watertight, normalize and render each object into "
-                                         "BENCH/cases/<id>; failed objects are listed in BENCH/manifest.json. "
+                                         "a case folder of BENCH; failed objects are listed in BENCH's manifest. "
                                          "Re-running resumes: finished cases are kept.")
     prepare.add_argument("--src", type=Path, required=True, help="a folder of object folders, or one object")
     prepare.add_argument("--out", type=Path, required=True, help="the benchmark folder to write")
@@ -42,7 +42,7 @@ def add_commands(subparsers) -> None:
 
     sheet = sub.add_parser("sheet", help="(re)write a benchmark's contact sheet PNG")
     sheet.add_argument("bench", type=Path, help="the benchmark folder")
-    sheet.add_argument("--out", type=Path, default=None, help="output PNG (default BENCH/contact_sheet.png)")
+    sheet.add_argument("--out", type=Path, default=None, help="output PNG (default: the benchmark's contact sheet)")
     sheet.add_argument("--thumb", type=int, default=192, help="image size in the sheet (default 192)")
     sheet.set_defaults(func=run_sheet)
 
@@ -67,6 +67,7 @@ def run_synth(args) -> int:
 
 
 def run_prepare(args) -> int:
+    from spark_bench.data.case import Benchmark
     from spark_bench.data.prepare import PrepareOptions, prepare_benchmark
 
     options = PrepareOptions(image_size=args.image_size, resolution=args.resolution, seed=args.seed)
@@ -76,7 +77,7 @@ def run_prepare(args) -> int:
     for case_id, reason in manifest["failed"].items():
         print(f"  failed {case_id}: {reason}")
     if manifest["cases"]:
-        print(f"contact sheet: {Path(args.out) / 'contact_sheet.png'}")
+        print(f"contact sheet: {Benchmark(args.out).contact_sheet_path}")
     return 1 if manifest["failed"] else 0
 
 

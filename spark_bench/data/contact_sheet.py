@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from spark_bench.data.prepare import CASES_DIR, CONTACT_SHEET, complete_cases, read_case
+from spark_bench.data.case import Benchmark
 from spark_bench.errors import SparkBenchError
 
 
@@ -14,17 +14,17 @@ def write_contact_sheet(bench: str | Path, path: str | Path | None = None, thumb
     """A PNG grid of every case: input | open side by side, labelled with id and category.
 
     :param bench: the benchmark folder
-    :param path: output file (default ``BENCH/contact_sheet.png``)
+    :param path: output file (default: the benchmark's :attr:`~spark_bench.data.case.Benchmark.contact_sheet_path`)
     :param thumb: size of each image in pixels
     :param columns: cases per row
     """
     from PIL import Image, ImageDraw, ImageFont
 
-    bench = Path(bench)
-    path = Path(path) if path else bench / CONTACT_SHEET
-    ids = complete_cases(bench)
+    bench = Benchmark(bench)
+    path = Path(path) if path else bench.contact_sheet_path
+    ids = bench.complete_case_ids()
     if not ids:
-        raise SparkBenchError(f"{bench}: no complete cases for a contact sheet")
+        raise SparkBenchError(f"{bench.folder}: no complete cases for a contact sheet")
     label_h, pad = 20, 6
     columns = max(1, min(columns, len(ids)))
     rows = -(-len(ids) // columns)
@@ -36,12 +36,12 @@ def write_contact_sheet(bench: str | Path, path: str | Path | None = None, thumb
     except TypeError:  # Pillow < 10.1 has only the bitmap font
         font = ImageFont.load_default()
     for k, case_id in enumerate(ids):
-        case_dir = bench / CASES_DIR / case_id
+        case = bench.case(case_id)
         x0, y0 = pad + (k % columns) * cell_w, pad + (k // columns) * cell_h
-        for j, stem in enumerate(("input", "open")):
-            with Image.open(case_dir / f"{stem}.png") as image:
+        for j, picture in enumerate((case.input_image, case.open_image)):
+            with Image.open(picture) as image:
                 sheet.paste(image.convert("RGB").resize((thumb, thumb), Image.LANCZOS), (x0 + j * thumb, y0))
-        category = read_case(case_dir).get("category", "")
+        category = case.record.get("category", "")
         draw.text((x0 + 2, y0 + thumb + 3), f"{case_id}  {category}  (input | open)", fill=(20, 20, 20), font=font)
     sheet.save(path)
     return path

@@ -2,15 +2,15 @@
 
 For each object (docs/formats.md, "Benchmark"): read it; merge each link's visuals into one mesh with
 the area-weighted mean colour; make it watertight (SPARK appendix remesh); keep only convex collision
-shapes; normalize into the benchmark frame; write the ground truth ``gt/``; render the input (rest)
-and open states with per-link masks from a seeded front view; write ``camera.json`` and, last,
-``case.json``. A case is built in a hidden temporary folder and renamed into place, so a case folder
-with a ``case.json`` is always complete and a killed run resumes where it stopped.
+shapes; normalize into the benchmark frame; write the ground truth; render the input (rest) and open
+states with per-link masks from a seeded front view; write the camera and, last, the case record
+(:class:`~spark_bench.data.case.BenchmarkCase` names the files). A case is built in a hidden temporary
+folder and renamed into place, so a case folder with a record is always complete and a killed run
+resumes where it stopped.
 """
 
 from __future__ import annotations
 
-import json
 import shutil
 import time
 from collections.abc import Iterator, Sequence
@@ -22,13 +22,11 @@ from pathlib import Path
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset, Link, Visual
-from spark_bench.data.readers import read_case, read_json  # noqa: F401  (read_case: re-exported)
+from spark_bench.data.case import Benchmark, BenchmarkCase
+from spark_bench.data.contact_sheet import write_contact_sheet
+from spark_bench.data.readers import URDF_NAMES, load_object
 from spark_bench.errors import InputError, SparkBenchError
 
-CASES_DIR = "cases"
-MANIFEST = "manifest.json"
-CASE_FILE = "case.json"
-CONTACT_SHEET = "contact_sheet.png"
 #: Stages timed by :func:`prepare_case` (``benchmarks/measure_prepare.py`` reports them); the timer also
 #: holds ``render.scene``, the part of ``render`` spent building the MuJoCo scene.
 STAGES = ("load", "merge", "watertight", "normalize_write", "render")
@@ -136,7 +134,7 @@ def _joint_label(asset: ArticulatedAsset, joint_name: str) -> str:
 
 
 def joint_records(asset: ArticulatedAsset) -> list[dict]:
-    """case.json ``joints``: every movable joint in file order, world frame at rest (a point on the axis
+    """The case record's ``joints``: every movable joint in file order, world frame at rest (a point on the axis
     and the unit axis), its limits and ``open``, the value it has in ``open.png``."""
     frames = asset.joint_frames()
     out = []
@@ -157,14 +155,14 @@ def write_rgb(path: Path, rgb: np.ndarray) -> None:
 
 
 def write_segmentation(path: Path, labels: np.ndarray) -> None:
-    """16-bit grey PNG of link labels (0 background, k + 1 = index k into case.json ``links``)."""
+    """16-bit grey PNG of link labels (0 background, k + 1 = index k into the case's ``links``)."""
     from PIL import Image
 
     Image.fromarray(np.ascontiguousarray(labels, dtype=np.uint16)).save(path)
 
 
 def read_segmentation(path: str | Path) -> np.ndarray:
-    """A ``*_seg.png`` as an ``(H, W)`` uint16 array."""
+    """A segmentation image (:func:`write_segmentation`) as an ``(H, W)`` uint16 array."""
     from PIL import Image
 
     with Image.open(path) as image:
@@ -172,20 +170,15 @@ def read_segmentation(path: str | Path) -> np.ndarray:
 
 
 # ----- one case -------------------------------------------------------------------------------
-def is_case_complete(case_dir: Path) -> bool:
-    """A case folder is complete when its ``case.json`` (written last) exists."""
-    return (Path(case_dir) / CASE_FILE).is_file()
-
-
 def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions | None = None,
                  case_id: str | None = None, timer: StageTimer | None = None) -> dict:
     """Build one benchmark case from an object folder; returns the ``case.json`` record.
 
     Built in ``.<id>.partial`` beside ``case_dir`` and renamed into place at the end (an existing
-    ``case_dir`` is replaced).
+    ``case_dir`` is replaced); the record (:attr:`BenchmarkCase.record`) is written last.
 
     :param src: object folder (PartNet-Mobility layout) or URDF file
-    :param case_dir: the case folder to create (``BENCH/cases/<id>``)
+    :param case_dir: the case folder to create (:meth:`~spark_bench.data.case.Benchmark.case_dir`)
     :param options: see :class:`PrepareOptions`
     :param case_id: the case id (default: the name of ``case_dir``)
     :param timer: collects seconds per stage (:data:`STAGES`)
@@ -193,7 +186,6 @@ def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions 
     from spark_bench.asset.ops import normalize_asset
     from spark_bench.asset.urdf import write_object_folder
     from spark_bench.data.camera import CameraView, view_seed
-    from spark_bench.data.readers import load_object
     from spark_bench.data.render import AssetRenderer
 
     options = options or PrepareOptions()
@@ -204,6 +196,7 @@ def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions 
     if work.exists():
         shutil.rmtree(work)
     work.mkdir(parents=True)
+    case = BenchmarkCase(work)
     try:
         with timer("load"):
             source = load_object(src)
@@ -213,7 +206,7 @@ def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions 
         with timer("normalize_write"):
             gt, center, scale = normalize_asset(gt)
             gt.name = case_id
-            write_object_folder(gt, work / "gt")
+            write_object_folder(gt, case.gt_dir)
         seed = view_seed(case_id, options.seed)
         view = CameraView.front(seed, options.distance, options.image_size, options.fov_deg)
         links = list(gt.links)
@@ -221,11 +214,12 @@ def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions 
             with timer("render.scene"):  # a sub-stage: building the MuJoCo model (mesh processing)
                 renderer = AssetRenderer(gt, options.image_size, links=links)
             with renderer:
-                for stem, q in (("input", gt.rest_configuration()), ("open", gt.open_configuration())):
+                for state, q in (("input", gt.rest_configuration()), ("open", gt.open_configuration())):
                     image = renderer.render(view, q)
-                    write_rgb(work / f"{stem}.png", image.rgb)
-                    write_segmentation(work / f"{stem}_seg.png", image.segmentation)
-            view.save(work / "camera.json")
+                    rgb_path, seg_path = case.state_files(state)
+                    write_rgb(rgb_path, image.rgb)
+                    write_segmentation(seg_path, image.segmentation)
+            view.save(case.camera_path)
         record = {
             "id": case_id, "category": gt.category, "source": str(src.resolve()),
             "links": links, "joints": joint_records(gt),
@@ -233,7 +227,7 @@ def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions 
             "image_size": options.image_size, "view_seed": seed,
             "watertight": {"resolution": options.resolution, "n_min": options.n_min, "links": reports},
         }
-        (work / CASE_FILE).write_text(json.dumps(record, indent=1) + "\n")
+        case.write_record(record)
         if case_dir.exists():
             shutil.rmtree(case_dir)
         work.rename(case_dir)
@@ -255,7 +249,7 @@ def find_objects(src: str | Path, ids: Sequence[str] | None = None) -> dict[str,
     src = Path(src)
     if not src.is_dir():
         raise InputError(src, "source folder not found")
-    if (src / "mobility.urdf").is_file() or (any(src.glob("*.urdf")) and not any(
+    if (src / URDF_NAMES["mobility"]).is_file() or (any(src.glob("*.urdf")) and not any(
             p.is_dir() and any(p.glob("*.urdf")) for p in src.iterdir())):
         found = {src.resolve().name: src}
     else:
@@ -286,37 +280,17 @@ def _prepare_one(src: Path, case_dir: Path, options: PrepareOptions) -> CaseResu
     return CaseResult(case_dir.name, None, timer.seconds)
 
 
-def read_manifest(bench: str | Path) -> dict:
-    """``BENCH/manifest.json`` (InputError when absent or malformed)."""
-    path = Path(bench) / MANIFEST
-    data = read_json(path, missing="benchmark manifest not found (run `spark-bench data prepare`)")
-    if not isinstance(data, dict) or not isinstance(data.get("cases"), list):
-        raise InputError(path, 'expected an object with a "cases" list')
-    return data
-
-
-def complete_cases(bench: str | Path) -> list[str]:
-    """Ids of the complete case folders of a benchmark, sorted."""
-    cases = Path(bench) / CASES_DIR
-    if not cases.is_dir():
-        return []
-    return sorted(p.name for p in cases.iterdir() if not p.name.startswith(".") and is_case_complete(p))
-
-
-def write_manifest(bench: Path, name: str, options: PrepareOptions, failed: dict[str, str],
+def write_manifest(bench: Benchmark, name: str, options: PrepareOptions, failed: dict[str, str],
                    source: str | None, created: str | None = None) -> dict:
-    """(Re)write ``manifest.json`` from the complete case folders and the failures of this run."""
+    """(Re)write the benchmark's manifest from its complete case folders and the failures of this run."""
     from spark_bench import CONVENTION_VERSION
 
-    cases = complete_cases(bench)
+    cases = bench.complete_case_ids()
     now = datetime.now(UTC).isoformat(timespec="seconds")
     manifest = {"name": name, "convention": CONVENTION_VERSION, "cases": cases,
                 "failed": {k: v for k, v in sorted(failed.items()) if k not in cases},
                 "created": created or now, "updated": now, "source": source, "options": asdict(options)}
-    tmp = bench / f".{MANIFEST}.tmp"
-    tmp.write_text(json.dumps(manifest, indent=1) + "\n")
-    tmp.replace(bench / MANIFEST)
-    return manifest
+    return bench.write_manifest(manifest)
 
 
 @contextmanager
@@ -336,13 +310,13 @@ def bench_lock(bench: Path, wait: bool = False) -> Iterator[None]:
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
-def _previous(bench: Path, options: PrepareOptions) -> dict:
+def _previous(bench: Benchmark, options: PrepareOptions) -> dict:
     """The existing manifest of a resumed run; its options must match this run's."""
-    if not (bench / MANIFEST).is_file():
+    if not bench.exists:
         return {}
-    old = read_manifest(bench)
-    if old.get("options") and old["options"] != asdict(options) and complete_cases(bench):
-        raise SparkBenchError(f"{bench}: prepared with other options {old['options']}; "
+    old = bench.manifest()
+    if old.get("options") and old["options"] != asdict(options) and bench.complete_case_ids():
+        raise SparkBenchError(f"{bench.folder}: prepared with other options {old['options']}; "
                               "use another output folder or --overwrite")
     return old
 
@@ -368,35 +342,36 @@ def prepare_benchmark(src: str | Path, out: str | Path, ids: Sequence[str] | Non
     """
     options = options or PrepareOptions()
     out = Path(out)
+    bench = Benchmark(out)
     objects = find_objects(src, ids)
     with bench_lock(out):
-        old = {} if overwrite else _previous(out, options)
-        (out / CASES_DIR).mkdir(parents=True, exist_ok=True)
+        old = {} if overwrite else _previous(bench, options)
+        bench.cases_dir.mkdir(parents=True, exist_ok=True)
         name = name or old.get("name") or out.resolve().name
         failed = {k: v for k, v in old.get("failed", {}).items() if k not in objects}
         todo = {}
         for case_id, path in objects.items():
-            if not overwrite and is_case_complete(out / CASES_DIR / case_id):
+            if not overwrite and bench.case(case_id).is_complete:
                 if on_result:
                     on_result(CaseResult(case_id, skipped=True))
             else:
                 todo[case_id] = path
         created = old.get("created")
-        write_manifest(out, name, options, failed, str(Path(src).resolve()), created)
-        for result in _run(todo, out / CASES_DIR, options, workers, progress):
+        write_manifest(bench, name, options, failed, str(Path(src).resolve()), created)
+        for result in _run(todo, bench, options, workers, progress):
             if result.reason is not None:
                 failed[result.case_id] = result.reason
             if on_result:
                 on_result(result)
-            manifest = write_manifest(out, name, options, failed, str(Path(src).resolve()), created)
+            manifest = write_manifest(bench, name, options, failed, str(Path(src).resolve()), created)
             created = manifest["created"]
-        manifest = write_manifest(out, name, options, failed, str(Path(src).resolve()), created)
+        manifest = write_manifest(bench, name, options, failed, str(Path(src).resolve()), created)
     if contact_sheet and manifest["cases"]:
         write_contact_sheet(out)
     return manifest
 
 
-def _run(todo: dict[str, Path], cases: Path, options: PrepareOptions, workers: int,
+def _run(todo: dict[str, Path], bench: Benchmark, options: PrepareOptions, workers: int,
          progress: bool) -> Iterator[CaseResult]:
     from tqdm import tqdm
 
@@ -405,7 +380,7 @@ def _run(todo: dict[str, Path], cases: Path, options: PrepareOptions, workers: i
         if workers <= 1 or len(todo) <= 1:
             for case_id, path in todo.items():
                 bar.set_postfix_str(case_id)
-                yield _prepare_one(path, cases / case_id, options)
+                yield _prepare_one(path, bench.case_dir(case_id), options)
                 bar.update()
             return
         import multiprocessing
@@ -413,7 +388,8 @@ def _run(todo: dict[str, Path], cases: Path, options: PrepareOptions, workers: i
 
         # spawn: each worker opens its own OpenGL context, none inherited from a fork
         with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            futures = [pool.submit(_prepare_one, path, cases / case_id, options) for case_id, path in todo.items()]
+            futures = [pool.submit(_prepare_one, path, bench.case_dir(case_id), options)
+                       for case_id, path in todo.items()]
             for future in as_completed(futures):
                 result = future.result()
                 bar.set_postfix_str(result.case_id)
@@ -421,12 +397,3 @@ def _run(todo: dict[str, Path], cases: Path, options: PrepareOptions, workers: i
                 yield result
     finally:
         bar.close()
-
-
-# ----- reading cases -----------------------------------------------------------
-def write_contact_sheet(bench: str | Path, path: str | Path | None = None, thumb: int = 192,
-                        columns: int = 4) -> Path:
-    """See :func:`spark_bench.data.contact_sheet.write_contact_sheet`."""
-    from spark_bench.data.contact_sheet import write_contact_sheet as write
-
-    return write(bench, path, thumb, columns)

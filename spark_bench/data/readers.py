@@ -10,8 +10,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import numpy as np
-
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.asset.urdf import load_urdf
 from spark_bench.errors import InputError
@@ -71,36 +69,6 @@ def read_json(path: Path, default=REQUIRED, missing: str = "file not found"):
         return json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise InputError(path, f"malformed JSON: {exc}") from None
-
-
-def read_case(case_dir: str | Path) -> dict:
-    """A benchmark case's ``case.json`` (docs/formats.md)."""
-    path = Path(case_dir) / "case.json"
-    case = read_json(path, missing="case file not found (incomplete case?)")
-    if not isinstance(case, dict) or "id" not in case:
-        raise InputError(path, 'expected an object with an "id"')
-    return case
-
-
-def case_to_source_frame(case_dir: str | Path) -> np.ndarray:
-    """The 4x4 similarity from a case's benchmark frame (its ``gt/`` object) back to the source object's
-    world frame in metres, from ``case.json``'s ``normalization`` (docs/formats.md).
-
-    Physics needs the real size: a cabinet normalized to [-1, 1]^3 is two metres tall.
-    """
-    from spark_bench.asset.ops import denormalization
-
-    case = read_case(case_dir)
-    where = Path(case_dir) / "case.json"
-    norm = case.get("normalization")
-    try:
-        center = np.asarray(norm["center"], dtype=np.float64)
-        scale = float(norm["scale"])
-    except (TypeError, KeyError, ValueError):
-        raise InputError(where, 'expected "normalization": {"center": [x, y, z], "scale": s}') from None
-    if center.shape != (3,) or not np.all(np.isfinite(center)) or not np.isfinite(scale) or scale <= 0:
-        raise InputError(where, f"bad normalization: center {center.tolist()}, scale {scale}")
-    return denormalization(center, scale)
 
 
 def load_object(path: str | Path, variant: str = "mobility", load_meshes: bool = True) -> ArticulatedAsset:

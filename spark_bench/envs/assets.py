@@ -1,19 +1,19 @@
 """What the environments' ``asset`` argument may be, and the default cabinet.
 
 ``asset`` is an :class:`~spark_bench.asset.model.ArticulatedAsset`, an object folder, a URDF file, or a
-benchmark case folder (its ground truth ``gt/``, brought back from the benchmark frame to the source
-object's size in metres with ``case.json``'s normalization); ``None`` is the default cabinet: the ``synth``
-generator's StorageFurniture object of :data:`DEFAULT_SEED` (generated once into the cache) when that
-generator is installed, else the in-memory :func:`~spark_bench.envs.cabinet.procedural_cabinet`.
+benchmark case folder (its ground truth, brought back from the benchmark frame to the source object's
+size in metres: :meth:`~spark_bench.data.case.BenchmarkCase.gt_at_source_size`); ``None`` is the default
+cabinet: the ``synth`` generator's StorageFurniture object of :data:`DEFAULT_SEED` (generated once into
+the cache) when that generator is installed, else the in-memory
+:func:`~spark_bench.envs.cabinet.procedural_cabinet`.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from spark_bench.asset.model import ArticulatedAsset
+from spark_bench.data.case import BenchmarkCase
 from spark_bench.errors import InputError
 
 DEFAULT_SEED = 0
@@ -23,15 +23,16 @@ AssetLike = ArticulatedAsset | str | Path | None
 
 
 def asset_folder(path: str | Path) -> Path:
-    """The object folder or URDF file that ``path`` names: a benchmark case folder maps to its ``gt/``."""
+    """The object folder or URDF file that ``path`` names: a benchmark case folder maps to its ground
+    truth's folder."""
     path = Path(path).expanduser()
     if not path.exists():
         raise InputError(path, "no such object folder, URDF file or benchmark case")
-    if path.is_dir() and (path / "case.json").is_file():
-        gt = path / "gt"
-        if not gt.is_dir():
-            raise InputError(path, "benchmark case has no gt/ object folder")
-        return gt
+    case = BenchmarkCase.of_folder(path)
+    if case is not None:
+        if not case.gt_dir.is_dir():
+            raise InputError(path, f"benchmark case has no {case.gt_dir.name}/ object folder")
+        return case.gt_dir
     return path
 
 
@@ -115,22 +116,8 @@ def load_asset(asset: AssetLike) -> tuple[ArticulatedAsset, str]:
     from spark_bench.data import load_object
 
     folder = asset_folder(asset)
-    return at_source_size(load_object(folder), folder)[0], str(folder.resolve())
-
-
-def at_source_size(asset: ArticulatedAsset, folder: str | Path) -> tuple[ArticulatedAsset, np.ndarray]:
-    """``(asset, 4x4 from its files' frame to metres)`` for the asset read from object folder ``folder``.
-
-    A benchmark case's ground truth (a ``gt/`` folder beside ``case.json``) is stored normalized to
-    [-1, 1]^3, and a robot must open the real object, not one scaled to two metres: it comes back (as a
-    copy) at its source's size and place with ``case.json``'s normalization. Any other asset is returned
-    as is, with the identity.
-    """
-    folder = Path(folder)
-    if folder.name != "gt" or not (folder.parent / "case.json").is_file():
-        return asset, np.eye(4)
-    from spark_bench.asset.ops import similarity_asset
-    from spark_bench.data.readers import case_to_source_frame
-
-    to_source = case_to_source_frame(folder.parent)
-    return similarity_asset(asset, to_source), to_source
+    loaded = load_object(folder)
+    case = BenchmarkCase.of_gt_folder(folder)
+    if case is not None:  # stored in the benchmark frame: a robot must open the real object, at its real size
+        loaded = case.gt_at_source_size(loaded)[0]
+    return loaded, str(folder.resolve())

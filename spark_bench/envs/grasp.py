@@ -32,6 +32,7 @@ from scipy.spatial import cKDTree
 
 from spark_bench.asset.mesh import sample_surface
 from spark_bench.asset.model import ArticulatedAsset
+from spark_bench.asset.transforms import unit
 from spark_bench.envs.gripper import GripperConfig
 from spark_bench.envs.pads import OBSTACLE_MIN_PROUD, plan_pads
 
@@ -118,11 +119,6 @@ class GraspTarget:
         return c / np.linalg.norm(c)
 
 
-def _unit(v) -> np.ndarray:
-    v = np.asarray(v, float)
-    return v / np.linalg.norm(v)
-
-
 def outward_direction(joint_type: str, origin: np.ndarray, axis: np.ndarray, points: np.ndarray) -> np.ndarray:
     """The part's outward direction: the pull direction of a prismatic joint, or the direction in which
     the part's centroid starts to move when a revolute joint opens (``axis x r``).
@@ -132,12 +128,12 @@ def outward_direction(joint_type: str, origin: np.ndarray, axis: np.ndarray, poi
     :param points: the part's surface points at rest (world)
     """
     if joint_type == "prismatic":
-        return _unit(axis)
+        return unit(axis)
     r = points.mean(0) - origin
     r = r - np.dot(r, axis) * axis
     if np.linalg.norm(r) < 1e-9:
         raise ValueError("the part's centroid lies on its hinge axis: no outward direction")
-    return _unit(np.cross(axis, r))
+    return unit(np.cross(axis, r))
 
 
 def _face_normal(mesh, guess: np.ndarray, min_cos: float = 0.95) -> np.ndarray:
@@ -146,13 +142,13 @@ def _face_normal(mesh, guess: np.ndarray, min_cos: float = 0.95) -> np.ndarray:
     weights = mesh.area_faces * (normals @ guess > min_cos)
     if weights.sum() <= 0:
         return guess
-    return _unit(weights @ normals)
+    return unit(weights @ normals)
 
 
 def _perpendicular_basis(n: np.ndarray) -> np.ndarray:
     """Two unit vectors spanning the plane perpendicular to ``n``, the first as vertical as possible."""
     up = np.array([0.0, 0.0, 1.0]) if abs(n[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    v = _unit(up - np.dot(up, n) * n)
+    v = unit(up - np.dot(up, n) * n)
     return np.stack([v, np.cross(n, v)])
 
 
@@ -204,7 +200,7 @@ def _long_axis(points: np.ndarray, basis: np.ndarray) -> np.ndarray:
     evals, evecs = np.linalg.eigh(np.cov(uv.T))
     if evals[1] < 1.5 * max(evals[0], 1e-12):  # a knob: no long axis; a vertical one closes sideways
         return basis[0]
-    return _unit(evecs[:, 1] @ basis)
+    return unit(evecs[:, 1] @ basis)
 
 
 @dataclass
@@ -320,7 +316,7 @@ def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> 
     """
     r = points - origin
     r = r - np.outer(r @ axis, axis)
-    radial = _face_normal(part, _unit(r.mean(0)))
+    radial = _face_normal(part, unit(r.mean(0)))
     depth = points @ radial
     near = depth[depth > depth.max() - 0.12]
     counts, edges = np.histogram(near, bins=np.arange(near.min(), depth.max() + 2 * LEVEL_BIN, LEVEL_BIN))

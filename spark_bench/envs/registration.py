@@ -1,8 +1,11 @@
-"""Registers the environments with Gymnasium, by entry-point string (nothing heavy is imported here)."""
+"""Registers the environments with Gymnasium, by entry-point string (nothing heavy is imported here),
+and makes them (:func:`make_env`)."""
 
 from __future__ import annotations
 
 import gymnasium
+
+from spark_bench.errors import InputError
 
 #: Environment id -> entry point.
 ENVIRONMENTS = {
@@ -18,3 +21,22 @@ def register_envs() -> None:
         if env_id in gymnasium.registry:
             continue
         gymnasium.register(id=env_id, entry_point=entry_point, max_episode_steps=MAX_EPISODE_STEPS)
+
+
+def make_env(env_id: str, asset=None, joint: str | None = None, render_mode: str | None = None,
+             max_episode_steps: int | None = None, **kwargs) -> gymnasium.Env:
+    """``gymnasium.make`` for a spark-bench environment, with a clear error for an unknown id.
+
+    :param env_id: ``SparkDrawer-v0`` or ``SparkDoor-v0``
+    :param asset: see :mod:`spark_bench.envs.assets`
+    :param joint: the joint to open
+    :param render_mode: None or ``rgb_array``
+    :param max_episode_steps: time limit (default: the registered one)
+    """
+    if env_id not in ENVIRONMENTS:
+        raise InputError(None, f"unknown environment {env_id!r} (choose from {', '.join(ENVIRONMENTS)})")
+    register_envs()
+    options = {k: v for k, v in {"asset": asset, "joint": joint}.items() if v is not None}
+    if max_episode_steps is not None:
+        options["max_episode_steps"] = int(max_episode_steps)
+    return gymnasium.make(env_id, render_mode=render_mode, **options, **kwargs)

@@ -13,17 +13,10 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 
-from spark_bench.evaluation.store import METRIC_COLUMNS
+from spark_bench.metrics.names import ARTICULATION_KEYS, METRIC_COLUMNS, SHAPE_KEYS
 
-#: The metric keys of ``eval --json`` and of the leaderboard, in table order.
-SHAPE_KEYS = ("cd", "fscore@0.1", "fscore@0.5")
-ARTICULATION_KEYS = ("axis_err", "pivot_err", "type_err")
-RATE_KEYS = ("sim_pass_rate", "open_success_rate")
-SUMMARY_KEYS = (*SHAPE_KEYS, *ARTICULATION_KEYS, *RATE_KEYS)
-#: Whether a larger value is better, per key (for best / second-best marks).
-HIGHER_IS_BETTER = {"cd": False, "fscore@0.1": True, "fscore@0.5": True, "axis_err": False,
-                    "pivot_err": False, "type_err": False, "sim_pass_rate": True, "open_success_rate": True,
-                    "rl_success_rate": True, "cd_open": False}
+# The keys (SUMMARY_KEYS: SHAPE_KEYS, ARTICULATION_KEYS, RATE_KEYS) and which way each is better are
+# listed in spark_bench.metrics.names.
 
 
 def _mean(values: Iterable[float | None]) -> float | None:
@@ -45,7 +38,8 @@ def _rate(rows: Sequence[dict], column: str, stage_ran) -> float | None:
 
 
 def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = ()) -> dict:
-    """The per-benchmark metrics of one run's rows (one variant), keys :data:`SUMMARY_KEYS` (+ ``extra``).
+    """The per-benchmark metrics of one run's rows (one variant), keys
+    :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``).
 
     :param rows: result rows of one run and variant (ok and failed)
     :param sim: whether the sim stages were asked for (False: the rates are None)

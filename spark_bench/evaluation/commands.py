@@ -70,7 +70,7 @@ def _db(args) -> Path:
 
 def run_eval_command(args) -> int:
     from spark_bench.evaluation.runner import EvalOptions, run_eval, usable_cores
-    from spark_bench.generators import MethodSpec
+    from spark_bench.methods.base import MethodSpec
 
     def absolute(path: str | None) -> str | None:  # workers may run elsewhere: no relative paths
         return str(Path(path).expanduser().resolve()) if path else None
@@ -88,7 +88,7 @@ def run_eval_command(args) -> int:
     if args.json:
         print(json.dumps(summary.to_json()))
         return 0
-    from spark_bench.evaluation.leaderboard import fmt_value
+    from spark_bench.evaluation.board import fmt_value
 
     print(f"{summary.run.label} on {summary.run.bench}: {summary.n_cases} cases, {summary.n_failed} failed, "
           f"{summary.n_skipped} already done, {summary.seconds:.1f} s")
@@ -111,9 +111,9 @@ def run_export_command(args) -> int:
 
 
 def run_leaderboard_command(args) -> int:
+    from spark_bench.errors import SparkBenchError
     from spark_bench.evaluation.leaderboard import build_leaderboard, render
     from spark_bench.evaluation.store import ResultsStore
-    from spark_bench.errors import SparkBenchError
 
     with ResultsStore(_db(args)) as store:
         board = build_leaderboard(store, bench=args.bench,

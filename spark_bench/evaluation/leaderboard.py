@@ -16,117 +16,26 @@ and renders of the ground truth and each method's prediction, at rest and open.
 from __future__ import annotations
 
 import csv
-import html
 import io
-import math
-import shutil
-from dataclasses import dataclass, field
 from pathlib import Path
 
-from spark_bench.evaluation.aggregate import ARTICULATION_KEYS, HIGHER_IS_BETTER, SHAPE_KEYS, summarize
-from spark_bench.evaluation.store import ResultsStore
 from spark_bench.errors import SparkBenchError
+from spark_bench.evaluation.aggregate import summarize
+from spark_bench.evaluation.board import (
+    HEADERS,
+    LATEX_HEADERS,
+    OPEN_SUCCESS_NOTE,
+    PALETTE,
+    Entry,
+    Leaderboard,
+    Table,
+    fmt_value,
+    is_number,
+)
+from spark_bench.evaluation.store import ResultsStore
+from spark_bench.metrics.names import HEADLINE_KEYS
 
 FORMATS = ("md", "latex", "html", "csv")
-#: Regimes listed but not ranked: they see the answer.
-REFERENCE_REGIMES = ("ground truth",)
-HEADERS = {"cd": "CD↓", "fscore@0.1": "F-Score@0.1↑", "fscore@0.5": "F-Score@0.5↑", "axis_err": "AxisErr↓",
-           "pivot_err": "PivotErr↓", "type_err": "TypeErr↓", "sim_pass_rate": "Sim pass↑",
-           "open_success_rate": "Open success↑", "rl_success_rate": "RL success↑"}
-LATEX_HEADERS = {"cd": r"CD$\downarrow$", "fscore@0.1": r"F-Score@0.1$\uparrow$",
-                 "fscore@0.5": r"F-Score@0.5$\uparrow$", "axis_err": r"AxisErr$\downarrow$",
-                 "pivot_err": r"PivotErr$\downarrow$", "type_err": r"TypeErr$\downarrow$",
-                 "sim_pass_rate": r"Sim pass$\uparrow$", "open_success_rate": r"Open success$\uparrow$",
-                 "rl_success_rate": r"RL success$\uparrow$"}
-#: The paper's colours for best (Palette5) and second best (Palette4).
-PALETTE = {"Palette5": (253, 207, 158), "Palette4": (231, 188, 198)}
-
-
-@dataclass
-class Entry:
-    """One leaderboard row: a method run (label, variant, regime) and its per-benchmark numbers.
-
-    :param label: the method's display label
-    :param variant: ``""`` or the variant name (``w/o joint opt.``)
-    :param regime: the input regime
-    :param method: registry name
-    :param version: method version
-    :param config_hash: the run's configuration hash
-    :param n_cases: cases in the run
-    :param n_failed: failed cases
-    :param metrics: per-benchmark numbers (None: n/a)
-    :param rows: the run's rows
-    """
-
-    label: str
-    variant: str
-    regime: str
-    method: str
-    version: str
-    config_hash: str
-    n_cases: int
-    n_failed: int
-    metrics: dict
-    rows: list[dict] = field(default_factory=list, repr=False)
-
-    @property
-    def name(self) -> str:
-        return f"{self.label} ({self.variant})" if self.variant else self.label
-
-    @property
-    def ranked(self) -> bool:
-        return self.regime not in REFERENCE_REGIMES
-
-
-@dataclass
-class Table:
-    """A titled table: its metric keys and one entry per row."""
-
-    key: str
-    title: str
-    metrics: tuple[str, ...]
-    entries: list[Entry]
-
-    def ranks(self) -> dict[tuple[int, str], int]:
-        """``{(entry index, metric): 1 or 2}`` for the best and second best ranked values."""
-        out = {}
-        for metric in self.metrics:
-            values = sorted({e.metrics.get(metric) for e in self.entries if e.ranked
-                             and _number(e.metrics.get(metric))}, reverse=HIGHER_IS_BETTER.get(metric, False))
-            for rank, value in enumerate(values[:2], 1):
-                for i, e in enumerate(self.entries):
-                    if e.ranked and e.metrics.get(metric) == value:
-                        out[(i, metric)] = rank
-        return out
-
-
-@dataclass
-class Leaderboard:
-    """Everything the renderers need: the benchmark, its entries, per-category entries."""
-
-    bench: str
-    entries: list[Entry]
-    categories: dict[str, list[Entry]] = field(default_factory=dict)
-
-    def tables(self, entries: list[Entry] | None = None) -> list[Table]:
-        entries = self.entries if entries is None else entries
-        sim_keys = ["sim_pass_rate", "open_success_rate"]
-        if any(e.metrics.get("rl_success_rate") is not None for e in entries):
-            sim_keys.append("rl_success_rate")
-        return [Table("shape", "Shape reconstruction", SHAPE_KEYS, entries),
-                Table("articulation", "URDF parameter estimation", ARTICULATION_KEYS, entries),
-                Table("sim", "Sim-readiness", tuple(sim_keys), entries)]
-
-
-def _number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
-def fmt_value(value, digits: int = 4) -> str:
-    """A metric for a table: ``n/a`` for None, else ``digits`` decimals."""
-    if not _number(value):
-        return "n/a"
-    return f"{value:.{digits}f}"
 
 
 # ----- building -----------------------------------------------------------------------------------
@@ -194,12 +103,6 @@ def _md_table(table: Table) -> str:
     return "\n".join(lines)
 
 
-#: What the open-success column measures, under every rendering of the tables.
-OPEN_SUCCESS_NOTE = ("Open success: the scripted opener, planned from the predicted joints, opening each "
-                     "ground-truth drawer and door at its real size; cases whose joints it cannot open even "
-                     "with the ground truth's own are left out.")
-
-
 def to_markdown(board: Leaderboard, per_category: bool = False) -> str:
     """Markdown tables (best in bold, second best in italics)."""
     parts = [f"# spark-bench leaderboard: {board.bench}", ""]
@@ -260,8 +163,7 @@ def to_latex(board: Leaderboard, per_category: bool = False) -> str:
 
 def to_csv(board: Leaderboard, per_category: bool = False) -> str:
     """One CSV line per entry (and per category and entry with ``per_category``); every metric."""
-    keys = ["cd", "fscore@0.1", "fscore@0.5", "cd_open", "axis_err", "pivot_err", "type_err",
-            "sim_pass_rate", "open_success_rate", "rl_success_rate"]
+    keys = list(HEADLINE_KEYS)
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(["bench", "category", "method", "label", "variant", "regime", "version", "config_hash",
@@ -271,7 +173,7 @@ def to_csv(board: Leaderboard, per_category: bool = False) -> str:
         for e in entries:
             writer.writerow([board.bench, category, e.method, e.label, e.variant, e.regime, e.version,
                              e.config_hash, e.n_cases, e.n_failed,
-                             *["n/a" if not _number(e.metrics.get(k)) else repr(float(e.metrics[k])) for k in keys]])
+                             *["n/a" if not is_number(e.metrics.get(k)) else repr(float(e.metrics[k])) for k in keys]])
     return buffer.getvalue()
 
 
@@ -291,15 +193,3 @@ def render(board: Leaderboard, fmt: str, per_category: bool = False, out: Path |
 
         return to_html(board, Path(out), per_category, max_cases)
     raise SparkBenchError(f"unknown format {fmt!r}; choose from {', '.join(FORMATS)}")
-
-
-def copy_file(src: Path, dst: Path) -> bool:
-    """Copy ``src`` to ``dst`` when it exists; whether it did."""
-    if Path(src).is_file():
-        shutil.copyfile(src, dst)
-        return True
-    return False
-
-
-def html_escape(text: str) -> str:
-    return html.escape(str(text), quote=True)

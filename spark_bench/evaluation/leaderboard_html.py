@@ -6,19 +6,20 @@ with relative paths, so the page and its folder can be copied anywhere together.
 
 from __future__ import annotations
 
+import html
+import shutil
 import textwrap
 from pathlib import Path
 
-from spark_bench.evaluation.leaderboard import (
+from spark_bench.data.case import BenchmarkCase
+from spark_bench.evaluation.board import (
     HEADERS,
     OPEN_SUCCESS_NOTE,
     PALETTE,
     Leaderboard,
     Table,
-    _number,
-    copy_file,
     fmt_value,
-    html_escape,
+    is_number,
 )
 
 RENDER_SIZE = 192
@@ -37,6 +38,18 @@ _CSS = "\n".join([
 ])
 
 
+def html_escape(text: str) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def copy_file(src: Path, dst: Path) -> bool:
+    """Copy ``src`` to ``dst`` when it exists; whether it did."""
+    if Path(src).is_file():
+        shutil.copyfile(src, dst)
+        return True
+    return False
+
+
 def _table_html(table: Table) -> str:
     ranks = table.ranks()
     head = "".join(f"<th>{html_escape(h)}</th>" for h in
@@ -47,7 +60,7 @@ def _table_html(table: Table) -> str:
         for m in table.metrics:
             value = e.metrics.get(m)
             rank = ranks.get((i, m))
-            css = "best" if rank == 1 else "second" if rank == 2 else ("na" if not _number(value) else "")
+            css = "best" if rank == 1 else "second" if rank == 2 else ("na" if not is_number(value) else "")
             cells.append(f"<td class='{css}'>{fmt_value(value)}</td>")
         lines.append(f"<tr><td>{html_escape(e.name)}</td><td>{html_escape(e.regime)}</td>{''.join(cells)}"
                      f"<td>{e.n_cases}</td><td>{e.n_failed}</td></tr>")
@@ -62,7 +75,7 @@ def bar_chart(table: Table, path: Path) -> Path | None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    metrics = [m for m in table.metrics if any(_number(e.metrics.get(m)) for e in table.entries)]
+    metrics = [m for m in table.metrics if any(is_number(e.metrics.get(m)) for e in table.entries)]
     if not metrics:
         return None
     # long labels (ours' backends) wrapped onto lines of their own, so the bars keep the width
@@ -71,14 +84,14 @@ def bar_chart(table: Table, path: Path) -> Path | None:
     fig, axes = plt.subplots(1, len(metrics), figsize=(2.2 + 2.6 * len(metrics), (0.25 + 0.17 * lines) * len(names) + 1.0),
                              squeeze=False)
     for ax, metric in zip(axes[0], metrics):
-        values = [e.metrics.get(metric) if _number(e.metrics.get(metric)) else 0.0 for e in table.entries]
+        values = [e.metrics.get(metric) if is_number(e.metrics.get(metric)) else 0.0 for e in table.entries]
         colors = ["#b8a8cf" if e.ranked else "#cccccc" for e in table.entries]
         ax.barh(range(len(names)), values, color=colors)
         ax.set_yticks(range(len(names)), names if ax is axes[0][0] else [""] * len(names), fontsize=8)
         ax.invert_yaxis()
         ax.set_title(HEADERS[metric], fontsize=9)  # its arrow says which way is better
         for k, e in enumerate(table.entries):
-            if not _number(e.metrics.get(metric)):
+            if not is_number(e.metrics.get(metric)):
                 ax.text(0, k, " n/a", va="center", fontsize=7, color="#888")
     fig.tight_layout()
     fig.savefig(path, dpi=90)
@@ -123,16 +136,16 @@ def _gallery(board: Leaderboard, assets: Path, max_cases: int) -> str:
             case_dirs.setdefault(row["case_id"], row["case_dir"])
     lines = ["<table class='gallery'>"]
     for n, case_id in enumerate(sorted(by_case)[:max_cases]):
-        case_dir = Path(case_dirs[case_id])
-        camera = read_camera(case_dir / "camera.json")
+        case = BenchmarkCase(Path(case_dirs[case_id]))
+        camera = read_camera(case.camera_path)
         stem = f"case{n:03d}"
         image = assets / f"{stem}_input.png"
-        has_input = copy_file(case_dir / "input.png", image)
+        has_input = copy_file(case.input_image, image)
         cells = [f"<td><b>{html_escape(case_id)}</b><br>"
                  + (f"<img src='{assets.name}/{image.name}' alt='input'>" if has_input else "no input image")
                  + "<br>input</td>"]
         header = ["<th>case</th>", *[f"<th>ground truth<br>{s}</th>" for s in STATES]]
-        cells += _render_cells(case_dir / "gt", camera, assets / f"{stem}_gt")
+        cells += _render_cells(case.gt_dir, camera, assets / f"{stem}_gt")
         for k, entry in enumerate(board.entries):
             header += [f"<th>{html_escape(entry.name)}<br>{s}</th>" for s in STATES]
             row = by_case[case_id].get(k)

@@ -1,15 +1,21 @@
 """The opening test of a prediction: the scripted opener, planned from the *predicted* joints, acting on
-the *ground-truth* object (:func:`spark_bench.rl.scripted.open_with_joint`).
+the *ground-truth* object (:func:`spark_bench.rl.open_with_joint`).
 
 Each ground-truth drawer (prismatic) and door (revolute) is opened once in its environment
 (``SparkDrawer-v0`` / ``SparkDoor-v0``), with the parameters of the predicted joint it was matched with
 by the metrics (Hungarian matching on parts). A joint the opener cannot open even with the
 ground-truth parameters tests the opener, not the prediction: it is left out (``success`` None). The
-robot acts on the object at its real size: a case's ``gt/`` is stored in the benchmark frame ([-1, 1]^3),
-so it is scaled back with ``case.json``'s normalization. The predicted axis line is carried from the
-prediction's frame into the ground truth's: prediction world -> its benchmark frame (-> the ICP
-alignment, when the metrics aligned) -> ground-truth world -> metres. An unmatched joint counts as not opened. Continuous joints
-(knobs, caps) have no opening task and are left out.
+robot acts on the object at its real size: a case's ground truth is stored in the benchmark frame
+([-1, 1]^3), so it is scaled back to metres (:meth:`~spark_bench.data.case.BenchmarkCase.to_metres`).
+The predicted axis line is carried from the prediction's frame into the ground truth's: prediction world
+-> its benchmark frame (-> the ICP alignment, when the metrics aligned) -> ground-truth world -> metres.
+An unmatched joint counts as not opened. Continuous joints (knobs, caps) have no opening task and are
+left out.
+
+What it uses of other packages is their public face: :class:`~spark_bench.data.case.BenchmarkCase` and
+:func:`~spark_bench.data.case.benchmark_frame` for the case and its frames, :func:`spark_bench.envs.make_env`
+and :mod:`spark_bench.rl` (``open_with_joint``, ``open_with_ground_truth``, ``run_episodes``,
+:func:`spark_bench.rl.train.train`).
 """
 
 from __future__ import annotations
@@ -18,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from spark_bench.asset.transforms import unit
+from spark_bench.data.case import BenchmarkCase, benchmark_frame
 from spark_bench.errors import InputError
 
 ENV_OF_TYPE = {"prismatic": "SparkDrawer-v0", "revolute": "SparkDoor-v0"}
@@ -31,10 +39,27 @@ def prediction_to_gt_world(pred, gt, alignment=None) -> np.ndarray:
     :param gt: ground-truth asset
     :param alignment: optional 4x4 similarity the metrics applied to the prediction's benchmark frame
     """
-    from spark_bench.metrics.geometry import benchmark_transform
-
     align = np.asarray(alignment if alignment is not None else np.eye(4), dtype=np.float64)
-    return np.linalg.inv(benchmark_transform(gt)) @ align @ benchmark_transform(pred)
+    return np.linalg.inv(benchmark_frame(gt)) @ align @ benchmark_frame(pred)
+
+
+def ground_truth_in_metres(gt_folder: str | Path):
+    """``(ground truth as stored, ground truth in metres, 4x4 from the first to the second)``.
+
+    A benchmark case's ground truth comes back from the benchmark frame to its source's size and place
+    (:meth:`~spark_bench.data.case.BenchmarkCase.gt_at_source_size`); any other object folder is used as
+    it is, with the identity.
+
+    :param gt_folder: the ground-truth object folder (a case's ground truth, or any object folder)
+    """
+    from spark_bench.data import load_object
+
+    stored = load_object(gt_folder)
+    case = BenchmarkCase.of_gt_folder(gt_folder)
+    if case is None:
+        return stored, stored, np.eye(4)
+    gt, to_metres = case.gt_at_source_size(stored)
+    return stored, gt, to_metres
 
 
 def predicted_axes_in_gt_frame(pred, gt, alignment=None, gt_to_world=None
@@ -53,7 +78,7 @@ def predicted_axes_in_gt_frame(pred, gt, alignment=None, gt_to_world=None
     for name, (point, direction) in pred.joint_frames().items():
         d = frame[:3, :3] @ direction
         p = frame[:3, :3] @ point + frame[:3, 3]
-        out[name] = (d / np.linalg.norm(d), p, pred.joints[name].type)
+        out[name] = (unit(d), p, pred.joints[name].type)
     return out
 
 
@@ -69,12 +94,10 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     :returns: ``{"success_rate": fraction opened (None when nothing can be opened), "joints": {...}}``
     """
     from spark_bench.data import load_object
-    from spark_bench.envs.assets import at_source_size
-    from spark_bench.rl.rollout import make_env
-    from spark_bench.rl.scripted import open_with_ground_truth, open_with_joint
+    from spark_bench.envs import make_env
+    from spark_bench.rl import open_with_ground_truth, open_with_joint
 
-    gt_files = load_object(gt_folder)
-    gt, to_source = at_source_size(gt_files, gt_folder)
+    gt_files, gt, to_source = ground_truth_in_metres(gt_folder)
     pred = load_object(pred_folder)
     matched = {m["gt_joint"]: m["pred_joint"] for m in metrics.get("matching", [])}
     axes = predicted_axes_in_gt_frame(pred, gt_files, metrics.get("alignment"), to_source)
@@ -131,12 +154,12 @@ def rl_transfer(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, o
     """
     from spark_bench.asset.ops import similarity_asset
     from spark_bench.data import load_object
-    from spark_bench.envs.assets import at_source_size
-    from spark_bench.rl.rollout import ModelPolicy, make_env, run_episodes
-    from spark_bench.rl.train import load_model, train
+    from spark_bench.envs import make_env
+    from spark_bench.rl import ModelPolicy, load_model, run_episodes
+    from spark_bench.rl.train import train
 
-    gt_files, pred_files = load_object(gt_folder), load_object(pred_folder)
-    gt, to_source = at_source_size(gt_files, gt_folder)
+    gt_files, gt, to_source = ground_truth_in_metres(gt_folder)
+    pred_files = load_object(pred_folder)
     # the prediction where (and as large as) the metrics matched it with the real object
     pred = similarity_asset(pred_files, to_source @ prediction_to_gt_world(pred_files, gt_files,
                                                                           metrics.get("alignment")))

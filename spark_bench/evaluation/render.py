@@ -97,10 +97,10 @@ def render_asset(asset: ArticulatedAsset, camera: dict, q=None, size: int = 256,
 
 def load_for_render(folder: Path) -> ArticulatedAsset:
     """An object folder in its own benchmark frame (normalized by its own box, as the metrics compare it)."""
-    from spark_bench.asset.ops import normalize_asset
-    from spark_bench.data import load_object
+    from spark_bench.data.case import to_benchmark_frame
+    from spark_bench.data.readers import load_object
 
-    return normalize_asset(load_object(folder))[0]
+    return to_benchmark_frame(load_object(folder))[0]
 
 
 def render_state(asset: ArticulatedAsset, camera: dict, state: str = "rest", size: int = 256) -> Image.Image:

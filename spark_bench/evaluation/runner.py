@@ -23,18 +23,15 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from spark_bench import CONVENTION_VERSION, __version__
-from spark_bench.evaluation.executors import EXECUTORS, run_local, run_ray, usable_cores
-from spark_bench.evaluation.store import METRIC_COLUMNS, ResultsStore, config_hash, now
-from spark_bench.data.readers import read_case, read_json
+from spark_bench.data.case import Benchmark, BenchmarkCase
+from spark_bench.data.readers import read_json
 from spark_bench.errors import InputError, SparkBenchError
-from spark_bench.generators import (
-    GENERATION_MARKER,
-    CaseInput,
-    Generation,
-    MethodSpec,
-    json_default,
-    make_generator,
-)
+from spark_bench.evaluation.executors import EXECUTORS, run_local, run_ray, usable_cores
+from spark_bench.evaluation.store import ResultsStore, config_hash, now
+from spark_bench.jsonio import plain, to_json_text
+from spark_bench.methods.base import GENERATION_MARKER, CaseInput, Generation, MethodSpec
+from spark_bench.methods.registry import make_method
+from spark_bench.metrics.names import METRIC_COLUMNS
 
 DEFAULT_BENCH = "synth-v1"
 
@@ -138,24 +135,11 @@ def resolve_bench(bench: str | None) -> tuple[str, Path]:
     bench = bench or DEFAULT_BENCH
     path = Path(bench).expanduser()
     if path.is_dir():
-        return _manifest(path).get("name") or path.name, path.resolve()
+        return Benchmark(path).name, path.resolve()
     from spark_bench.data.benchmarks import ensure_benchmark
 
     folder = Path(ensure_benchmark(bench))
     return bench, folder
-
-
-def _manifest(folder: Path) -> dict:
-    path = folder / "manifest.json"
-    data = read_json(path, missing="not a benchmark folder (no manifest.json)")
-    if not isinstance(data, dict) or not isinstance(data.get("cases"), list):
-        raise InputError(path, "expected an object with a 'cases' list")
-    return data
-
-
-def bench_cases(folder: Path) -> list[str]:
-    """The case ids of a benchmark folder, in manifest order."""
-    return [str(c) for c in _manifest(folder)["cases"]]
 
 
 # ----- one case -----------------------------------------------------------------------------------
@@ -192,10 +176,11 @@ class _Stages:
             self.timings[name] = self.timings.get(name, 0.0) + time.perf_counter() - start
 
 
-def generate_cached(task: CaseTask, generator) -> tuple[Generation, bool]:
+def generate_cached(task: CaseTask, method) -> tuple[Generation, bool]:
     """The case's generation: read from the cache marker, or produced now and then marked.
 
-    A generation without its marker (a run killed mid-way) is discarded and redone.
+    A generation without its marker (a run killed mid-way) is discarded and redone. The method sees the
+    case through a :class:`~spark_bench.methods.base.CaseInput` that refuses every input it did not declare.
 
     :returns: ``(generation, was_cached)``
     """
@@ -209,11 +194,10 @@ def generate_cached(task: CaseTask, generator) -> tuple[Generation, bool]:
     if out_dir.exists():
         shutil.rmtree(out_dir)
     out_dir.mkdir(parents=True)
-    case = CaseInput(task.case_id, Path(task.case_dir), read_case(Path(task.case_dir)).get("category", ""),
-                     frozenset(generator.inputs))
-    generation = Generation.from_result(generator.generate(case, out_dir), out_dir)
+    case = CaseInput(BenchmarkCase(task.case_dir), frozenset(method.inputs))
+    generation = Generation.from_result(method.generate(case, out_dir), out_dir)
     tmp = marker.with_suffix(".tmp")
-    tmp.write_text(json.dumps(generation.to_json(), default=json_default))
+    tmp.write_text(to_json_text(generation.to_json()))
     os.replace(tmp, marker)  # atomic: the marker is either absent or complete
     return generation, False
 
@@ -233,7 +217,7 @@ def _metric_columns(metrics: dict) -> dict:
 
 
 def _score(pred_folder: Path, gt, options: EvalOptions, threads: int) -> dict:
-    from spark_bench.data import load_object
+    from spark_bench.data.readers import load_object
     from spark_bench.metrics import compute_metrics
 
     pred = load_object(pred_folder)
@@ -299,18 +283,17 @@ def evaluate_case(task: CaseTask) -> list[dict]:
     stages = _Stages()
     category = ""
     row: dict = {}
+    case = BenchmarkCase(task.case_dir)
     try:
-        case = stages("case", read_case, Path(task.case_dir))
-        category = str(case.get("category", ""))
+        record = stages("case", lambda: case.record)
+        category = str(record.get("category", ""))
         row = _base_row(task, category)
-        generator = stages("method", make_generator, task.spec)
-        generation, cached = stages("generate", generate_cached, task, generator)
+        method = stages("method", make_method, task.spec)
+        generation, cached = stages("generate", generate_cached, task, method)
         row.update(prediction_dir=str(generation.folder), info={**generation.info, "generation_cached": cached},
                    shape_metrics_valid=generation.shape_metrics_valid)
-        from spark_bench.data import load_object
-
-        gt_folder = Path(task.case_dir) / "gt"
-        gt = stages("load_gt", load_object, gt_folder)
+        gt_folder = case.gt_dir
+        gt = stages("load_gt", case.load_gt)
         metrics = stages("metrics", _score, generation.folder, gt, task.options, task.threads)
         row.update(metrics=metrics, **_metric_columns(metrics))
         checks: dict = {}
@@ -363,16 +346,16 @@ def _safe_name(text: str) -> str:
 
 def run_identity(bench: str, spec: MethodSpec, options: EvalOptions) -> RunIdentity:
     """Resolve the method once: its label, regime, version and configuration hashes."""
-    generator = make_generator(spec)
-    method_config = json.loads(json.dumps(generator.config(), sort_keys=True, default=json_default))
-    full = {"method": spec.name, "method_config": method_config, "version": str(generator.version),
+    method = make_method(spec)
+    method_config = plain(method.config())
+    full = {"method": spec.name, "method_config": method_config, "version": str(method.version),
             "eval": options.identity()}
     return RunIdentity(
-        bench=bench, method=spec.name, label=str(generator.label()), regime=str(generator.regime),
-        version=str(generator.version), config_json=json.dumps(full, sort_keys=True),
+        bench=bench, method=spec.name, label=str(method.label()), regime=str(method.regime),
+        version=str(method.version), config_json=json.dumps(full, sort_keys=True),
         config_hash=config_hash(full),
         generation_hash=config_hash({"method": spec.name, "config": method_config,
-                                     "version": str(generator.version)}))
+                                     "version": str(method.version)}))
 
 
 def default_db() -> Path:
@@ -384,10 +367,14 @@ def default_db() -> Path:
 
 def plan_tasks(bench_dir: Path, run: RunIdentity, spec: MethodSpec, options: EvalOptions, runs_root: Path,
                done: set[str], threads: int = 1, cases: Iterable[str] | None = None) -> list[CaseTask]:
-    """The tasks of the cases not yet done."""
+    """The tasks of the cases not yet done.
+
+    :raises InputError: for a case id that would leave the benchmark's cases folder
+    """
+    bench = Benchmark(bench_dir)
     gen_root = runs_root / _safe_name(run.bench) / f"{_safe_name(run.label)}-{run.generation_hash[:8]}"
-    ids = list(cases) if cases is not None else bench_cases(bench_dir)
-    return [CaseTask(cid, str(bench_dir / "cases" / cid), spec, run, str(gen_root / _safe_name(cid)), options,
+    ids = list(cases) if cases is not None else bench.case_ids()
+    return [CaseTask(cid, str(bench.case_dir(cid)), spec, run, str(gen_root / _safe_name(cid)), options,
                      threads) for cid in ids if cid not in done]
 
 
@@ -427,7 +414,10 @@ def run_eval(spec: MethodSpec, bench: str | None = None, options: EvalOptions | 
 
         runs_root = cache_dir("runs")
     threads = max(1, usable_cores() // max(1, workers))
-    all_ids = list(cases) if cases is not None else bench_cases(bench_dir)
+    bench_folder = Benchmark(bench_dir)
+    all_ids = list(cases) if cases is not None else bench_folder.case_ids()
+    for case_id in all_ids:  # an unsafe id is refused before anything is written
+        bench_folder.case_dir(case_id)
     start = time.perf_counter()
     with ResultsStore(db or default_db()) as store:
         done = store.done_cases(run.bench, run.label, run.config_hash)
@@ -472,6 +462,5 @@ def _maybe_progress(show: bool):
     return _progress() if show else _NoProgress()
 
 
-__all__ = ["DEFAULT_BENCH", "CaseTask", "EvalOptions", "EvalSummary", "RunIdentity", "bench_cases",
-           "evaluate_case", "generate_cached", "plan_tasks", "read_case", "resolve_bench", "run_eval",
-           "run_identity"]
+__all__ = ["DEFAULT_BENCH", "CaseTask", "EvalOptions", "EvalSummary", "RunIdentity", "evaluate_case",
+           "generate_cached", "plan_tasks", "resolve_bench", "run_eval", "run_identity"]

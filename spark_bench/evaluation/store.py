@@ -22,15 +22,14 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from spark_bench.errors import InputError
+from spark_bench.jsonio import plain
+from spark_bench.metrics.names import METRIC_COLUMNS
 
 SCHEMA_VERSION = 1
-#: Headline metrics stored as columns of their own (the rest lives in the ``metrics`` JSON).
-METRIC_COLUMNS = {
-    "cd": "cd", "fscore@0.1": "fscore_01", "fscore@0.5": "fscore_05", "cd_open": "cd_open",
-    "axis_err": "axis_err", "pivot_err": "pivot_err", "type_err": "type_err",
-}
 STATUSES = ("ok", "failed")
 
+# the headline metrics (METRIC_COLUMNS, spark_bench.metrics.names) are columns of their own; the rest of a
+# result lives in the ``metrics`` JSON
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS results (
     id INTEGER PRIMARY KEY AUTOINCREMENT,
@@ -50,8 +49,7 @@ CREATE TABLE IF NOT EXISTS results (
     stage TEXT NOT NULL DEFAULT '',
     reason TEXT NOT NULL DEFAULT '',
     shape_metrics_valid INTEGER NOT NULL DEFAULT 1,
-    cd REAL, fscore_01 REAL, fscore_05 REAL, cd_open REAL,
-    axis_err REAL, pivot_err REAL, type_err REAL,
+    <metric columns>,
     sim_pass INTEGER,
     open_success REAL,
     rl_success REAL,
@@ -67,7 +65,7 @@ CREATE TABLE IF NOT EXISTS results (
 );
 CREATE INDEX IF NOT EXISTS results_run ON results (bench, label, config_hash);
 CREATE TABLE IF NOT EXISTS store_meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-"""
+""".replace("<metric columns>", ", ".join(f"{column} REAL" for column in METRIC_COLUMNS.values()))
 
 #: Columns a caller may give to :meth:`ResultsStore.put` (``id`` is assigned by SQLite).
 ROW_FIELDS = (
@@ -95,17 +93,21 @@ def _finite_or_none(value) -> float | None:
     return value if math.isfinite(value) else None
 
 
-def _jsonable(value):
-    """``value`` with NaN/inf replaced by None, so the stored JSON is strict."""
+def _finite(value):
+    """Plain JSON data with NaN and infinities replaced by None."""
     if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if hasattr(value, "item") and callable(value.item):  # NumPy scalars
-        return _jsonable(value.item())
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
     return value
+
+
+def json_column(value) -> str:
+    """The text of a JSON column: ``value`` made plain (:func:`spark_bench.jsonio.plain`), NaN and
+    infinities as None (the stored JSON is strict), keys sorted."""
+    return json.dumps(_finite(plain(value)), sort_keys=True)
 
 
 class ResultsStore:
@@ -175,7 +177,7 @@ class ResultsStore:
         out = dict(row)
         out.setdefault("variant", "")
         for key in _JSON_FIELDS:
-            out[key] = json.dumps(_jsonable(out.get(key) or {}), sort_keys=True)
+            out[key] = json_column(out.get(key) or {})
         for column in (*METRIC_COLUMNS.values(), "open_success", "rl_success"):
             out[column] = _finite_or_none(out.get(column))
         if out.get("sim_pass") is not None:
@@ -268,7 +270,7 @@ def flat_rows(rows: Sequence[dict]) -> list[dict]:
     for row in rows:
         flat = {}
         for key, value in row.items():
-            flat[key] = json.dumps(_jsonable(value), sort_keys=True) if key in _JSON_FIELDS else value
+            flat[key] = json_column(value) if key in _JSON_FIELDS else value
         out.append(flat)
     return out
 

@@ -154,6 +154,13 @@ class CaseInput:
         """The ground-truth object folder (benchmark frame)."""
         return self.path("gt")
 
+    @property
+    def folder(self) -> Path:
+        """The whole case folder, for external programs that read it themselves: it holds the ground
+        truth, so only a method that declared ``gt`` gets it."""
+        self._need("gt")
+        return self.case.folder
+
     def load_gt(self):
         """The ground-truth object (benchmark frame)."""
         self._need("gt")

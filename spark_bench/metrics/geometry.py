@@ -12,6 +12,7 @@ import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset, Configuration
 from spark_bench.asset.transforms import transform_points
+from spark_bench.data.case import benchmark_frame
 from spark_bench.errors import InputError
 from spark_bench.metrics.articulation import JointAxis
 from spark_bench.metrics.sampling import triangle_areas
@@ -72,24 +73,18 @@ def has_area(triangles: np.ndarray) -> bool:
 
 
 def benchmark_transform(asset: ArticulatedAsset) -> np.ndarray:
-    """4x4 similarity from the asset's world frame into its benchmark frame (DESIGN.md): the rest
-    pose's axis-aligned box centered at the origin and scaled by ``2 / max extent``.
+    """4x4 similarity from the asset's world frame into its benchmark frame
+    (:func:`spark_bench.data.case.benchmark_frame`), for an asset the metrics can measure.
 
     :raises InputError: when the asset has no surface or a flat-to-a-point box
     """
-    from spark_bench.asset.ops import normalization
-
     rest = posed_triangles(asset, asset.rest_configuration())
     if not has_area(rest):
         raise InputError(_where(asset), "empty mesh: the asset has no surface to measure")
     try:
-        center, scale = normalization(asset)
+        return benchmark_frame(asset)
     except ValueError as exc:
         raise InputError(_where(asset), str(exc)) from None
-    out = np.eye(4) * scale
-    out[3, 3] = 1.0
-    out[:3, 3] = -scale * np.asarray(center, dtype=np.float64)
-    return out
 
 
 def transform_triangles(matrix: np.ndarray, triangles: np.ndarray) -> np.ndarray:

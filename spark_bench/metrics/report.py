@@ -14,20 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spark_bench import CONVENTION_VERSION
+from spark_bench.metrics.names import SCALAR_PREFIXES, UNITS
 from spark_bench.metrics.shape import ShapeScores
-
-#: Units of every number in a result (benchmark frame: rest-pose box centered, max extent 2).
-UNITS = {
-    "cd": "benchmark-frame length (object max extent = 2)",
-    "fscore": "fraction in [0, 1]; thresholds in benchmark-frame length",
-    "axis_err": "radians in [0, pi/2], sign-free",
-    "pivot_err": "benchmark-frame length (object max extent = 2)",
-    "type_err": "fraction of ground-truth movable joints in [0, 1]",
-}
-
-#: The scalar keys averaged over objects for a benchmark (None values are skipped).
-SCALAR_PREFIXES = ("cd", "fscore", "part_cd", "part_fscore", "axis_err", "pivot_err", "type_err",
-                   "n_missing_joints", "n_extra_joints")
 
 
 @dataclass

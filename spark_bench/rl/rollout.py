@@ -1,8 +1,7 @@
 """Run a policy (the scripted opener or a trained model) for some episodes and score it.
 
 A policy here is anything with ``reset(env)`` (called at each episode start) and ``__call__(obs) ->
-action``: :class:`ScriptedPolicy` wraps the scripted opener, :class:`ModelPolicy` a saved
-stable-baselines3 model.
+action`` (:mod:`spark_bench.rl.policies`).
 """
 
 from __future__ import annotations
@@ -14,80 +13,11 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
+from spark_bench.envs.registration import make_env
 from spark_bench.errors import InputError
+from spark_bench.rl.policies import load_policy
 
 VIDEO_SUFFIXES = (".gif", ".mp4")
-
-
-def make_env(env_id: str, asset=None, joint: str | None = None, render_mode: str | None = None,
-             max_episode_steps: int | None = None, **kwargs) -> gym.Env:
-    """``gymnasium.make`` for a spark-bench environment, with a clear error for an unknown id.
-
-    :param env_id: ``SparkDrawer-v0`` or ``SparkDoor-v0``
-    :param asset: see :mod:`spark_bench.envs.assets`
-    :param joint: the joint to open
-    :param render_mode: None or ``rgb_array``
-    :param max_episode_steps: time limit (default: the registered one)
-    """
-    import spark_bench.envs  # noqa: F401  (registers)
-    from spark_bench.envs.registration import ENVIRONMENTS
-
-    if env_id not in ENVIRONMENTS:
-        raise InputError(None, f"unknown environment {env_id!r} (choose from {', '.join(ENVIRONMENTS)})")
-    options = {k: v for k, v in {"asset": asset, "joint": joint}.items() if v is not None}
-    if max_episode_steps is not None:
-        options["max_episode_steps"] = int(max_episode_steps)
-    return gym.make(env_id, render_mode=render_mode, **options, **kwargs)
-
-
-class ScriptedPolicy:
-    """The scripted opener with the environment's own (ground-truth) joint, or with given parameters.
-
-    :param joint: ``(axis, pivot, type)`` to plan from (world frame), or None for the ground truth
-    """
-
-    def __init__(self, joint: tuple | None = None):
-        self.joint = joint
-        self._opener = None
-
-    def reset(self, env: gym.Env) -> None:
-        from spark_bench.rl.scripted import ground_truth_joint, opener_for
-
-        axis, pivot, joint_type = self.joint if self.joint is not None else ground_truth_joint(env)
-        self._opener = opener_for(env, axis, pivot, joint_type)
-
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        return self._opener(obs)
-
-
-class ModelPolicy:
-    """A stable-baselines3 model, or one saved by :func:`spark_bench.rl.train.train`.
-
-    :param model: the model, its ``.zip`` file, or a training output folder holding ``model.zip``
-    :param deterministic: act with the policy's mean action
-    """
-
-    def __init__(self, model, deterministic: bool = True):
-        if isinstance(model, (str, Path)):
-            from spark_bench.rl.train import load_model
-
-            model = load_model(model)
-        self.model = model
-        self.deterministic = deterministic
-
-    def reset(self, env: gym.Env) -> None:
-        pass
-
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        action, _ = self.model.predict(obs, deterministic=self.deterministic)
-        return action
-
-
-def load_policy(policy: str):
-    """``scripted`` or the path of a saved model."""
-    if policy == "scripted":
-        return ScriptedPolicy()
-    return ModelPolicy(policy)
 
 
 @dataclass

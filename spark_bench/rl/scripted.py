@@ -18,8 +18,11 @@ from dataclasses import dataclass
 import gymnasium as gym
 import numpy as np
 
+from spark_bench.asset.transforms import unit
 from spark_bench.envs.base import MAX_STEP
 from spark_bench.envs.gripper import grip_command
+from spark_bench.envs.registration import make_env
+from spark_bench.errors import InputError
 
 #: Distance (m) in front of the grasp point where the approach starts.
 PREGRASP_OFFSET = 0.06
@@ -40,11 +43,6 @@ PRESS_STEPS = 5
 #: line by at most this much (m) per step, and only while it is within the lateral tolerance of that line.
 ALIGNED_STEP = 0.005
 ALIGNED_APPROACH_STEPS = 50
-
-
-def _unit(v) -> np.ndarray:
-    v = np.asarray(v, float)
-    return v / np.linalg.norm(v)
 
 
 def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
@@ -79,15 +77,15 @@ class ScriptedOpener:
                  lateral_tolerance: float | None = None):
         if joint_type not in ("prismatic", "revolute", "continuous"):
             raise ValueError(f"cannot open a {joint_type!r} joint")
-        self.axis = _unit(axis)
+        self.axis = unit(axis)
         self.pivot = np.asarray(pivot, float)
         self.rotational = joint_type != "prismatic"
-        self.outward = _unit(outward)
+        self.outward = unit(outward)
         self.pull_step = float(pull_step)
         self.inside_grip = bool(inside_grip)
         if self.inside_grip and press is None:
             raise ValueError("an inside grip needs a press direction")
-        self.press = _unit(press) if self.inside_grip else np.zeros(3)
+        self.press = unit(press) if self.inside_grip else np.zeros(3)
         self.approach_grip = None if approach_grip is None else float(np.clip(approach_grip, -1.0, 1.0))
         self.lateral_tolerance = None if lateral_tolerance is None else float(lateral_tolerance)
         self.reset()
@@ -256,8 +254,6 @@ def open_every_joint(asset, episodes: int = 1, seed: int = 0, max_episode_steps:
     :param max_episode_steps: time limit per episode
     """
     from spark_bench.envs.assets import load_asset
-    from spark_bench.errors import InputError
-    from spark_bench.rl.rollout import make_env
 
     loaded, key = load_asset(asset)
     rows = []

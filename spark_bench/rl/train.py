@@ -13,9 +13,10 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from spark_bench.envs.registration import make_env
 from spark_bench.errors import InputError
-
-ALGOS = ("ppo", "sac")
+from spark_bench.rl.policies import ModelPolicy, algo_class
+from spark_bench.rl.rollout import run_episodes
 
 #: Hyper-parameters per algorithm (stable-baselines3 keyword arguments), tuned on the default drawer.
 HYPERPARAMS = {
@@ -55,37 +56,6 @@ class TrainResult:
     wall_s: float = 0.0
 
 
-def _algo_class(algo: str, where: str | Path | None = None):
-    if algo not in ALGOS:  # before the (slow) stable-baselines3 import
-        raise InputError(where, f"unknown algorithm {algo!r} (choose from {', '.join(ALGOS)})")
-    from stable_baselines3 import PPO, SAC
-
-    return {"ppo": PPO, "sac": SAC}[algo]
-
-
-def load_model(path: str | Path):
-    """A model saved by :func:`train`: a ``model.zip`` (its ``train.json`` beside it names the algorithm)
-    or the output folder."""
-    path = Path(path)
-    if path.is_dir():
-        path = path / "model.zip"
-    if not path.is_file():
-        raise InputError(path, "no such model file")
-    from spark_bench.data.readers import read_json
-
-    meta_path = path.parent / "train.json"
-    meta = read_json(meta_path, default={})
-    if not isinstance(meta, dict):
-        raise InputError(meta_path, "expected a JSON object")
-    algos = [meta["algo"]] if "algo" in meta else list(ALGOS)
-    for algo in algos:
-        try:
-            return _algo_class(algo, meta_path).load(path, device="cpu")
-        except (ValueError, KeyError, RuntimeError):
-            continue
-    raise InputError(path, "not a stable-baselines3 PPO or SAC model")
-
-
 def plot_curve(rows: list[EvalRow], path: Path, title: str) -> Path:
     """The learning curve: success rate and mean return against environment steps, as a PNG."""
     import matplotlib
@@ -113,8 +83,6 @@ def plot_curve(rows: list[EvalRow], path: Path, title: str) -> Path:
 def _eval_callback(eval_env, every: int, episodes: int, out: Path, title: str, t0: float,
                    max_wall_s: float | None = None):
     from stable_baselines3.common.callbacks import BaseCallback
-
-    from spark_bench.rl.rollout import ModelPolicy, run_episodes
 
     class SuccessRateCallback(BaseCallback):
         """Every ``every`` environment steps: evaluate, append to ``curve.csv``, redraw ``curve.png``."""
@@ -170,10 +138,8 @@ def train(env_id: str, algo: str = "ppo", steps: int = 100_000, out: str | Path 
     """
     from stable_baselines3.common.env_util import make_vec_env
 
-    from spark_bench.rl.rollout import ModelPolicy, make_env, run_episodes
-
     algo = algo.lower()
-    cls = _algo_class(algo)
+    cls = algo_class(algo)
     if steps <= 0 or n_envs <= 0:
         raise InputError(None, "steps and n_envs must be positive")
     out = Path(out)

@@ -17,7 +17,7 @@ from spark_bench.lazy import lazy_exports
 _EXPORTS = {
     "build_spec": "spark_bench.sim.mjcf",
     "prepare": "spark_bench.sim.mjcf",
-    "PreparedObject": "spark_bench.sim.mjcf",
+    "PreparedObject": "spark_bench.sim.prepared",
     "convert": "spark_bench.sim.converter",
     "run_checks": "spark_bench.sim.checks",
     "CheckReport": "spark_bench.sim.results",

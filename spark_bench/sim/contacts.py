@@ -12,13 +12,9 @@ gripper keeps MuJoCo's usual filtering for the gripper's own bodies.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.mujoco_gl import mujoco_module
-
-if TYPE_CHECKING:
-    from spark_bench.sim.mjcf import PreparedObject
+from spark_bench.sim.prepared import PreparedObject
 
 
 def geometric_parents(prepared: PreparedObject) -> dict[str, str]:

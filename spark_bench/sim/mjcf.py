@@ -21,7 +21,6 @@ gripper or a scene can be added to the same spec.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +30,7 @@ from spark_bench.asset.model import ArticulatedAsset, Link
 from spark_bench.errors import InputError
 from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.contacts import add_contact_filters, geometric_parents, rest_overlaps
-from spark_bench.sim.hulls import CollisionReport, CollisionShape, object_collision_shapes, object_size
+from spark_bench.sim.hulls import object_collision_shapes, object_size
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.physical import (
     GRAVITY,
@@ -42,6 +41,8 @@ from spark_bench.sim.physical import (
     link_mass_properties,
     principal_inertia,
 )
+from spark_bench.sim.prepared import PreparedObject
+from spark_bench.sim.shapes import CollisionReport, CollisionShape
 
 FRICTION_SOLIMP = (0.999, 0.999, 0.001, 0.5, 2.0)
 VISUAL_CLASS = "visual"
@@ -51,32 +52,6 @@ COLLISION_GROUP = 3
 #: Display colours of the collision hulls, one per link (cycled).
 HULL_COLOURS = [(0.90, 0.35, 0.25), (0.25, 0.60, 0.90), (0.35, 0.80, 0.35), (0.95, 0.75, 0.20),
                 (0.70, 0.40, 0.85), (0.20, 0.80, 0.80), (0.95, 0.50, 0.70), (0.55, 0.55, 0.55)]
-
-
-@dataclass
-class PreparedObject:
-    """Everything computed before the spec is assembled (reused by the checks and the PyBullet writer).
-
-    :param asset: the object
-    :param options: the options used
-    :param shapes: collision shapes per link (link frame)
-    :param mass: mass properties per link (link frame)
-    :param dynamics: joint parameters per movable joint
-    :param size: the object's bounding-box diagonal at rest (every relative tolerance refers to it)
-    :param report: how the collision shapes were made
-    :param excluded: parent-child body pairs that do not collide, with their overlap depth at rest
-    :param relief: hinge-relief cuts made (:class:`~spark_bench.sim.relief.ReliefCut`)
-    """
-
-    asset: ArticulatedAsset
-    options: ConvertOptions
-    shapes: dict[str, list[CollisionShape]]
-    mass: dict[str, MassProperties]
-    dynamics: dict[str, JointDynamics]
-    size: float
-    report: CollisionReport
-    excluded: dict[tuple[str, str], float] = field(default_factory=dict)
-    relief: list = field(default_factory=list)
 
 
 def prepare(asset: ArticulatedAsset, options: ConvertOptions | None = None,

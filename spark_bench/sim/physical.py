@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from spark_bench.sim.hulls import CollisionShape
+from spark_bench.sim.shapes import CollisionShape
 
 GRAVITY = 9.81
 #: Mass (kg) given to a link with no geometry (PartNet-Mobility's ``*_helper`` links): MuJoCo needs a

@@ -15,8 +15,9 @@ import numpy as np
 
 from spark_bench.asset.mesh import drop_degenerate_faces
 from spark_bench.asset.transforms import matrix_to_rpy
-from spark_bench.sim.mjcf import PreparedObject, link_visual_mesh, write_obj_file
+from spark_bench.sim.mjcf import link_visual_mesh, write_obj_file
 from spark_bench.sim.physical import principal_inertia
+from spark_bench.sim.prepared import PreparedObject
 
 MESH_DIR = "meshes"
 

@@ -21,7 +21,7 @@ import numpy as np
 import trimesh
 
 from spark_bench.mujoco_gl import mujoco_module
-from spark_bench.sim.hulls import CollisionShape
+from spark_bench.sim.shapes import CollisionShape
 
 #: Contacts within this fraction of the part's radius from the hinge axis are hinge-zone contacts.
 HINGE_ZONE = 0.15
@@ -128,7 +128,7 @@ def _under(model, body: int, ancestor: int) -> bool:
 def relieve(prepared, compile_model, gap: float) -> list[ReliefCut]:
     """Cut the hulls of ``prepared.shapes`` in place until no hinge-zone penetration is left.
 
-    :param prepared: a :class:`~spark_bench.sim.mjcf.PreparedObject`
+    :param prepared: a :class:`~spark_bench.sim.prepared.PreparedObject`
     :param compile_model: ``() -> MjModel`` of the current shapes, contact filters applied
     :param gap: clearance left behind a cut (m)
     """

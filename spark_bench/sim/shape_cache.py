@@ -18,8 +18,8 @@ import numpy as np
 import trimesh
 
 from spark_bench.sim.file_cache import atomic_savez, atomic_write_text, entry_path, load_npz
-from spark_bench.sim.hulls import CollisionShape
 from spark_bench.sim.options import ConvertOptions
+from spark_bench.sim.shapes import CollisionShape
 
 #: Bumped whenever the same link and options would give other shapes.
 SHAPES_VERSION = "link-shapes-3"

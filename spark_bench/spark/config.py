@@ -29,6 +29,8 @@ from dataclasses import asdict, dataclass, field, fields, is_dataclass
 from pathlib import Path
 
 from spark_bench.errors import InputError
+from spark_bench.methods.base import INPUT_KINDS
+from spark_bench.spark.geometry import command_fields
 from spark_bench.spark.prior import NoiseModel
 
 PRIOR_BACKENDS = ("annotation", "vlm", "file")
@@ -250,6 +252,35 @@ class SparkConfig:
                 if f.name not in skip and value != getattr(theirs, f.name):
                     out[f"{prefix}.{f.name}"] = asdict(value) if is_dataclass(value) else value
         return out
+
+    def uses_part_masks(self) -> bool:
+        """Whether the joint optimization reads the open state's per-part masks: ``optimize.part_masks``
+        with ``annotation`` geometry (whose parts are the case's own links) and the ``dataset`` open
+        state."""
+        return (self.optimize.enabled and self.optimize.part_masks and self.geometry.backend == "annotation"
+                and self.open_state.backend == "dataset")
+
+    def case_inputs(self) -> tuple[str, ...]:
+        """The input kinds (:data:`spark_bench.methods.base.INPUT_KINDS`) the pipeline reads of a case with
+        this configuration: the input image always; the camera when optimizing, the open image with the
+        ``dataset`` open state, the open state's part masks when :meth:`uses_part_masks`; the ground
+        truth for an ``annotation`` backend, and for a ``spark`` command that is handed the case folder
+        (``{case}``)."""
+        inputs = {"image"}
+        if self.optimize.enabled:
+            inputs.add("camera")
+            if self.open_state.backend == "dataset":
+                inputs.add("open_image")
+            if self.uses_part_masks():
+                inputs.add("open_masks")
+        if "annotation" in (self.prior.backend, self.geometry.backend) or self.command_gets_case_folder():
+            inputs.add("gt")
+        return tuple(k for k in INPUT_KINDS if k in inputs)
+
+    def command_gets_case_folder(self) -> bool:
+        """Whether the ``spark`` geometry command is handed the whole case folder (``{case}``), which holds
+        the ground truth."""
+        return self.geometry.backend == "spark" and "case" in command_fields(self.geometry.spark_command)
 
     def to_dict(self) -> dict:
         return asdict(self)

@@ -72,7 +72,7 @@ def calibrate_noise(ground_truths: Sequence[tuple[str, object]], noise, target: 
     Each iteration scales each parameter by ``target / measured`` of its own error (AxisErr for
     ``p_axis``, TypeErr for ``p_type``, PivotErr for ``sigma_origin``), measured as the mean over
     ``seeds`` of the annotation prior's errors on ``ground_truths``. Run it on ``synth-v1`` once the
-    benchmark exists: ``calibrate_noise([(case_id, load_object(case/"gt")) ...], NoiseModel())``.
+    benchmark exists: ``calibrate_noise([(case.id, case.load_gt()) for case in Benchmark(folder).cases()], NoiseModel())``.
 
     :param ground_truths: ``(case id, ground-truth ArticulatedAsset)`` pairs
     :param noise: the starting :class:`~spark_bench.spark.prior.NoiseModel`

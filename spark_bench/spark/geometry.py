@@ -15,13 +15,12 @@ from it by fixed joints (:func:`group_parts`); the root part is everything that 
 
 from __future__ import annotations
 
-import os
 import shlex
 import shutil
-import signal
-import subprocess
+import string
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import trimesh
@@ -29,6 +28,11 @@ import trimesh
 from spark_bench.asset.mesh import merge_meshes
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.errors import InputError
+from spark_bench.methods.predictions import prediction_folder
+from spark_bench.methods.process import ProgramError, ProgramResult, run_program
+
+if TYPE_CHECKING:
+    from spark_bench.methods.base import CaseInput
 
 
 @dataclass
@@ -129,62 +133,64 @@ def _normalized_parts(asset: ArticulatedAsset, source) -> PartGeometry:
 
 
 def predictions_geometry(predictions_dir: str | Path, case_id: str) -> PartGeometry:
-    """The ``predictions`` backend: ``<predictions_dir>/<case_id>/`` is an object folder."""
-    folder = Path(predictions_dir) / case_id
-    if not folder.is_dir():
-        raise InputError(folder, "no predicted object folder for this case")
-    return load_predicted_object(folder)
+    """The ``predictions`` backend: ``<predictions_dir>/<case_id>/`` is an object folder
+    (:func:`spark_bench.methods.predictions.prediction_folder`, which refuses unsafe case ids)."""
+    return load_predicted_object(prediction_folder(predictions_dir, case_id))
 
 
-def spark_command_argv(command: str, case_dir: Path, prior_json: Path, out: Path) -> list[str]:
+def command_fields(command: str) -> set[str]:
+    """The placeholder names of a ``spark`` command template (``{image}`` -> ``image``).
+
+    :raises InputError: when the template does not split like a shell command line
+    """
+    try:
+        return {name.split(".")[0].split("[")[0] for arg in shlex.split(command)
+                for _, name, _, _ in string.Formatter().parse(arg) if name is not None}
+    except ValueError as exc:
+        raise InputError(None, _bad_template(command, exc)) from None
+
+
+def _bad_template(command: str, exc: Exception) -> str:
+    return (f"geometry.spark_command {command!r} is not a valid template (placeholders: {{image}} {{prior}} "
+            f"{{out}} {{case}}; double literal braces): {exc!r}")
+
+
+def spark_command_argv(command: str, case: CaseInput, prior_json: Path, out: Path) -> list[str]:
     """The argument list of a ``spark`` command template (see :func:`spark_geometry`), without a shell.
 
+    :param case: the case; ``{case}`` (its whole folder) needs the ``gt`` input, since the folder holds
+        the ground truth
     :raises InputError: when the template does not split or names an unknown placeholder
     """
-    values = {"image": Path(case_dir).resolve() / "input.png", "prior": Path(prior_json).resolve(),
-              "out": Path(out).resolve(), "case": Path(case_dir).resolve()}
+    fields = command_fields(command)
+    values = {"prior": Path(prior_json).resolve(), "out": Path(out).resolve()}
+    if "image" in fields:
+        values["image"] = Path(case.image).resolve()
+    if "case" in fields:
+        values["case"] = Path(case.folder).resolve()
     try:
         argv = [arg.format(**values) for arg in shlex.split(command)]
     except (ValueError, KeyError, IndexError) as exc:
-        raise InputError(None, f"geometry.spark_command {command!r} is not a valid template "
-                               f"(placeholders: {{image}} {{prior}} {{out}} {{case}}; "
-                               f"double literal braces): {exc!r}") from None
+        raise InputError(None, _bad_template(command, exc)) from None
     if not argv:
         raise InputError(None, "geometry.spark_command is empty")
     return argv
 
 
-def run_spark_command(argv: list[str], timeout_s: float) -> subprocess.CompletedProcess:
-    """Run ``argv`` in its own process group; on timeout the whole group is killed (SPARK's pipeline
-    starts child processes that would otherwise keep running and hold the output pipes open).
+def run_spark_command(argv: list[str], timeout_s: float) -> ProgramResult:
+    """Run ``argv`` with :func:`spark_bench.methods.process.run_program` (its own process group, killed
+    whole on timeout: SPARK's pipeline starts child processes).
 
-    :raises InputError: when it cannot start, times out, or exits non-zero (with its stderr's tail)
+    :raises InputError: when it cannot start, times out, or exits non-zero (with its output's tail)
     """
     try:
-        process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                   stdin=subprocess.DEVNULL, start_new_session=True)
-    except OSError as exc:
-        raise InputError(argv[0], f"SPARK geometry command cannot start: {exc.strerror or exc}") from None
-    try:
-        stdout, stderr = process.communicate(timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        _kill_group(process)
-        process.communicate()
-        raise InputError(argv[0], f"SPARK geometry command timed out after {timeout_s:g} s") from None
-    done = subprocess.CompletedProcess(argv, process.returncode, stdout.decode(errors="replace"),
-                                       stderr.decode(errors="replace"))
+        done = run_program(argv, timeout_s)
+    except ProgramError as exc:
+        raise InputError(exc.program, f"SPARK geometry command {exc.problem}") from None
     if done.returncode != 0:
-        lines = (done.stderr.strip() or done.stdout.strip()).splitlines()
-        tail = " | ".join(line.strip() for line in lines[-3:] if line.strip()) or "no output"
+        tail = " | ".join(done.last_lines(3)) or "no output"
         raise InputError(argv[0], f"SPARK geometry command exited {done.returncode}: {tail}")
     return done
-
-
-def _kill_group(process: subprocess.Popen) -> None:
-    try:
-        os.killpg(process.pid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError):
-        process.kill()
 
 
 def read_spark_output(out: Path) -> ArticulatedAsset:
@@ -210,18 +216,20 @@ def read_spark_output(out: Path) -> ArticulatedAsset:
     return asset
 
 
-def spark_geometry(command: str, case_dir: Path, prior_json: Path, work_dir: Path,
+def spark_geometry(command: str, case: CaseInput, prior_json: Path, work_dir: Path,
                    timeout_s: float = 3600.0) -> PartGeometry:
     """The ``spark`` backend: run SPARK's public pipeline as an external command.
 
-    ``command`` is a template with ``{image}`` (the case's ``input.png``), ``{prior}`` (the coarse URDF
+    ``command`` is a template with ``{image}`` (the case's input image), ``{prior}`` (the coarse URDF
     JSON of stage 1), ``{out}`` (an empty folder where it must write ``mobility.urdf`` with one GLB per
-    link) and ``{case}`` (the case folder), all absolute paths, e.g.
+    link) and ``{case}`` (the case folder: it holds the ground truth, so ``ours`` then declares the
+    ``gt`` input and says so in its regime), all absolute paths, e.g.
     ``python /opt/SPARK/infer.py --image {image} --urdf_prior {prior} --output {out}``. It runs without
     a shell. Its links must be named as the prior's (the root part may have another name: it becomes
     the prior's root), its meshes may be at any scale and position: they are normalized to the
     benchmark frame like any predicted object.
 
+    :param case: the case (:class:`~spark_bench.methods.base.CaseInput`)
     :param work_dir: ``{out}`` is ``<work_dir>/spark_geometry``, emptied first
     :param timeout_s: time limit; the command's whole process group is killed after it
     :raises InputError: one line naming the command or the file, on any failure
@@ -230,7 +238,7 @@ def spark_geometry(command: str, case_dir: Path, prior_json: Path, work_dir: Pat
     if out.exists():  # a stale mobility.urdf from an earlier run must not pass for this one's
         shutil.rmtree(out)
     out.mkdir(parents=True)
-    run_spark_command(spark_command_argv(command, case_dir, prior_json, out), timeout_s)
+    run_spark_command(spark_command_argv(command, case, prior_json, out), timeout_s)
     return _normalized_parts(read_spark_output(out), out)
 
 

@@ -1,7 +1,8 @@
 """Open-state image backends (stage 3): the supervision of the joint optimization.
 
-- ``dataset``: the case's rendered ``open.png``, its object mask (``open_seg.png > 0``) and its
-  per-link masks (``open_seg.png == k + 1`` for ``case.json`` link k);
+- ``dataset``: the case's rendered open state: with the ``open_masks`` input, its object mask (link
+  labels > 0) and its per-link masks (label k + 1 for the case's link k); without, the object mask of
+  the open image (:func:`mask_from_image`);
 - ``http``: an image-generation endpoint that turns the input image into its open state. It receives
   ``POST {url}`` with JSON ``{"model", "prompt", "image": <PNG data URL>, "response_format": "b64_json"}``
   and answers OpenAI's images shape ``{"data": [{"b64_json": "<PNG>"}]}``. The mask is the PNG's alpha
@@ -14,14 +15,16 @@ import base64
 import io
 import json
 from dataclasses import dataclass, field
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from PIL import Image
 
-from spark_bench.data.readers import read_case
 from spark_bench.errors import InputError
 from spark_bench.spark.remote import image_data_url, post_json, with_retries
+
+if TYPE_CHECKING:
+    from spark_bench.methods.base import CaseInput
 
 OPEN_PROMPT = ("The same object, same camera, same lighting, with every movable part (doors, drawers, "
                "lids...) fully open. Plain background.")
@@ -49,37 +52,30 @@ def mask_from_image(image: Image.Image, threshold: float = 0.08) -> np.ndarray:
     return (np.abs(rgb - background).max(axis=2) > threshold).astype(np.float64)
 
 
-def dataset_open_state(case_dir: Path) -> OpenState:
-    """The ``dataset`` backend: ``open_seg.png`` (16-bit labels, 0 = background) as the mask."""
-    seg_path = Path(case_dir) / "open_seg.png"
-    if seg_path.is_file():
-        try:
-            seg = np.asarray(Image.open(seg_path))
-        except OSError as exc:
-            raise InputError(seg_path, f"unreadable image: {exc}") from None
-        if seg.ndim == 3:
-            seg = seg[..., 0]
-        return OpenState((seg > 0).astype(np.float64), str(seg_path), _link_masks(seg, case_dir))
-    image_path = Path(case_dir) / "open.png"
-    if not image_path.is_file():
-        raise InputError(case_dir, "no open_seg.png or open.png for the open-state supervision")
-    with Image.open(image_path) as image:
-        return OpenState(mask_from_image(image), str(image_path))
+def dataset_open_state(case: CaseInput, part_masks: bool) -> OpenState:
+    """The ``dataset`` backend: the case's rendered open state.
 
+    With ``part_masks``, the open state's link labels (the ``open_masks`` input) give the object mask
+    (every labelled pixel) and each link's mask (when the case has no labels: as without). Without, the
+    labels are never read: the mask is the open image's object (:func:`mask_from_image`).
 
-def _link_masks(seg: np.ndarray, case_dir: Path) -> dict[str, np.ndarray]:
-    """Per-link masks of a segmentation (value k + 1 = ``case.json`` link k); none without case.json.
-
-    :raises InputError: naming ``case.json`` when it is malformed or its ``links`` is not a list
+    :param case: the case (:class:`~spark_bench.methods.base.CaseInput`)
+    :param part_masks: read the per-link masks (:meth:`SparkConfig.uses_part_masks`)
+    :raises PermissionError: when ``case`` lacks an input this needs (``open_masks``, ``open_image``)
+    :raises InputError: naming the file when an image is missing or unreadable, or the case's link
+        names are malformed
     """
-    if not (Path(case_dir) / "case.json").is_file():
-        return {}
-    links = read_case(case_dir).get("links")
-    if not isinstance(links, list):
-        raise InputError(Path(case_dir) / "case.json",
-                         '"links" must be the list of link names that open_seg.png labels index')
-    present = set(np.unique(seg).tolist()) - {0}
-    return {str(links[k - 1]): (seg == k).astype(np.float64) for k in sorted(present) if 0 < k <= len(links)}
+    if part_masks and case.path("open_masks").is_file():
+        labels = case.open_labels()
+        return OpenState((labels > 0).astype(np.float64), str(case.path("open_masks")), case.open_part_masks())
+    image_path = case.open_image
+    if not image_path.is_file():
+        raise InputError(image_path, "open-state image not found")
+    try:
+        with Image.open(image_path) as image:
+            return OpenState(mask_from_image(image), str(image_path))
+    except OSError as exc:
+        raise InputError(image_path, f"unreadable image: {exc}") from None
 
 
 def http_open_state(config, input_png: bytes) -> OpenState:

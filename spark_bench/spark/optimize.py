@@ -100,8 +100,8 @@ class OpenStateScene:
     :param camera: the view of the open-state image
     :param target: (H, W) open-state mask in [0, 1], the camera's size
     :param max_faces: per-link face budget for rendering
-    :param part_masks: optional (H, W) visible mask of each link in the open-state image (e.g. from the
-        case's ``open_seg.png``), keyed by the asset's link names; links without one are unconstrained
+    :param part_masks: optional (H, W) visible mask of each link in the open-state image (e.g. the
+        case's open part masks), keyed by the asset's link names; links without one are unconstrained
     """
 
     def __init__(self, asset: ArticulatedAsset, camera: Camera, target: np.ndarray, max_faces: int = 600,

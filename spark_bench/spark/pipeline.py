@@ -17,12 +17,13 @@ import json
 import time
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 
-from spark_bench.data.readers import read_case
 from spark_bench.errors import InputError
+from spark_bench.jsonio import to_json_text
 from spark_bench.spark.assemble import assemble_asset, joint_summary
 from spark_bench.spark.camera import load_camera
 from spark_bench.spark.config import SparkConfig
@@ -40,6 +41,9 @@ from spark_bench.spark.refine import RefineSettings, refine
 from spark_bench.spark.structure import PriorStructure
 from spark_bench.spark.vlm import request_structure
 
+if TYPE_CHECKING:
+    from spark_bench.methods.base import CaseInput
+
 
 @contextmanager
 def torch_threads(n: int):
@@ -52,50 +56,45 @@ def torch_threads(n: int):
         torch.set_num_threads(before)
 
 
-def load_ground_truth(case_dir: Path):
-    """The case's ``gt/`` object (benchmark frame)."""
-    from spark_bench.data import load_object
-
-    return load_object(Path(case_dir) / "gt")
-
-
-def _geometry(config: SparkConfig, case_dir: Path, case_id: str, gt, prior_json: Path | None,
-              work: Path) -> PartGeometry:
+def _geometry(config: SparkConfig, case: CaseInput, gt, prior_json: Path | None, work: Path) -> PartGeometry:
     backend = config.geometry.backend
     if backend == "annotation":
         return annotation_geometry(gt)
     if backend == "predictions":
-        return predictions_geometry(config.geometry.predictions_dir, case_id)
-    return spark_geometry(config.geometry.spark_command, case_dir, prior_json, work, config.geometry.timeout_s)
+        return predictions_geometry(config.geometry.predictions_dir, case.case_id)
+    return spark_geometry(config.geometry.spark_command, case, prior_json, work, config.geometry.timeout_s)
 
 
-def _prior(config: SparkConfig, case_dir: Path, case_id: str, gt, geometry: PartGeometry | None):
+def _prior(config: SparkConfig, case: CaseInput, gt, geometry: PartGeometry | None):
     backend = config.prior.backend
     known = geometry.names if geometry is not None else None
     if backend == "annotation":
-        return annotation_prior(gt, case_id, config.prior.noise), None
+        return annotation_prior(gt, case.case_id, config.prior.noise), None
     if backend == "file":
-        return file_prior(config.prior.file_dir, case_id, known), None
-    return request_structure(config.vlm, _input_image(case_dir), known, geometry.labels if geometry else None)
+        return file_prior(config.prior.file_dir, case.case_id, known), None
+    return request_structure(config.vlm, _input_image(case), known, geometry.labels if geometry else None)
 
 
-def _input_image(case_dir: Path) -> bytes:
-    image = Path(case_dir) / "input.png"
+def _input_image(case: CaseInput) -> bytes:
+    image = case.image
     if not image.is_file():
         raise InputError(image, "input image not found")
     return image.read_bytes()
 
 
-def _open_state(config: SparkConfig, case_dir: Path) -> OpenState:
+def _open_state(config: SparkConfig, case: CaseInput) -> OpenState:
     if config.open_state.backend == "dataset":
-        return dataset_open_state(case_dir)
-    return http_open_state(config.open_state, _input_image(case_dir))
+        return dataset_open_state(case, config.uses_part_masks())
+    return http_open_state(config.open_state, _input_image(case))
 
 
-def run_ours(case_dir: Path, out_dir: Path, config: SparkConfig | None = None) -> dict:
+def run_ours(case: CaseInput, out_dir: Path, config: SparkConfig | None = None) -> dict:
     """Run the SPARK pipeline on one case and write the refined and prior-only objects.
 
-    :param case_dir: a benchmark case folder (docs/formats.md)
+    Everything it reads of the case goes through ``case``, which refuses the inputs the method did not
+    declare (:meth:`SparkConfig.case_inputs` are the ones ``config`` needs).
+
+    :param case: the case as the ``ours`` method sees it (:class:`~spark_bench.methods.base.CaseInput`)
     :param out_dir: where the object folder, ``prior/``, ``prior.json`` and ``spark_report.json`` go
     :param config: the pipeline configuration (default: everything offline)
     :returns: the report (also written to ``spark_report.json``)
@@ -103,30 +102,29 @@ def run_ours(case_dir: Path, out_dir: Path, config: SparkConfig | None = None) -
     from spark_bench.asset.urdf import write_object_folder
 
     config = config or SparkConfig()
-    case_dir, out_dir = Path(case_dir), Path(out_dir)
+    out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     timings: dict[str, float] = {}
     tick = time.perf_counter()
-    case = read_case(case_dir)
-    case_id = str(case["id"])
+    case_id = case.case_id
     needs_gt = "annotation" in (config.prior.backend, config.geometry.backend)
-    gt = load_ground_truth(case_dir) if needs_gt else None
+    gt = case.load_gt() if needs_gt else None
     timings["load"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
     geometry = None
     if config.geometry.backend != "spark":  # these know the parts before the prior
-        geometry = _geometry(config, case_dir, case_id, gt, None, out_dir)
-    prior, raw_answer = _prior(config, case_dir, case_id, gt, geometry)
+        geometry = _geometry(config, case, gt, None, out_dir)
+    prior, raw_answer = _prior(config, case, gt, geometry)
     prior_json = out_dir / "prior.json"
     prior_json.write_text(json.dumps(raw_answer if raw_answer is not None else prior.to_dict(), indent=1) + "\n")
     timings["prior"] = time.perf_counter() - tick
     if geometry is None:
         tick = time.perf_counter()
-        geometry = _geometry(config, case_dir, case_id, gt, prior_json, out_dir)
+        geometry = _geometry(config, case, gt, prior_json, out_dir)
         timings["geometry"] = time.perf_counter() - tick
 
-    prior_asset = assemble_asset(prior, geometry, name=case_id, category=str(case.get("category", "")))
+    prior_asset = assemble_asset(prior, geometry, name=case_id, category=case.category)
     movable = [j.name for j in prior.joints if j.type != "fixed"]
     report = {
         "case": case_id, "label": config.label(), "config": config.to_dict(),
@@ -141,7 +139,7 @@ def run_ours(case_dir: Path, out_dir: Path, config: SparkConfig | None = None) -
 
     refined_asset = prior_asset
     if config.optimize.enabled:
-        refined_asset, opt_report = _optimize(config, case_dir, prior, prior_asset, geometry, timings)
+        refined_asset, opt_report = _optimize(config, case, prior, prior_asset, geometry, timings)
         report.update(opt_report)
     tick = time.perf_counter()
     write_object_folder(refined_asset, out_dir)
@@ -154,24 +152,25 @@ def run_ours(case_dir: Path, out_dir: Path, config: SparkConfig | None = None) -
                                  "refined": joint_errors(report["refined_joints"], truth)}
     report["movable_joints"] = movable
     report["timings"] = {k: round(v, 4) for k, v in timings.items()}
-    (out_dir / "spark_report.json").write_text(json.dumps(report, indent=1, default=_json_default) + "\n")
+    (out_dir / "spark_report.json").write_text(to_json_text(report, indent=1) + "\n")
     return report
 
 
-def _optimize(config: SparkConfig, case_dir: Path, prior: PriorStructure, prior_asset, geometry, timings):
+def _optimize(config: SparkConfig, case: CaseInput, prior: PriorStructure, prior_asset, geometry, timings):
     tick = time.perf_counter()
-    open_state = _open_state(config, case_dir)
-    camera = load_camera(Path(case_dir) / "camera.json")
+    open_state = _open_state(config, case)
+    camera_path = case.path("camera")
+    camera = load_camera(camera_path)
     if open_state.mask.shape != (camera.height, camera.width):
         # the optimizer compares renders from this camera with the mask pixel for pixel
         raise InputError(open_state.source, f"open-state mask is {open_state.mask.shape[1]} x "
-                                            f"{open_state.mask.shape[0]} px, camera.json says "
+                                            f"{open_state.mask.shape[0]} px, {camera_path.name} says "
                                             f"{camera.width} x {camera.height}")
     timings["open_state"] = time.perf_counter() - tick
     start_asset = prior_asset
     if config.optimize.refine == "vlm":  # the paper's re-prediction of type and axis, then the fit
         tick = time.perf_counter()
-        reprior, _ = request_structure(config.vlm, _input_image(case_dir), geometry.names, geometry.labels,
+        reprior, _ = request_structure(config.vlm, _input_image(case), geometry.names, geometry.labels,
                                        refine_from=prior)
         start_asset = assemble_asset(reprior, geometry, name=prior_asset.name, category=prior_asset.category)
         timings["vlm_refine"] = time.perf_counter() - tick
@@ -206,11 +205,3 @@ def _part_masks(config: SparkConfig, open_state: OpenState, geometry: PartGeomet
         if part in asset.links and masks:
             out[part] = np.clip(np.sum(masks, axis=0), 0.0, 1.0)
     return out or None
-
-
-def _json_default(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"not JSON serializable: {type(value).__name__}")

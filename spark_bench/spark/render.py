@@ -229,7 +229,7 @@ def rasterize_labels(vertices: np.ndarray, faces: np.ndarray, face_labels: np.nd
     """Exact z-buffered label image (H, W): 0 where no triangle covers the pixel centre, else the
     ``face_labels`` value (>= 1) of the nearest triangle there.
 
-    The visible-part segmentation of a posed mesh, like a case's ``*_seg.png``; not differentiable
+    The visible-part segmentation of a posed mesh, like a case's link-label images; not differentiable
     (the discrete refinement scores candidates with it).
 
     :param vertices: (N, 3) world-space vertices
@@ -242,7 +242,7 @@ def rasterize_labels(vertices: np.ndarray, faces: np.ndarray, face_labels: np.nd
 
 def asset_label_image(asset, q, camera: Camera) -> np.ndarray:
     """Exact (H, W) label image of ``asset`` at configuration ``q``: 0 background, k + 1 where link k of
-    ``asset.links`` (file order, as a case's ``*_seg.png``) is the nearest surface."""
+    ``asset.links`` (file order, as a case's link-label images) is the nearest surface."""
     links = list(asset.links)
     meshes = asset.link_meshes(q)
     names = list(meshes)
@@ -254,7 +254,7 @@ def asset_label_image(asset, q, camera: Camera) -> np.ndarray:
 
 
 def open_part_masks(asset, camera: Camera) -> dict[str, np.ndarray]:
-    """Each link's visible mask in the open state (what a case's ``open_seg.png`` holds), as floats."""
+    """Each link's visible mask in the open state (what a case's open part masks hold), as floats."""
     labels = asset_label_image(asset, asset.open_configuration(), camera)
     return {n: (labels == k + 1).astype(float) for k, n in enumerate(asset.links) if asset.links[n].has_geometry}
 

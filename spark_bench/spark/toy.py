@@ -7,6 +7,8 @@ benchmark frame, with a camera like the dataset's (40 degree field of view, 4 un
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import trimesh
 
@@ -72,29 +74,28 @@ def write_toy_case(case_dir, asset: ArticulatedAsset | None = None, camera: Came
                    case_id: str = "toy_cabinet") -> None:
     """A benchmark case folder (docs/formats.md) for ``asset`` (default: :func:`toy_cabinet`).
 
-    Label images (``*_seg.png``: 0 background, k + 1 = link k) come from the exact rasterizer; ``input.png``/``open.png`` are the masks drawn grey on white
-    (enough for the offline backends, which read ``open_seg.png``).
+    Label images (0 background, k + 1 = link k) come from the exact rasterizer; the input and open
+    images are the masks drawn grey on white (enough for the offline backends).
     """
-    import json
-    from pathlib import Path
-
     from PIL import Image
 
     from spark_bench.asset.urdf import write_object_folder
+    from spark_bench.data.case import BenchmarkCase
     from spark_bench.spark.render import asset_label_image
 
-    case_dir = Path(case_dir)
-    case_dir.mkdir(parents=True, exist_ok=True)
+    case = BenchmarkCase(case_dir)
+    case.folder.mkdir(parents=True, exist_ok=True)
     asset = asset or toy_cabinet()
     camera = camera or toy_camera(256)
-    write_object_folder(asset, case_dir / "gt")
-    for stem, q in (("input", asset.rest_configuration()), ("open", asset.open_configuration())):
-        # a label image as the format says (k + 1 = case.json link k), not a 0/1 mask: a 0/1 image
-        # would say that every object pixel is link 0's, and the per-part supervision would believe it
+    write_object_folder(asset, case.gt_dir)
+    for state, q in (("input", asset.rest_configuration()), ("open", asset.open_configuration())):
+        # a label image as the format says (k + 1 = link k), not a 0/1 mask: a 0/1 image would say
+        # that every object pixel is link 0's, and the per-part supervision would believe it
+        image_path, seg_path = case.state_files(state)
         labels = asset_label_image(asset, q, camera)
-        Image.fromarray(labels.astype(np.uint16)).save(case_dir / f"{stem}_seg.png")
+        Image.fromarray(labels.astype(np.uint16)).save(seg_path)
         mask = labels > 0
-        Image.fromarray(np.where(mask, 120, 255).astype(np.uint8)).convert("RGB").save(case_dir / f"{stem}.png")
+        Image.fromarray(np.where(mask, 120, 255).astype(np.uint8)).convert("RGB").save(image_path)
     joints = []
     frames = asset.joint_frames()
     for joint in asset.movable_joints():
@@ -102,16 +103,15 @@ def write_toy_case(case_dir, asset: ArticulatedAsset | None = None, camera: Came
         joints.append({"name": joint.name, "type": joint.type, "parent": joint.parent, "child": joint.child,
                        "axis": direction.tolist(), "origin": point.tolist(), "lower": joint.lower,
                        "upper": joint.upper, "label": asset.links[joint.child].label})
-    case = {"id": case_id, "category": asset.category, "source": "toy", "links": list(asset.links),
-            "joints": joints, "normalization": {"center": [0, 0, 0], "scale": 1.0},
-            "image_size": camera.width, "view_seed": 0}
-    (case_dir / "case.json").write_text(json.dumps(case, indent=1))
     focal = float(camera.intrinsics[1, 1])
     camera_to_world = np.linalg.inv(camera.world_to_camera)
-    (case_dir / "camera.json").write_text(json.dumps({
+    case.camera_path.write_text(json.dumps({
         "width": camera.width, "height": camera.height,
         "fov_deg": float(np.degrees(2 * np.arctan(camera.height / 2 / focal))),
         "distance": float(np.linalg.norm(camera_to_world[:3, 3])),
         "intrinsics": camera.intrinsics.tolist(), "world_to_camera": camera.world_to_camera.tolist(),
         "camera_to_world": camera_to_world.tolist(), "position": camera_to_world[:3, 3].tolist(),
         "convention": "opencv"}))
+    case.write_record({"id": case_id, "category": asset.category, "source": "toy", "links": list(asset.links),
+                       "joints": joints, "normalization": {"center": [0, 0, 0], "scale": 1.0},
+                       "image_size": camera.width, "view_seed": 0})

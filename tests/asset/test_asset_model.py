@@ -47,8 +47,10 @@ def test_configurations_and_joint_frames():
     assert asset.rest_configuration() == {"joint_drawer": 0.0, "joint_door": 0.0}
     assert asset.open_configuration() == {"joint_drawer": 0.3, "joint_door": pytest.approx(np.pi / 2)}
     point, direction = asset.joint_frames()["joint_door"]
-    np.testing.assert_allclose(point, [-0.22, 0, 0])
-    np.testing.assert_allclose(direction, [0, 0, 1])
+    # FK composes 4x4 products of magnitude ~1: a few ulps (~1e-16) each; 1e-12 leaves a wide margin,
+    # and an absolute tolerance is needed for the zero components (rtol alone would demand exact zeros)
+    np.testing.assert_allclose(point, [-0.22, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(direction, [0, 0, 1], atol=1e-12)
     with pytest.raises(KeyError, match="no joint named"):
         asset.link_poses({"nope": 1.0})
 
@@ -63,6 +65,8 @@ def test_moving_links_and_parts():
 def test_normalize_fits_unit_box_and_preserves_kinematics():
     asset = tiny_cabinet()
     normalized, center, scale = normalize_asset(asset)
+    # tolerances below: the normalization and the expected values are two computations of the same
+    # similarity on coordinates of magnitude <= 2, each a few float64 roundings (~1e-16): 1e-12 is safe
     bounds = normalized.bounds()
     np.testing.assert_allclose(bounds.mean(0), 0, atol=1e-12)
     assert (bounds[1] - bounds[0]).max() == pytest.approx(2.0)
@@ -74,14 +78,15 @@ def test_normalize_fits_unit_box_and_preserves_kinematics():
                                atol=1e-12)
     point, direction = normalized.joint_frames()["joint_door"]
     np.testing.assert_allclose(point, (np.array([-0.22, 0, 0]) - center) * scale, atol=1e-12)
-    np.testing.assert_allclose(direction, [0, 0, 1])
+    np.testing.assert_allclose(direction, [0, 0, 1], atol=1e-12)
 
 
 def test_scale_and_translate_reject_bad_values_and_do_not_mutate():
     asset = tiny_cabinet()
     before = asset.mesh().vertices.copy()
     moved = translate_asset(asset, [1.0, 2.0, 3.0])
-    np.testing.assert_allclose(moved.mesh().vertices, before + [1, 2, 3])
+    # the translation through the FK's 4x4 product vs. a plain addition: a few ulps of magnitude ~3
+    np.testing.assert_allclose(moved.mesh().vertices, before + [1, 2, 3], rtol=0, atol=1e-12)
     np.testing.assert_allclose(asset.mesh().vertices, before)
     with pytest.raises(ValueError):
         scale_asset(asset, 0.0)
@@ -95,6 +100,8 @@ def test_similarity_moves_geometry_joints_and_collisions_and_undoes_normalizatio
     matrix = np.eye(4)
     matrix[:3, :3], matrix[:3, 3] = 1.5 * rotation, [0.2, -0.1, 0.4]
     moved = similarity_asset(asset, matrix)
+    # the similarity applied by the asset (FK, 4x4 products) vs. here (3x3 product + translation):
+    # float64 roundings on coordinates of magnitude ~1, so 1e-12 absolute is ~1e4 ulps of margin
     q, q_moved = asset.open_configuration(), moved.open_configuration()
     assert q_moved["joint_drawer"] == pytest.approx(1.5 * q["joint_drawer"])  # prismatic limits scale
     expected = asset.mesh(q).vertices @ matrix[:3, :3].T + matrix[:3, 3]
@@ -108,7 +115,8 @@ def test_similarity_moves_geometry_joints_and_collisions_and_undoes_normalizatio
     moved_world = moved.link_poses()["body"] @ moved.links["body"].collisions[0].origin
     np.testing.assert_allclose(moved_world[:3, 3], matrix[:3, :3] @ world[:3, 3] + matrix[:3, 3], atol=1e-12)
     np.testing.assert_allclose(moved_world[:3, :3], rotation @ world[:3, :3], atol=1e-12)
-    np.testing.assert_allclose(moved.links["body"].collisions[0].size, 1.5 * asset.links["body"].collisions[0].size)
+    np.testing.assert_allclose(moved.links["body"].collisions[0].size, 1.5 * asset.links["body"].collisions[0].size,
+                               rtol=1e-12)
     # the benchmark frame and back: the source object again
     normalized, center, scale = normalize_asset(asset)
     back = similarity_asset(normalized, denormalization(center, scale))

@@ -7,9 +7,15 @@ import pytest
 import trimesh
 
 from spark_bench.asset.mesh import (
+    _Grid,
+    _in_one_piece,
+    _sample_grids,
+    _walk_rows,
+    fill_holes,
     make_watertight,
     merge_meshes,
     sample_surface,
+    signed_volume,
     voxel_pitch,
     voxelize_surface,
 )
@@ -38,7 +44,8 @@ def test_pitch_follows_resolution_thin_axis_and_memory_cap():
 def test_voxelize_marks_every_cell_the_surface_crosses():
     box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
     occupancy, origin = voxelize_surface(box, 0.1)
-    # 10 cells across plus the half-pitch margins; the six faces form a closed shell of cells
+    # 10 cells across plus the half-pitch margins; the six faces form a closed shell of cells (the
+    # shape is ceil(1.1 / 0.1) + 1 in IEEE arithmetic, the same on every machine)
     assert occupancy.shape == (12, 12, 12)
     np.testing.assert_allclose(origin, [-0.55, -0.55, -0.55])
     from scipy.ndimage import binary_fill_holes
@@ -54,6 +61,7 @@ def test_open_mesh_becomes_watertight_with_original_extents():
     assert not open_box.is_watertight
     shell, report = make_watertight(open_box, resolution=60)
     assert report.method == "voxel" and report.watertight and shell.is_watertight
+    # the axis-wise rescale restores the extents up to float64 rounding of ~0.4 m coordinates (~1e-16)
     np.testing.assert_allclose(shell.extents, open_box.extents, atol=1e-9)
     np.testing.assert_allclose(shell.bounds.mean(0), open_box.bounds.mean(0), atol=1e-9)
     assert shell.volume > 0
@@ -91,6 +99,7 @@ def test_sampling_is_uniform_by_area_and_seeded():
     mesh = merge_meshes([small, big])
     points = sample_surface(mesh, 40_000, seed=3)
     assert abs((points[:, 2] > 2).mean() - 0.75) < 0.01
+    # the same call twice (one code path, no threads): a seed must give bit-identical points
     np.testing.assert_array_equal(points, sample_surface(mesh, 40_000, seed=3))
     assert not np.array_equal(points, sample_surface(mesh, 40_000, seed=4))
     # points lie on the surface, inside each square
@@ -127,3 +136,77 @@ def test_simplify_keeps_shell_watertight_and_close():
     small, _ = make_watertight(open_box, resolution=80, simplify=0.5)
     assert small.is_watertight and len(small.faces) < len(full.faces) / 20
     np.testing.assert_allclose(small.extents, full.extents, atol=report.pitch)
+
+
+def _random_triangles(rng, count: int, thin: bool) -> np.ndarray:
+    """Triangles in the unit cube; ``thin`` ones are slivers (one short side) like CAD meshes have."""
+    a = rng.uniform(0, 1, (count, 3))
+    b = a + rng.normal(0, 0.3, (count, 3))
+    c = (a + b) / 2 + rng.normal(0, 0.003 if thin else 0.3, (count, 3))
+    return np.stack([a, b, c], axis=1)
+
+
+@pytest.mark.parametrize("family", [0, 1, 2])
+def test_row_walk_marks_the_voxels_of_every_lattice_point(family):
+    """The row walk evaluates a few points per row with the full grid's own formula: the set of
+    voxels is the same set, compared exactly (both evaluate identical float expressions)."""
+    rng = np.random.default_rng(family)
+    triangles = np.concatenate([_random_triangles(rng, 300, thin=True),
+                                _random_triangles(rng, 60, thin=False)])
+    triangles[0] = [[-1, -1, -1]] * 3
+    triangles[1] = [[2, 2, 2]] * 3  # fixes the grid: the origin is -1.01
+    pitch = 0.02
+    # corners of some triangles on voxel faces (to rounding): crossings right at lattice points
+    triangles[2:40] = -1.01 + pitch * np.round((triangles[2:40] + 1.01) / pitch)
+    origin = triangles.reshape(-1, 3).min(0) - 0.5 * pitch
+    shape = np.ceil((triangles.reshape(-1, 3).max(0) + 0.5 * pitch - origin) / pitch).astype(int) + 1
+    edges = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).max(1)
+    steps = np.maximum(1, np.ceil(edges / (0.5 * pitch))).astype(int)
+    full, walked = _Grid(origin, pitch, shape), _Grid(origin, pitch, shape)
+    _sample_grids(full, triangles, steps)
+    _walk_rows(walked, triangles, steps, np.full(len(triangles), family))
+    assert full.occupancy.sum() > 1000
+    np.testing.assert_array_equal(walked.occupancy, full.occupancy)
+
+
+def test_voxelize_with_and_without_the_walk_agree_on_a_sliver_mesh():
+    rng = np.random.default_rng(7)
+    triangles = _random_triangles(rng, 400, thin=True)
+    faces = np.arange(len(triangles) * 3).reshape(-1, 3)
+    mesh = trimesh.Trimesh(triangles.reshape(-1, 3), faces, process=False)
+    walked, origin = voxelize_surface(mesh, 0.01)
+    full, origin_full = voxelize_surface(mesh, 0.01, walk=False, max_rows=1000)
+    np.testing.assert_array_equal(origin, origin_full)
+    np.testing.assert_array_equal(walked, full)
+
+
+def test_fill_holes_matches_scipy():
+    from scipy.ndimage import binary_fill_holes
+
+    rng = np.random.default_rng(0)
+    for density in (0.2, 0.5, 0.7):
+        occupancy = rng.random((23, 17, 11)) < density
+        np.testing.assert_array_equal(fill_holes(occupancy), binary_fill_holes(occupancy))
+    shell = np.ones((6, 6, 6), dtype=bool)
+    shell[1:-1, 1:-1, 1:-1] = False
+    assert fill_holes(shell).all() and not fill_holes(shell[:, :, :-1])[2, 2, 2]  # an open shell stays open
+
+
+def test_one_piece_follows_trimesh_split():
+    box = trimesh.creation.box()
+    far = box.copy()
+    far.apply_translation((3, 0, 0))
+    fan = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]],
+                          [[0, 1, 2], [0, 1, 3], [0, 1, 4]], process=False)  # one edge, three faces
+    pinch = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]],
+                            [[0, 1, 2], [0, 3, 4]], process=False)  # two faces sharing a vertex only
+    for mesh, one in ((box, True), (merge_meshes([box, far]), False), (fan, False), (pinch, False)):
+        assert _in_one_piece(mesh.faces) == one == (len(mesh.split(only_watertight=False)) == 1)
+
+
+def test_signed_volume_is_trimesh_volume():
+    box = trimesh.creation.box(extents=(0.4, 0.3, 0.2))
+    # the same integral summed in another order: equal to float64 rounding of a sum of 12 terms
+    assert signed_volume(box) == pytest.approx(box.volume, rel=1e-12) and box.volume == pytest.approx(0.024)
+    box.invert()
+    assert signed_volume(box) == pytest.approx(-0.024, rel=1e-12)

@@ -16,6 +16,9 @@ def _random_q(asset, rng):
 
 
 def _check_parity(asset, q):
+    """Torch (float64) and NumPy FK are two implementations of the same products of 4x4 transforms:
+    they differ by float64 rounding (and BLAS/FMA order), ~1e-15 per product on poses of magnitude ~1,
+    so 1e-10 absolute leaves orders of magnitude of margin while any real bug moves poses by far more."""
     ref = asset.link_poses(q)
     got = link_poses_torch(asset, {k: torch.tensor(v, dtype=torch.float64) for k, v in q.items()})
     assert set(ref) == set(got)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from conftest import REAL_IDS, real_object_path
 
-from spark_bench.asset.ops import normalize_asset
 from spark_bench.asset.urdf import write_object_folder
 from spark_bench.data import load_object
+from spark_bench.data.case import to_benchmark_frame
 
 EXPECTED = {  # id: (category, movable joint types)
     "41083": ("StorageFurniture", ["revolute", "revolute", "prismatic", "prismatic"]),
@@ -69,9 +69,9 @@ def test_flat_meshes_and_gapartnet_annotations():
 
 
 def test_real_object_round_trip_in_benchmark_frame(tmp_path):
-    asset, center, scale = normalize_asset(load_object(real_object_path("40147")))
-    write_object_folder(asset, tmp_path / "gt")
-    back = load_object(tmp_path / "gt")
+    asset, center, scale = to_benchmark_frame(load_object(real_object_path("40147")))
+    write_object_folder(asset, tmp_path / "normalized")
+    back = load_object(tmp_path / "normalized")
     q = back.open_configuration()
     np.testing.assert_allclose(back.mesh(q).vertices, asset.mesh(q).vertices, atol=1e-6)
     assert np.abs(back.bounds()).max() == pytest.approx(1.0, abs=1e-6)

@@ -1,4 +1,5 @@
-"""The opening environments: registration, Gymnasium conformity, determinism, grasp points, errors."""
+"""The opening environments: registration, Gymnasium conformity, determinism, grasp points, errors, and the
+unusual grips (a notch, lips side by side) carried out by the scripted opener."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import spark_bench  # noqa: F401  (registers the environments)
+from spark_bench.data.case import BenchmarkCase
 from spark_bench.envs.assets import asset_folder
 from spark_bench.envs.cabinet import procedural_cabinet
 from spark_bench.envs.grasp import find_grasp
@@ -37,6 +39,7 @@ def test_reset_and_step_are_deterministic(env_id):
     env_a, env_b = gym.make(env_id, asset="procedural:1"), gym.make(env_id, asset="procedural:1")
     obs_a, _ = env_a.reset(seed=7)
     obs_b, _ = env_b.reset(seed=7)
+    # exact: one code path run twice in one process (MuJoCo steps on one thread); determinism is the claim
     np.testing.assert_array_equal(obs_a, obs_b)
     actions = np.random.default_rng(0).uniform(-1, 1, size=(30, 4)).astype(np.float32)
     for action in actions:
@@ -157,11 +160,13 @@ def test_unknown_joint_and_wrong_kind_fail_at_make():
 
 
 def test_case_folder_maps_to_its_ground_truth(tmp_path):
-    (tmp_path / "case.json").write_text("{}")
-    with pytest.raises(InputError, match="no gt/"):
+    case = BenchmarkCase(tmp_path)
+    case.write_record({"id": "c0"})
+    with pytest.raises(InputError, match=f"no {case.gt_dir.name}/"):
         asset_folder(tmp_path)
-    (tmp_path / "gt").mkdir()
-    assert asset_folder(tmp_path) == tmp_path / "gt"
+    case.gt_dir.mkdir()
+    assert asset_folder(tmp_path) == case.gt_dir
+    assert asset_folder(case.gt_dir) == case.gt_dir  # the ground truth's own folder is an object folder
     with pytest.raises(InputError, match="no such"):
         asset_folder(tmp_path / "absent")
 
@@ -197,10 +202,26 @@ def test_sparse_reward_and_rgb_render():
 @pytest.mark.slow
 @pytest.mark.parametrize("object_id,env_ids", [("41083", ENV_IDS), ("45780", ("SparkDoor-v0",))])
 def test_check_env_on_real_objects(real_object, object_id, env_ids):
+    """Gymnasium-conformant on real objects, and a sound start: the gripper in front of the grasp point
+    (:data:`START_OFFSET` along the part's outward direction, give or take the start noise), the joint
+    shut, and an idle gripper leaves the object at rest (nothing pushed, nothing falling open)."""
+    from spark_bench.envs.base import START_NOISE, START_OFFSET
+
     folder = real_object(object_id)
     for env_id in env_ids:
         env = gym.make(env_id, asset=str(folder))
         check_env(env.unwrapped, skip_render_check=True)
+        obs, info = env.reset(seed=0)
+        tcp, grasp = obs[0:3].astype(float), obs[8:11].astype(float)
+        outward = env.unwrapped.scene.grasp.outward
+        noise = np.sqrt(3.0) * START_NOISE  # the start's uniform noise, at most this far from its centre
+        assert START_OFFSET - noise < (tcp - grasp) @ outward < START_OFFSET + noise, env_id
+        assert obs[14] == pytest.approx(0.0, abs=1e-9) and not info["is_success"]
+        for _ in range(20):  # hold still (an action of zero keeps the TCP's target where the TCP is)
+            obs, _, terminated, _, info = env.step(np.zeros(4, dtype=np.float32))
+        assert not terminated and np.all(np.isfinite(obs))
+        assert abs(env.unwrapped.joint_fraction) < 1e-3, (env_id, env.unwrapped.joint_fraction)
+        assert np.linalg.norm(obs[8:11] - grasp) < 1e-3  # the grasp point (on the part) has not moved
         env.close()
 
 
@@ -252,6 +273,21 @@ def test_a_notch_in_a_front_is_found_and_gripped_from_inside():
     pad = env.unwrapped.model.geom("spark_gripper_pad_left")
     assert 2 * pad.size[2] <= NOTCH_DEPTH - 0.008  # pads low enough to enter the notch
 
+
+@pytest.mark.parametrize("env_id,joint", [("SparkDrawer-v0", "joint_0"), ("SparkDoor-v0", "joint_1")])
+def test_scripted_opener_opens_notched_fronts_with_an_inside_grip(env_id, joint):
+    """No handle, a notch: the closed fingers enter it and open against its sides; a predicted axis 90
+    degrees off still fails on the notched drawer."""
+    from spark_bench.rl import ground_truth_joint, open_with_joint
+
+    env = gym.make(env_id, asset=notched_cabinet(0), joint=joint, max_episode_steps=150)
+    assert env.unwrapped.scene.grasp.inside_grip
+    axis, pivot, joint_type = ground_truth_joint(env)
+    result = open_with_joint(env, axis, pivot, joint_type, seed=0)
+    assert result.success and result.fraction >= 0.75
+    if joint_type == "prismatic":
+        bad = open_with_joint(env, np.cross(axis, [0.0, 0.0, 1.0]), pivot, joint_type, seed=0)
+        assert not bad.success and bad.max_fraction < 0.3
 
 
 #: Synth StorageFurniture object 7 of ``generate_dataset(seed=0)`` (the benchmark's set): a double door
@@ -317,4 +353,26 @@ def test_double_door_lips_are_pinched_one_at_a_time(double_door):
         env = gym.make("SparkDoor-v0", asset=str(double_door), joint=joint)
         pad = env.unwrapped.model.geom("spark_gripper_pad_left")
         assert 2 * pad.size[1] == pytest.approx(grasp.pad_thickness)
+        env.close()
+
+
+def test_scripted_opener_opens_each_leaf_of_a_double_door_alone(double_door):
+    """The edge lips of a double door stand ~6 mm apart: with the default 12 mm pads closing from fully
+    open, the fingers pinched both lips and neither door opened past 10 %. Each leaf must open while the
+    other stays shut."""
+    from spark_bench.rl import open_with_ground_truth
+
+    folder = str(double_door)
+    env = gym.make("SparkDoor-v0", asset=folder, max_episode_steps=150)
+    doors = [j.name for j in env.unwrapped.scene.asset.movable_joints() if j.type == "revolute"]
+    env.close()
+    assert len(doors) == 2
+    for joint, other in ((doors[0], doors[1]), (doors[1], doors[0])):
+        env = gym.make("SparkDoor-v0", asset=folder, joint=joint, max_episode_steps=150)
+        unwrapped = env.unwrapped
+        assert unwrapped.scene.grasp.opening is not None  # the pads go beside the lip, not around both
+        result = open_with_ground_truth(env, seed=0)
+        assert result.success and result.fraction >= 0.75, (joint, result)
+        other_q = unwrapped.data.qpos[unwrapped.model.jnt_qposadr[unwrapped.model.joint(other).id]]
+        assert abs(other_q) < 0.02, (other, other_q)  # rad: the neighbour was not dragged along
         env.close()

@@ -10,9 +10,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from helpers_bench import make_tiny_bench
-from test_eval import FAST
+from helpers_bench import FAST, make_tiny_bench
 
+from spark_bench.data.case import Benchmark, BenchmarkCase
 from spark_bench.evaluation.leaderboard import build_leaderboard, render, to_csv, to_latex, to_markdown
 from spark_bench.evaluation.store import ResultsStore
 
@@ -81,9 +81,9 @@ def test_markdown_latex_csv(store):
 
 
 def test_leaderboard_command_every_format(tmp_path, capsys, isolated_home):
-    from spark_bench.evaluation.runner import run_eval
     from spark_bench.cli import main
-    from spark_bench.generators import MethodSpec
+    from spark_bench.evaluation.runner import run_eval
+    from spark_bench.methods.base import MethodSpec
 
     bench = make_tiny_bench(tmp_path, n=2)
     for method in ("oracle", "geometry"):
@@ -110,14 +110,13 @@ def test_renders_differ_between_rest_and_open(tmp_path):
 
     from spark_bench.evaluation.render import read_camera, render_folder
 
-    bench = make_tiny_bench(tmp_path, n=1)
-    case = bench / "cases" / "cab0"
-    rest = np.asarray(render_folder(case / "gt", read_camera(case / "camera.json"), "rest", 96))
-    opened = np.asarray(render_folder(case / "gt", read_camera(case / "camera.json"), "open", 96))
+    case = Benchmark(make_tiny_bench(tmp_path, n=1)).case("cab0")
+    rest = np.asarray(render_folder(case.gt_dir, read_camera(case.camera_path), "rest", 96))
+    opened = np.asarray(render_folder(case.gt_dir, read_camera(case.camera_path), "open", 96))
     assert rest.shape == (96, 96, 3)
     assert (rest != 255).any(axis=2).mean() > 0.05  # the object covers part of the image
     assert np.abs(rest.astype(int) - opened).sum() > 0  # the door and drawer moved
-    assert Image.open(case / "input.png").size == (64, 64)
+    assert Image.open(case.input_image).size == (64, 64)
 
 
 @pytest.mark.skipif(not CHROMIUM.is_file(), reason="headless Chromium not installed (/usr/bin/chromium); "
@@ -146,17 +145,17 @@ def test_html_page_renders_in_headless_chromium(tmp_path, store):
 
 
 def test_read_camera_default_and_bad_file(tmp_path):
-    from spark_bench.evaluation.render import default_camera, read_camera
     from spark_bench.data.camera import CameraView
     from spark_bench.errors import InputError
+    from spark_bench.evaluation.render import default_camera, read_camera
 
     assert read_camera(tmp_path / "absent.json") == default_camera()
     view = CameraView.from_json(default_camera(64))  # the default is a valid camera.json
     assert view.fov_deg == pytest.approx(40.0) and view.position.tolist() == pytest.approx([-3.2, -1.6, 1.6])
-    bad = tmp_path / "camera.json"
+    bad = BenchmarkCase(tmp_path).camera_path
     bad.write_text('{"width": 64')
-    with pytest.raises(InputError, match=r"camera\.json: malformed JSON"):
+    with pytest.raises(InputError, match=rf"{bad}: malformed JSON"):
         read_camera(bad)
     bad.write_text('{"width": 64, "height": 64}')
-    with pytest.raises(InputError, match=r"camera\.json: malformed camera"):
+    with pytest.raises(InputError, match=rf"{bad}: malformed camera"):
         read_camera(bad)

@@ -1,5 +1,5 @@
 """The opening score of a prediction: the scripted opener, planned from the predicted joints, acting on
-the ground-truth object at its real size (a case's gt/ is stored normalized to [-1, 1]^3)."""
+the ground-truth object at its real size (a case's ground truth is stored normalized to [-1, 1]^3)."""
 
 from __future__ import annotations
 
@@ -11,12 +11,12 @@ from helpers_bench import write_case
 
 from spark_bench.asset import write_object_folder
 from spark_bench.asset.ops import similarity_asset
-from spark_bench.evaluation.opening import open_with_predicted_joints
 from spark_bench.data import load_object
-from spark_bench.data.readers import case_to_source_frame
-from spark_bench.envs.assets import at_source_size, load_asset
+from spark_bench.data.case import BenchmarkCase
+from spark_bench.envs.assets import load_asset
 from spark_bench.envs.cabinet import procedural_cabinet
 from spark_bench.errors import InputError
+from spark_bench.evaluation.opening import ground_truth_in_metres, open_with_predicted_joints
 
 
 @pytest.fixture(scope="module")
@@ -24,46 +24,58 @@ def case_dir(tmp_path_factory):
     return write_case(tmp_path_factory.mktemp("bench"), "cab0", procedural_cabinet(seed=0))
 
 
+@pytest.fixture(scope="module")
+def gt_dir(case_dir):
+    return BenchmarkCase(case_dir).gt_dir
+
+
 def identity_matching(asset) -> dict:
     return {"matching": [{"gt_joint": j.name, "pred_joint": j.name} for j in asset.movable_joints()]}
 
 
-def test_case_ground_truth_comes_back_at_source_size(case_dir):
+def test_case_ground_truth_comes_back_at_source_size(case_dir, gt_dir, tmp_path):
     source = procedural_cabinet(seed=0)
-    gt, to_source = at_source_size(load_object(case_dir / "gt"), case_dir / "gt")
+    stored, gt, to_metres = ground_truth_in_metres(gt_dir)
+    assert stored.bounds().max() == pytest.approx(1.0)  # the files: benchmark frame
+    # the meshes went through files and back to metres: equal to well within 1e-6 m
     np.testing.assert_allclose(gt.bounds(), source.bounds(), atol=1e-6)
-    assert load_object(case_dir / "gt").bounds().max() == pytest.approx(1.0)  # the files: benchmark frame
+    corners = np.c_[stored.bounds(), np.ones(2)] @ to_metres.T  # the matrix maps the stored box onto it
+    np.testing.assert_allclose(corners[:, :3], source.bounds(), atol=1e-6)
     # the environments see the same object when given the case
     env_asset, _ = load_asset(case_dir)
     np.testing.assert_allclose(env_asset.bounds(), source.bounds(), atol=1e-6)
-    np.testing.assert_allclose(to_source, case_to_source_frame(case_dir))
+    # any other object folder (here: a copy of the stored ground truth outside its case) is used as it is
+    write_object_folder(stored, tmp_path / "object")
+    files, same, identity = ground_truth_in_metres(tmp_path / "object")
+    assert same is files and np.array_equal(identity, np.eye(4))
+    assert same.bounds().max() == pytest.approx(1.0)
 
 
-def test_ground_truth_joints_open_the_case_and_a_wrong_axis_does_not(case_dir, tmp_path):
-    gt = load_object(case_dir / "gt")
-    result = open_with_predicted_joints(case_dir / "gt", case_dir / "gt", identity_matching(gt))
+def test_ground_truth_joints_open_the_case_and_a_wrong_axis_does_not(gt_dir, tmp_path):
+    gt = load_object(gt_dir)
+    result = open_with_predicted_joints(gt_dir, gt_dir, identity_matching(gt))
     assert result["success_rate"] == 1.0
     assert {name for name, j in result["joints"].items() if j["success"]} == {j.name for j in gt.movable_joints()}
     # a prediction at another scale and place (methods answer in any frame): the same joints, still opened
     matrix = np.eye(4)
     matrix[:3, :3], matrix[:3, 3] = 0.37 * np.eye(3), [2.0, -1.0, 0.5]
     write_object_folder(similarity_asset(gt, matrix), tmp_path / "moved")
-    assert open_with_predicted_joints(tmp_path / "moved", case_dir / "gt", identity_matching(gt))["success_rate"] == 1.0
+    assert open_with_predicted_joints(tmp_path / "moved", gt_dir, identity_matching(gt))["success_rate"] == 1.0
     # the drawer's axis turned sideways: the pull drags the handle across the front, the drawer stays shut
     wrong = gt.copy()
     drawer = next(j for j in wrong.movable_joints() if j.type == "prismatic")
     drawer.axis = np.array([0.0, 1.0, 0.0])
     write_object_folder(wrong, tmp_path / "wrong")
-    joints = open_with_predicted_joints(tmp_path / "wrong", case_dir / "gt", identity_matching(gt))["joints"]
+    joints = open_with_predicted_joints(tmp_path / "wrong", gt_dir, identity_matching(gt))["joints"]
     assert joints[drawer.name]["success"] is False
     assert all(j["success"] for name, j in joints.items() if name != drawer.name)
 
 
-def test_unmatched_joint_counts_as_not_opened(case_dir):
-    gt = load_object(case_dir / "gt")
+def test_unmatched_joint_counts_as_not_opened(gt_dir):
+    gt = load_object(gt_dir)
     door = next(j for j in gt.movable_joints() if j.type == "revolute")
     metrics = {"matching": [m for m in identity_matching(gt)["matching"] if m["gt_joint"] != door.name]}
-    result = open_with_predicted_joints(case_dir / "gt", case_dir / "gt", metrics)
+    result = open_with_predicted_joints(gt_dir, gt_dir, metrics)
     assert result["joints"][door.name] == {"success": False, "why": "no matched predicted joint"}
     assert result["success_rate"] == pytest.approx(1 - 1 / len(result["joints"]))
 
@@ -71,11 +83,11 @@ def test_unmatched_joint_counts_as_not_opened(case_dir):
 def test_bad_normalization_is_a_clear_error(case_dir, tmp_path):
     import shutil
 
-    broken = tmp_path / "broken"
-    shutil.copytree(case_dir, broken)
-    case = json.loads((broken / "case.json").read_text())
-    case["normalization"]["scale"] = -2.0
-    (broken / "case.json").write_text(json.dumps(case))
+    broken = BenchmarkCase(tmp_path / "broken")
+    shutil.copytree(case_dir, broken.folder)
+    record = json.loads(broken.record_path.read_text())
+    record["normalization"]["scale"] = -2.0
+    broken.write_record(record)
     with pytest.raises(InputError, match="bad normalization") as info:
-        at_source_size(load_object(broken / "gt"), broken / "gt")
-    assert str(broken / "case.json") in str(info.value)
+        ground_truth_in_metres(broken.gt_dir)
+    assert str(broken.record_path) in str(info.value)

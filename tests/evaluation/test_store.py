@@ -12,8 +12,8 @@ import time
 
 import pytest
 
-from spark_bench.evaluation.store import ResultsStore, config_hash, export_rows
 from spark_bench.errors import InputError
+from spark_bench.evaluation.store import ResultsStore, config_hash, export_rows
 
 
 def row(case_id: str, label: str = "m", status: str = "ok", **extra) -> dict:

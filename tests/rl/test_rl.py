@@ -61,12 +61,25 @@ def test_rollout_cli_rejects_a_missing_joint(capsys):
     assert "no joint named 'joint_9'" in capsys.readouterr().err
 
 
-def test_rollout_writes_a_gif(tmp_path):
+def test_rollout_writes_a_gif_of_the_episode_it_scores(tmp_path):
+    """One frame per step at the environment's render size, showing the gripper move; and recording
+    the video does not change the episode (rendering reads the physics state, never writes it)."""
+    import imageio.v3 as iio
+
     from spark_bench.rl.rollout import rollout
 
     path = tmp_path / "drawer.gif"
     stats = rollout("SparkDrawer-v0", asset="procedural:0", episodes=1, video=path, max_episode_steps=20)
-    assert stats.episodes == 1 and path.stat().st_size > 1000
+    frames = iio.imread(path, index=None)
+    assert frames.shape[0] == 20 and frames.shape[1:3] == (360, 480)  # 20 steps, the default 480 x 360
+    first, last = frames[0, ..., :3].astype(int), frames[-1, ..., :3].astype(int)
+    assert np.mean(np.any(first != last, axis=-1)) > 0.001  # the gripper moved between the first and last frame
+    plain = rollout("SparkDrawer-v0", asset="procedural:0", episodes=1, max_episode_steps=20)
+    assert stats.successes == plain.successes
+    # the same steps with and without a renderer: equal but for float summation, which is the same
+    # here; an episode that rendering changed would differ by far more than this
+    assert stats.returns == pytest.approx(plain.returns, rel=1e-12)
+    assert 0.0 < stats.returns[0] < 20.0  # 20 steps of a reward in [0, 1]
 
 
 @pytest.mark.slow
@@ -86,13 +99,18 @@ def test_train_pipeline_writes_model_curve_and_transfer(tmp_path):
     assert [row.steps for row in result.curve] == [256, 512]
     assert (out / "curve.csv").read_text().count("\n") == 3  # header and two evaluations
     assert result.transfer["episodes"] == 2 and 0.0 <= result.transfer["success_rate"] <= 1.0
-    stats = rollout("SparkDrawer-v0", asset="procedural:0", policy=str(out), episodes=1, max_episode_steps=10)
-    assert stats.episodes == 1
+    # the saved model reloads and acts as the trained one did: it replays the transfer evaluation (same
+    # object, seeds from 20000, deterministic actions) step for step
+    replay = rollout("SparkDrawer-v0", asset="procedural:1", policy=str(out), episodes=2, seed=20_000)
+    assert replay.successes == result.transfer["successes"]
+    # the same weights (saved as they are) through the same computation in this process: equal but for
+    # float summation; a policy acting differently changes a 100-step return by far more than this
+    assert replay.returns == pytest.approx(result.transfer["returns"], rel=1e-9)
 
 
 def test_load_model_names_a_broken_train_json(tmp_path):
     from spark_bench.errors import InputError
-    from spark_bench.rl.train import load_model
+    from spark_bench.rl import load_model
 
     (tmp_path / "model.zip").write_bytes(b"PK")
     (tmp_path / "train.json").write_text('{"algo": ')
@@ -125,22 +143,6 @@ def test_scripted_opener_opens_every_drawer_and_door_of_a_real_object(real_objec
     assert all(r["success_rate"] == 1.0 for r in rows), rows
 
 
-@pytest.mark.parametrize("env_id,joint", [("SparkDrawer-v0", "joint_0"), ("SparkDoor-v0", "joint_1")])
-def test_scripted_opener_opens_notched_fronts_with_an_inside_grip(env_id, joint):
-    """No handle, a notch: the closed fingers enter it and open against its sides; a predicted axis 90
-    degrees off still fails on the notched drawer."""
-    from test_envs import notched_cabinet
-
-    env = gym.make(env_id, asset=notched_cabinet(0), joint=joint, max_episode_steps=150)
-    assert env.unwrapped.scene.grasp.inside_grip
-    axis, pivot, joint_type = ground_truth_joint(env)
-    result = open_with_joint(env, axis, pivot, joint_type, seed=0)
-    assert result.success and result.fraction >= 0.75
-    if joint_type == "prismatic":
-        bad = open_with_joint(env, np.cross(axis, [0.0, 0.0, 1.0]), pivot, joint_type, seed=0)
-        assert not bad.success and bad.max_fraction < 0.3
-
-
 def test_grip_command_spans_the_gripper_travel():
     from spark_bench.envs.gripper import GripperConfig, finger_target, grip_command
 
@@ -154,28 +156,6 @@ def test_grip_command_spans_the_gripper_travel():
     for _ in range(15):  # held at a partial opening, the fingers settle there
         obs, *_ = env.step(np.array([0, 0, 0, grip_command(cfg, 0.01)], dtype=np.float32))
     assert obs[4] * cfg.max_opening == pytest.approx(0.01, abs=0.001)
-
-
-def test_scripted_opener_opens_each_leaf_of_a_double_door_alone(tmp_path):
-    """The edge lips of a double door stand ~6 mm apart: with the default 12 mm pads closing from fully
-    open, the fingers pinched both lips and neither door opened past 10 %. Each leaf must open while the
-    other stays shut."""
-    from test_envs import double_door_cabinet
-
-    folder = str(double_door_cabinet(tmp_path))
-    env = gym.make("SparkDoor-v0", asset=folder, max_episode_steps=150)
-    doors = [j.name for j in env.unwrapped.scene.asset.movable_joints() if j.type == "revolute"]
-    env.close()
-    assert len(doors) == 2
-    for joint, other in ((doors[0], doors[1]), (doors[1], doors[0])):
-        env = gym.make("SparkDoor-v0", asset=folder, joint=joint, max_episode_steps=150)
-        unwrapped = env.unwrapped
-        assert unwrapped.scene.grasp.opening is not None  # the pads go beside the lip, not around both
-        result = open_with_ground_truth(env, seed=0)
-        assert result.success and result.fraction >= 0.75, (joint, result)
-        other_q = unwrapped.data.qpos[unwrapped.model.jnt_qposadr[unwrapped.model.joint(other).id]]
-        assert abs(other_q) < 0.02, (other, other_q)  # rad: the neighbour was not dragged along
-        env.close()
 
 
 #: synth-v1 objects (``object_seed(0, index)``, as the benchmark generates them) whose doors and lids the

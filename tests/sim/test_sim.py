@@ -9,7 +9,6 @@ from scipy.spatial import ConvexHull
 
 from spark_bench.sim.decompose import DecomposeStats, decompose_many, load_cached, mesh_key
 from spark_bench.sim.hulls import (
-    CollisionShape,
     concavity,
     convex_hull,
     erode_hull,
@@ -24,6 +23,7 @@ from spark_bench.sim.physical import (
     link_mass_properties,
     principal_inertia,
 )
+from spark_bench.sim.shapes import CollisionShape
 
 
 def _l_shape() -> trimesh.Trimesh:

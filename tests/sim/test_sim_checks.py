@@ -11,6 +11,7 @@ import pytest
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco  # noqa: E402
+from helpers_assets import tiny_cabinet  # noqa: E402
 
 from spark_bench.asset.model import Joint  # noqa: E402
 from spark_bench.asset.transforms import make_transform  # noqa: E402
@@ -19,7 +20,6 @@ from spark_bench.cli import main  # noqa: E402
 from spark_bench.sim import build_spec, convert, run_checks  # noqa: E402
 from spark_bench.sim.mjcf import prepare  # noqa: E402
 from spark_bench.sim.pybullet_io import load_in_pybullet, write_pybullet_urdf  # noqa: E402
-from tests.helpers_assets import tiny_cabinet  # noqa: E402
 
 
 def _blocked_cabinet():

@@ -25,7 +25,10 @@ from helpers_http import LoopbackServer
 from PIL import Image
 from scipy.spatial import cKDTree
 
+from spark_bench.data.case import BenchmarkCase
 from spark_bench.errors import InputError
+from spark_bench.methods.base import CaseInput
+from spark_bench.methods.ours import OursMethod, ours_case
 from spark_bench.spark import SparkConfig, run_ours
 from spark_bench.spark.config import OpenStateConfig
 from spark_bench.spark.geometry import spark_geometry
@@ -120,7 +123,7 @@ def main() -> int:
     import trimesh
     from PIL import Image
 
-    from spark_bench.data import load_object
+    from spark_bench.data.case import BenchmarkCase
     from spark_bench.spark.geometry import part_meshes
     from spark_bench.spark.structure import CANONICAL_AXES, OBJECT_TO_WORLD
 
@@ -129,7 +132,7 @@ def main() -> int:
     prior = json.loads(Path(args.prior).read_text())
     names = [link["name"] for link in prior["links"]]
     parents = {j["child"]: j for j in prior["joints"]}
-    geometry = part_meshes(load_object(Path(args.case) / "gt"))
+    geometry = part_meshes(BenchmarkCase(args.case).load_gt())
     shift = np.asarray(args.shift)
     position = {n: args.scale * np.asarray(parents[n]["origin"]) + shift if n in parents else np.zeros(3)
                 for n in names}
@@ -202,12 +205,16 @@ def spark_command(script: Path, mode: str = "ok") -> str:
 
 
 def _prior_json(folder: Path, case: Path) -> Path:
-    from spark_bench.data import load_object
     from spark_bench.spark.prior import ground_truth_structure
 
     path = folder / "prior.json"
-    path.write_text(json.dumps(ground_truth_structure(load_object(case / "gt")).to_dict()))
+    path.write_text(json.dumps(ground_truth_structure(BenchmarkCase(case).load_gt()).to_dict()))
     return path
+
+
+def _spark_case(case: Path) -> CaseInput:
+    """The case as a ``spark`` command given ``{case}`` sees it: its image, and the folder (the gt)."""
+    return CaseInput(BenchmarkCase(case), frozenset({"image", "gt"}))
 
 
 def _surface_gap(a, b) -> float:
@@ -224,7 +231,7 @@ def test_run_ours_with_spark_geometry_reads_glb_scenes(toy_case, substitute, tmp
 
     config = SparkConfig().with_overrides(["geometry.backend=spark", "optimize.enabled=false", *EXACT_PRIOR,
                                            f"geometry.spark_command={json.dumps(spark_command(substitute))}"])
-    report = run_ours(toy_case, tmp_path / "out", config)
+    report = run_ours(ours_case(toy_case, config), tmp_path / "out", config)
     assert report["label"].startswith("prior=annotation,geometry=spark,open=dataset,opt=none,settings=")
     assert report["backends"]["geometry"] == "spark" and report["geometry_is_ground_truth"] is False
     received = json.loads((tmp_path / "out" / "spark_geometry" / "received.json").read_text())
@@ -232,7 +239,7 @@ def test_run_ours_with_spark_geometry_reads_glb_scenes(toy_case, substitute, tmp
     assert Path(received["argv"][received["argv"].index("--prior") + 1]) == (tmp_path / "out" / "prior.json")
     # every link's GLB (two geometries, nested node transforms, scale 0.5, shifted) lands where the
     # ground truth's part is, once both are in the benchmark frame
-    truth = normalize_asset(load_object(toy_case / "gt"))[0].link_meshes()
+    truth = normalize_asset(BenchmarkCase(toy_case).load_gt())[0].link_meshes()
     ours = load_object(tmp_path / "out").link_meshes()
     assert sorted(ours) == ["body", "door", "drawer"]
     for name, mesh in ours.items():
@@ -246,14 +253,14 @@ def test_run_ours_with_spark_geometry_reads_glb_scenes(toy_case, substitute, tmp
     ("nourdf", "mobility.urdf", ["wrote no mobility.urdf"]),
     ("missing_glb", "mobility.urdf", ["door.glb", "not found"]),
     ("broken_glb", "body.glb", ["cannot read mesh"]),
-    ("empty_glb", "door.glb", ["link 'door' holds no triangles"]),
+    ("empty_glb", "door.glb", ["link 'door'"]),  # the loader or the reader: both name the link and the file
 ])
 def test_spark_command_failures_name_the_file(toy_case, substitute, tmp_path, mode, file_name, words):
     prior = _prior_json(tmp_path, toy_case)
     with pytest.raises(InputError) as info:
-        spark_geometry(spark_command(substitute, mode), toy_case, prior, tmp_path / "work", timeout_s=60)
+        spark_geometry(spark_command(substitute, mode), _spark_case(toy_case), prior, tmp_path / "work", timeout_s=60)
     message = str(info.value)
-    assert "\n" not in message and file_name in Path(info.value.path).name
+    assert "\n" not in message and file_name in message  # in the path, or in the problem for a mesh file
     for word in words:
         assert word in message
 
@@ -262,23 +269,39 @@ def test_spark_command_timeout_kills_its_children(toy_case, substitute, tmp_path
     prior = _prior_json(tmp_path, toy_case)
     start = time.monotonic()
     with pytest.raises(InputError, match="timed out after 3 s"):
-        spark_geometry(spark_command(substitute, "sleep"), toy_case, prior, tmp_path / "work", timeout_s=3)
+        spark_geometry(spark_command(substitute, "sleep"), _spark_case(toy_case), prior, tmp_path / "work",
+                       timeout_s=3)
     assert time.monotonic() - start < 30  # the child holding the pipes was killed with it (it sleeps 60 s)
 
 
 def test_spark_command_stale_output_and_bad_templates(toy_case, substitute, tmp_path):
     prior = _prior_json(tmp_path, toy_case)
-    geometry = spark_geometry(spark_command(substitute), toy_case, prior, tmp_path / "work", timeout_s=60)
+    case = _spark_case(toy_case)
+    geometry = spark_geometry(spark_command(substitute), case, prior, tmp_path / "work", timeout_s=60)
     assert sorted(geometry.meshes) == ["body", "door", "drawer"] and geometry.root == "body"
     extent = np.ptp(np.concatenate([m.vertices for m in geometry.meshes.values()]), axis=0)
     assert extent.max() == pytest.approx(2.0, abs=1e-6)  # normalized, although written at half scale
     # a second run that writes nothing must not pass off the first run's files as its own
     with pytest.raises(InputError, match="wrote no mobility.urdf"):
-        spark_geometry(spark_command(substitute, "nourdf"), toy_case, prior, tmp_path / "work", timeout_s=60)
+        spark_geometry(spark_command(substitute, "nourdf"), case, prior, tmp_path / "work", timeout_s=60)
     with pytest.raises(InputError, match="not a valid template"):
-        spark_geometry("run --out {output}", toy_case, prior, tmp_path / "work")
+        spark_geometry("run --out {output}", case, prior, tmp_path / "work")
     with pytest.raises(InputError, match="cannot start"):
-        spark_geometry("/nonexistent/spark-infer {image}", toy_case, prior, tmp_path / "work")
+        spark_geometry("/nonexistent/spark-infer {image}", case, prior, tmp_path / "work")
+    # the case folder holds the ground truth: a case without the gt input is not handed over
+    with pytest.raises(PermissionError, match="'gt'"):
+        spark_geometry(spark_command(substitute), CaseInput(BenchmarkCase(toy_case), frozenset({"image"})), prior,
+                       tmp_path / "work")
+
+
+def test_a_spark_command_given_the_case_folder_says_so_in_the_regime(substitute):
+    base = ["geometry.backend=spark", "prior.backend=file", "prior.file_dir=\"/x\"", "optimize.enabled=false"]
+    with_case = OursMethod(SparkConfig().with_overrides(
+        [*base, f"geometry.spark_command={json.dumps(spark_command(substitute))}"]))
+    assert with_case.inputs == ("image", "gt") and with_case.regime == "image + gt case folder (SPARK command)"
+    without = OursMethod(SparkConfig().with_overrides(
+        [*base, 'geometry.spark_command="spark-infer --image {image} --out {out} --note {{case}}"']))
+    assert without.inputs == ("image",) and without.regime == "image"
 
 
 # ----- objects whose base link carries the body --------------------------------------------------
@@ -486,7 +509,7 @@ def test_run_ours_with_every_external_backend(toy_case, substitute, tmp_path):
             "prior.backend=vlm", f"vlm.base_url={json.dumps(vlm.base_url)}", "vlm.backoff_s=0",
             "geometry.backend=spark", f"geometry.spark_command={json.dumps(spark_command(substitute))}",
             "open_state.backend=http", f"open_state.url={json.dumps(images.url)}", *TINY_OPT])
-        report = run_ours(toy_case, tmp_path / "out", config)
+        report = run_ours(ours_case(toy_case, config), tmp_path / "out", config)
     assert re.fullmatch(r"prior=vlm:[\w.-]+,geometry=spark,open=http,opt=fit-only,settings=[0-9a-f]{8}", report["label"])
     assert report["backends"] == {"prior": "vlm", "geometry": "spark", "open_state": "http", "optimize": "none"}
     # the VLM's answer went to SPARK as its prior, and SPARK's links are the VLM's

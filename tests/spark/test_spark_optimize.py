@@ -110,25 +110,44 @@ def test_a_correct_prior_stays_correct():
     assert set(chosen) == {"joint_0", "joint_1"}  # both joints went through the discrete search
 
 
+def _one_pixel(scene, size: int) -> float:
+    """The most one pixel changing its label can move a segmentation score at ``size`` px.
+
+    The score is the mean of ``1 - IoU`` over the object and each part of the target; a pixel changes the
+    object's IoU and at most two parts' (the label it leaves and the one it takes), each by at most
+    ``1 / union`` <= ``1 / target area`` (soft IoU: the pixel's blurred mass is 1, the same bound).
+    """
+    labels = scene.target_labels(size)
+    parts = [int((labels == g).sum()) for g in np.unique(labels) if g > 0]
+    return (1.0 / int((labels != 0).sum()) + 2.0 / min(parts)) / (1 + len(parts))
+
+
 def test_seg_scorer_matches_seg_score(problem):
-    """The per-joint scorer (still links z-buffered once) scores exactly like a full render."""
+    """The per-joint scorer (still links z-buffered once, the moving ones posed by one rigid motion)
+    scores like a full render of the posed asset."""
     gt, camera, target, _ = problem
     scene = OpenStateScene(gt, camera, target, part_masks=open_part_masks(gt, camera))
     hyps = prior_hypotheses(gt)
+    # The two paths pose the moving part differently (one rigid motion of its rest vertices vs forward
+    # kinematics), so vertex positions differ in the last bits and a pixel centre on an edge can fall on
+    # either side: measured, one pixel of 64^2 flips on some x86 machines and not on others (a difference
+    # of 2.1e-4 where one pixel is worth at most ~1.3e-3 here). A few pixels' worth is the tolerance.
+    tolerance = 3 * _one_pixel(scene, 64)
     for blur in (0.0, 1.0):
         scorer = scene.seg_scorer(hyps, "joint_0", 64, blur)
         for value in (0.0, 0.6, 1.2):
             for shift in (0.0, 0.15):
                 hyp = replace(hyps["joint_0"], value=value, pivot_offset=np.array([shift, 0.0, -shift]))
                 full = scene.seg_score({**hyps, "joint_0": hyp}, 64, blur)
-                assert scorer(hyp) == pytest.approx(full, abs=1e-12)
+                assert scorer(hyp) == pytest.approx(full, abs=tolerance)
         # and in one batch, the same scores (regions the door never covers are compared once)
         batch = [replace(hyps["joint_0"], value=v, pivot_offset=np.array([d, 0.0, -d]))
                  for v in (0.0, 0.6, 1.2) for d in (0.0, 0.15)]
         expected = [scene.seg_score({**hyps, "joint_0": h}, 64, blur) for h in batch]
-        assert scorer.scores(batch) == pytest.approx(expected, abs=1e-12)
-    # the truth scores near 0, a door opened 0.5 rad too little does not
-    assert scene.seg_score(hyps, 64) < 0.03
+        assert scorer.scores(batch) == pytest.approx(expected, abs=tolerance)
+    # the scores tell hypotheses apart by far more than the tolerance: the truth scores near 0, a door
+    # opened 0.5 rad too little does not
+    assert scene.seg_score(hyps, 64) < 0.03 and tolerance < 0.01
     assert scene.seg_score({**hyps, "joint_0": replace(hyps["joint_0"], value=0.7)}, 64, 1.0) > 0.1
 
 
@@ -146,6 +165,7 @@ def test_still_parts_give_the_full_loss_and_gradient(problem):
         loss.backward()
         if not use_still:
             full = (float(loss.detach()), pivot.grad.clone(), value.grad.clone())
+    # the same soft renders composited in another order: rounding (~1e-15) far below the tolerance
     assert float(loss.detach()) == pytest.approx(full[0], abs=1e-6)
     assert torch.allclose(pivot.grad, full[1], atol=1e-6) and torch.allclose(value.grad, full[2], atol=1e-6)
     assert float(full[2].abs()) > 0
@@ -165,5 +185,6 @@ def test_adam_matches_torch_adam():
             ((tensor - 1.0) ** 2 * torch.tensor([1.0, 3.0, 0.5], dtype=torch.float64)).sum().backward()
         mine.step(scale)
         reference.step()
+    # the same update rule written twice (torch may fuse or reorder it): 20 steps of rounding, ~1e-15
     assert torch.allclose(ours, theirs, atol=1e-12)
     assert float((ours.detach() - start).abs().min()) > 0.1

@@ -91,6 +91,7 @@ def test_answer_missing_a_known_part_is_asked_again():
 
 
 def test_run_ours_with_vlm_backend_from_config_file(tmp_path):
+    from spark_bench.methods.ours import ours_case
     from spark_bench.spark import run_ours
     from spark_bench.spark.toy import write_toy_case
 
@@ -101,7 +102,7 @@ def test_run_ours_with_vlm_backend_from_config_file(tmp_path):
         config_path.write_text(f'[prior]\nbackend = "vlm"\n[vlm]\nbase_url = "{vlm.base_url}"\n'
                                f'model = "test-vlm"\nbackoff_s = 0.0\n[optimize]\nenabled = false\n')
         config = SparkConfig.from_file(config_path)
-        report = run_ours(case, tmp_path / "out", config)
+        report = run_ours(ours_case(case, config), tmp_path / "out", config)
     assert report["label"] == "prior=vlm:test-vlm,geometry=annotation,open=dataset,opt=none"
     assert (tmp_path / "out" / "mobility.urdf").is_file() and (tmp_path / "out" / "prior" / "mobility.urdf").is_file()
     assert json.loads((tmp_path / "out" / "prior.json").read_text()) == GOOD

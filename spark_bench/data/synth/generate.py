@@ -20,6 +20,8 @@ from spark_bench.errors import InputError
 
 #: Bumped whenever the same seed would give a different object.
 GENERATOR_VERSION = "1.0"
+#: The file :func:`generate_dataset` writes beside the objects, listing them.
+SYNTH_MANIFEST = "synth_manifest.json"
 MAX_ATTEMPTS = 8
 #: Gap (m) the generator demands between parts that move relative to each other.
 GENERATOR_TOLERANCE = 0.0005
@@ -157,5 +159,5 @@ def generate_dataset(out: Path, n: int, seed: int = 0, categories: Sequence[str]
         entries.append({"id": object_id, "category": category, "seed": s})
     manifest = {"generator": GENERATOR_NAME, "version": GENERATOR_VERSION, "seed": int(seed), "n": int(n),
                 "categories": list(cats), "objects": entries}
-    (out / "synth_manifest.json").write_text(json.dumps(clean_json(manifest), sort_keys=True, indent=2) + "\n")
+    (out / SYNTH_MANIFEST).write_text(json.dumps(clean_json(manifest), sort_keys=True, indent=2) + "\n")
     return folders

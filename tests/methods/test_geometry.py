@@ -1,5 +1,5 @@
-"""Reference methods: the oracle, and the geometry-only (Articulate-AnyMesh-style) estimator on
-procedural cabinets and on real PartNet-Mobility objects."""
+"""The geometry-only (Articulate-AnyMesh-style) estimator on procedural cabinets and on real
+PartNet-Mobility objects."""
 
 from __future__ import annotations
 
@@ -7,7 +7,10 @@ import numpy as np
 import pytest
 from helpers_bench import make_tiny_bench, write_case
 
-from spark_bench.baselines.geometry import (
+from spark_bench.data import load_object
+from spark_bench.data.case import Benchmark
+from spark_bench.methods.base import CaseInput
+from spark_bench.methods.geometry import (
     GeometryOptions,
     build_asset,
     estimate_joints,
@@ -15,36 +18,19 @@ from spark_bench.baselines.geometry import (
     handle_centroid,
     is_round,
 )
-from spark_bench.baselines.oracle import Oracle
-from spark_bench.data import load_object
-from spark_bench.generators import CaseInput
 from spark_bench.metrics import compute_metrics
 from spark_bench.metrics.articulation import axis_error, line_distance
 
 
-def _case(folder, case_id="cab0", allowed=("part_meshes",)) -> CaseInput:
-    return CaseInput(case_id, folder / "cases" / case_id, "", frozenset(allowed))
-
-
-def test_oracle_copy_stands_on_its_own(tmp_path):
-    bench = make_tiny_bench(tmp_path, n=1)
-    out = tmp_path / "out"
-    out.mkdir()
-    generation = Oracle().generate(_case(bench, allowed=("gt",)), out)
-    assert generation.folder == out
-    gt = load_object(bench / "cases" / "cab0" / "gt")
-    (bench / "cases" / "cab0" / "gt").rename(tmp_path / "moved")  # the copy must not read the original
-    copy = load_object(out)
-    assert sorted(j.name for j in copy.movable_joints()) == ["joint_0", "joint_1"]
-    metrics = compute_metrics(copy, gt, n_samples=5000)
-    assert metrics.rest.cd == 0.0 and metrics.axis_err == 0.0
+def _case(folder, case_id="cab0") -> CaseInput:
+    return CaseInput(Benchmark(folder).case(case_id), frozenset({"part_meshes"}))
 
 
 def test_geometry_estimator_on_a_procedural_cabinet(tmp_path):
     bench = make_tiny_bench(tmp_path, n=1)
     parts = _case(bench).part_meshes()
     estimates = estimate_joints(parts, GeometryOptions())
-    gt = load_object(bench / "cases" / "cab0" / "gt")
+    gt = load_object(Benchmark(bench).case("cab0").gt_dir)
     frames = gt.joint_frames()
     drawer, door = estimates["link_0"], estimates["link_1"]
     assert (drawer.type, drawer.kind) == ("prismatic", "drawer")
@@ -90,7 +76,7 @@ def test_geometry_estimator_on_real_objects(object_id, real_object, tmp_path):
 
     source = load_object(real_object(object_id))
     write_case(tmp_path / "bench", object_id, source, source.category)
-    gt = load_object(tmp_path / "bench" / "cases" / object_id / "gt")
+    gt = load_object(Benchmark(tmp_path / "bench").case(object_id).gt_dir)
     parts = _case(tmp_path / "bench", object_id).part_meshes()
     pred = build_asset(parts, estimate_joints(parts))
     metrics = compute_metrics(pred, gt, n_samples=5000)
@@ -108,7 +94,7 @@ def test_geometry_estimator_is_not_an_oracle(real_object, tmp_path):
         source = load_object(real_object(object_id))
         write_case(tmp_path / "bench", object_id, source, source.category)
         parts = _case(tmp_path / "bench", object_id).part_meshes()
-        gt = load_object(tmp_path / "bench" / "cases" / object_id / "gt")
+        gt = load_object(Benchmark(tmp_path / "bench").case(object_id).gt_dir)
         results.append(compute_metrics(build_asset(parts, estimate_joints(parts)), gt, n_samples=3000))
     axis = np.mean([m.axis_err for m in results])
     assert 0.05 < axis < 1.0

@@ -35,7 +35,7 @@ import trimesh
 
 from spark_bench.asset.mesh import merge_meshes, sample_triangles
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
-from spark_bench.generators import CaseInput, Generation, PartMeshes
+from spark_bench.methods.base import CaseInput, Generation, PartMeshes
 from spark_bench.metrics.shape import KDTree, build_tree, nearest_distances
 
 AXES = np.eye(3)

@@ -1,59 +1,26 @@
-"""External methods: predictions written beforehand (``--method predictions``) and a program run
-once per case (``--method command``, from a methods file).
+"""An external program run once per case (``--method command``, or a methods-file entry by name).
 
-Both hand the runner an object folder in PartNet-Mobility conventions; neither runs a shell.
+A methods file (TOML or JSON) holds command templates; :class:`CommandMethod` fills a template's
+placeholders with the case files the method declared and runs it with
+:func:`spark_bench.methods.process.run_program` (no shell, its process group killed on timeout).
 """
 
 from __future__ import annotations
 
 import json
-import os
 import shlex
-import subprocess
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from spark_bench.errors import InputError
-from spark_bench.generators import INPUT_KINDS, CaseInput, Generation, GenerationError
+from spark_bench.errors import InputError, SparkBenchError
+from spark_bench.methods.base import INPUT_KINDS, CaseInput, Generation, GenerationError
+from spark_bench.methods.process import ProgramError, run_program
 
-
-def _case_dir_name(case_id: str) -> str:
-    if not case_id or "/" in case_id or "\\" in case_id or case_id in (".", ".."):
-        raise GenerationError(f"unsafe case id {case_id!r}")
-    return case_id
-
-
-class PredictionsFolder:
-    """Predictions written beforehand by any method: ``DIR/<case id>/`` is the case's object folder.
-
-    :param folder: the predictions folder
-    :param label: display label (default ``predictions:<folder name>``)
-    :param regime: the input regime the external method had (default ``image``)
-    """
-
-    name = "predictions"
-    version = "1"
-    inputs: tuple[str, ...] = ()
-
-    def __init__(self, folder: str | Path, label: str | None = None, regime: str = "image"):
-        self.folder = Path(folder).expanduser().resolve()
-        if not self.folder.is_dir():
-            raise InputError(self.folder, "predictions folder not found")
-        self._label = label or f"predictions:{self.folder.name}"
-        self.regime = regime
-
-    def label(self) -> str:
-        return self._label
-
-    def config(self) -> dict:
-        return {"predictions": str(self.folder)}
-
-    def generate(self, case: CaseInput, out_dir: Path) -> Generation:
-        folder = self.folder / _case_dir_name(case.case_id)
-        if not folder.is_dir():
-            raise GenerationError(f"no prediction folder {folder}")
-        return Generation(folder, {"source": str(folder)})
+#: Input kinds that are one case file, filled into the placeholder of the same name.
+FILE_PLACEHOLDERS = ("image", "camera", "open_image", "masks", "open_masks")
+#: The tail of the program's output kept beside its object folder (characters).
+OUTPUT_TAIL = 200_000
 
 
 @dataclass
@@ -61,9 +28,9 @@ class CommandTemplate:
     """An external method run once per case.
 
     :param name: the entry name (the display label)
-    :param argv: the program and its arguments; ``{image}``, ``{out}``, ``{camera}``, ``{case_dir}``,
-        ``{case_id}``, ``{open_image}``, ``{masks}`` are replaced (each only if declared in ``inputs``,
-        ``{out}``, ``{case_id}`` always)
+    :param argv: the program and its arguments; ``{image}``, ``{camera}``, ``{open_image}``, ``{masks}``,
+        ``{open_masks}`` (each only if declared in ``inputs``), ``{case_dir}`` (only with ``gt``: the
+        case folder holds the ground truth), ``{out}`` and ``{case_id}`` (always) are replaced
     :param timeout: seconds before the program is killed and the case fails
     :param inputs: the input kinds the program receives
     :param version: the method's version, written into the rows
@@ -143,11 +110,11 @@ class CommandMethod:
     def arguments(self, case: CaseInput, out_dir: Path) -> list[str]:
         """The argument list for ``case``, placeholders filled."""
         values = {"out": str(out_dir), "case_id": case.case_id}
-        for kind in ("image", "camera", "open_image", "masks"):
+        for kind in FILE_PLACEHOLDERS:
             if kind in self.inputs:
                 values[kind] = str(case.path(kind))
         if "gt" in self.inputs:  # the whole case folder holds the ground truth
-            values["case_dir"] = str(case.case_dir)
+            values["case_dir"] = str(case.folder)
         try:
             return [arg.format(**values) for arg in self.template.argv]
         except (KeyError, IndexError, ValueError) as exc:
@@ -155,21 +122,23 @@ class CommandMethod:
                                   f"is unknown or not among its inputs {list(self.inputs)}") from None
 
     def generate(self, case: CaseInput, out_dir: Path) -> Generation:
-        argv = self.arguments(case, out_dir)
-        env = {**os.environ, **self.template.env}
+        """Run the program for ``case``; its stdout and stderr (tails) are kept in ``out_dir``.
+
+        :raises GenerationError: when it cannot start, times out, exits non-zero (with its last stderr
+            line) or writes no object folder
+        """
+        name = self.template.name
         try:
-            proc = subprocess.run(argv, cwd=self.template.cwd, env=env, capture_output=True, text=True,
-                                  timeout=self.template.timeout, shell=False, stdin=subprocess.DEVNULL)
-        except subprocess.TimeoutExpired:
-            raise GenerationError(f"{self.template.name}: timed out after {self.template.timeout:g} s") from None
-        except OSError as exc:
-            raise GenerationError(f"{self.template.name}: cannot run {argv[0]!r}: {exc}") from None
-        (out_dir / "method_stdout.txt").write_text(proc.stdout[-200_000:])
-        (out_dir / "method_stderr.txt").write_text(proc.stderr[-200_000:])
-        if proc.returncode != 0:
-            tail = [line for line in proc.stderr.splitlines() if line.strip()][-1:] or ["(no stderr)"]
-            raise GenerationError(f"{self.template.name}: exit status {proc.returncode}: {tail[0][:300]}")
-        return Generation(find_object_folder(out_dir), {"returncode": proc.returncode})
+            done = run_program(self.arguments(case, out_dir), self.template.timeout, self.template.cwd,
+                               self.template.env)
+        except ProgramError as exc:
+            raise GenerationError(f"{name}: {exc.problem}") from None
+        (out_dir / "method_stdout.txt").write_text(done.stdout[-OUTPUT_TAIL:])
+        (out_dir / "method_stderr.txt").write_text(done.stderr[-OUTPUT_TAIL:])
+        if done.returncode != 0:
+            tail = [line for line in done.stderr.splitlines() if line.strip()][-1:] or ["(no stderr)"]
+            raise GenerationError(f"{name}: exit status {done.returncode}: {tail[0][:300]}")
+        return Generation(find_object_folder(out_dir), {"returncode": done.returncode})
 
 
 def find_object_folder(out_dir: Path) -> Path:
@@ -181,3 +150,17 @@ def find_object_folder(out_dir: Path) -> Path:
     if len(found) == 1:
         return found[0]
     raise GenerationError(f"expected one object folder with a URDF under {out_dir}, found {len(found)}")
+
+
+def make_command(options: dict) -> CommandMethod:
+    """The registry's factory: the entry ``options["entry"]`` of ``options["methods_file"]`` (the only
+    entry when there is one)."""
+    if not options.get("methods_file"):
+        raise SparkBenchError("--method command needs --methods-file FILE (and --entry NAME if it has several)")
+    templates = read_methods_file(options["methods_file"])
+    entry = options.get("entry")
+    if entry is None and len(templates) == 1:
+        entry = next(iter(templates))
+    if entry not in templates:
+        raise InputError(options["methods_file"], f"no method {entry!r} (has {sorted(templates)})")
+    return CommandMethod(templates[entry])

@@ -10,7 +10,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from spark_bench.generators import CaseInput, Generation
+from spark_bench.methods.base import CaseInput, Generation
 
 
 class Oracle:

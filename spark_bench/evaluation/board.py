@@ -1,0 +1,120 @@
+"""The leaderboard as data: its entries (one per method run), its tables with best / second-best ranks,
+and how a value is shown. Built from the results store by :mod:`spark_bench.evaluation.leaderboard`, drawn
+by it (Markdown, LaTeX, CSV) and by :mod:`spark_bench.evaluation.leaderboard_html`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from spark_bench.metrics.names import (
+    ARTICULATION_KEYS,
+    HEADLINE_KEYS,
+    HIGHER_IS_BETTER,
+    RATE_KEYS,
+    SHAPE_KEYS,
+    header,
+)
+
+#: Regimes listed but not ranked: they see the answer.
+REFERENCE_REGIMES = ("ground truth",)
+#: Table headers by metric key: the label and an arrow saying which way is better.
+HEADERS = {key: header(key) for key in HEADLINE_KEYS}
+LATEX_HEADERS = {key: header(key, r"$\uparrow$", r"$\downarrow$") for key in HEADLINE_KEYS}
+#: The paper's colours for best (Palette5) and second best (Palette4).
+PALETTE = {"Palette5": (253, 207, 158), "Palette4": (231, 188, 198)}
+
+
+@dataclass
+class Entry:
+    """One leaderboard row: a method run (label, variant, regime) and its per-benchmark numbers.
+
+    :param label: the method's display label
+    :param variant: ``""`` or the variant name (``w/o joint opt.``)
+    :param regime: the input regime
+    :param method: registry name
+    :param version: method version
+    :param config_hash: the run's configuration hash
+    :param n_cases: cases in the run
+    :param n_failed: failed cases
+    :param metrics: per-benchmark numbers (None: n/a)
+    :param rows: the run's rows
+    """
+
+    label: str
+    variant: str
+    regime: str
+    method: str
+    version: str
+    config_hash: str
+    n_cases: int
+    n_failed: int
+    metrics: dict
+    rows: list[dict] = field(default_factory=list, repr=False)
+
+    @property
+    def name(self) -> str:
+        return f"{self.label} ({self.variant})" if self.variant else self.label
+
+    @property
+    def ranked(self) -> bool:
+        return self.regime not in REFERENCE_REGIMES
+
+
+@dataclass
+class Table:
+    """A titled table: its metric keys and one entry per row."""
+
+    key: str
+    title: str
+    metrics: tuple[str, ...]
+    entries: list[Entry]
+
+    def ranks(self) -> dict[tuple[int, str], int]:
+        """``{(entry index, metric): 1 or 2}`` for the best and second best ranked values."""
+        out = {}
+        for metric in self.metrics:
+            values = sorted({e.metrics.get(metric) for e in self.entries if e.ranked
+                             and is_number(e.metrics.get(metric))}, reverse=HIGHER_IS_BETTER.get(metric, False))
+            for rank, value in enumerate(values[:2], 1):
+                for i, e in enumerate(self.entries):
+                    if e.ranked and e.metrics.get(metric) == value:
+                        out[(i, metric)] = rank
+        return out
+
+
+@dataclass
+class Leaderboard:
+    """Everything the renderers need: the benchmark, its entries, per-category entries."""
+
+    bench: str
+    entries: list[Entry]
+    categories: dict[str, list[Entry]] = field(default_factory=dict)
+
+    def tables(self, entries: list[Entry] | None = None) -> list[Table]:
+        entries = self.entries if entries is None else entries
+        sim_keys = list(RATE_KEYS)
+        if any(e.metrics.get("rl_success_rate") is not None for e in entries):
+            sim_keys.append("rl_success_rate")
+        return [Table("shape", "Shape reconstruction", SHAPE_KEYS, entries),
+                Table("articulation", "URDF parameter estimation", ARTICULATION_KEYS, entries),
+                Table("sim", "Sim-readiness", tuple(sim_keys), entries)]
+
+
+def is_number(value) -> bool:
+    """Whether ``value`` is a finite number (not a bool): a value a table shows and ranks."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def fmt_value(value, digits: int = 4) -> str:
+    """A metric for a table: ``n/a`` for None, else ``digits`` decimals."""
+    if not is_number(value):
+        return "n/a"
+    return f"{value:.{digits}f}"
+
+
+#: What the open-success column measures, under every rendering of the tables.
+OPEN_SUCCESS_NOTE = ("Open success: the scripted opener, planned from the predicted joints, opening each "
+                     "ground-truth drawer and door at its real size; cases whose joints it cannot open even "
+                     "with the ground truth's own are left out.")

@@ -1,0 +1,30 @@
+"""Methods under test: what a method is and sees, the registry behind ``--method NAME``, and one module
+per built-in method.
+
+- :mod:`.base`: the input kinds, :class:`CaseInput` (a case that refuses undeclared inputs),
+  :class:`Generation`, the :class:`Method` protocol, :class:`MethodSpec`;
+- :mod:`.registry`: built-ins, entry points, :func:`register_method` / :func:`unregister_method`,
+  :func:`available_methods`, :func:`make_method`;
+- :mod:`.oracle`, :mod:`.geometry`, :mod:`.predictions` (and the one reader of a predictions folder),
+  :mod:`.command` (methods files, external programs per case), :mod:`.ours` (the SPARK pipeline of
+  :mod:`spark_bench.spark`);
+- :mod:`.process`: the one runner of external programs (no shell, process group killed on timeout).
+
+Imports run one way: ``base`` <- the method modules <- ``registry``; :mod:`spark_bench.spark` uses
+``base``, ``process`` and ``predictions`` and is used by ``ours`` only. The names below are loaded on
+first use.
+"""
+
+from spark_bench.lazy import lazy_exports
+
+__all__, __getattr__ = lazy_exports(__name__, {
+    "CaseInput": "spark_bench.methods.base",
+    "Generation": "spark_bench.methods.base",
+    "GenerationError": "spark_bench.methods.base",
+    "Method": "spark_bench.methods.base",
+    "MethodSpec": "spark_bench.methods.base",
+    "available_methods": "spark_bench.methods.registry",
+    "make_method": "spark_bench.methods.registry",
+    "register_method": "spark_bench.methods.registry",
+    "unregister_method": "spark_bench.methods.registry",
+})

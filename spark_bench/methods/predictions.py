@@ -1,0 +1,68 @@
+"""Predictions written beforehand (``--method predictions``), and the one reader of a predictions folder.
+
+A predictions folder holds one object folder per case, ``DIR/<case id>/`` (PartNet-Mobility
+conventions). :func:`prediction_folder` is how every user finds a case's folder in it: the
+``predictions`` method and the ``predictions`` geometry backend of the SPARK pipeline.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from spark_bench.errors import InputError, SparkBenchError
+from spark_bench.methods.base import CaseInput, Generation
+
+
+def prediction_folder(predictions_dir: str | Path, case_id: str) -> Path:
+    """``<predictions_dir>/<case_id>/``: the object folder predicted for a case.
+
+    :param predictions_dir: the predictions folder
+    :param case_id: the case id
+    :raises InputError: for a case id that would leave the predictions folder (empty, ``.``, ``..``, or
+        with a path separator), or when the case has no folder there
+    """
+    case_id = str(case_id)
+    if not case_id or case_id in (".", "..") or "/" in case_id or "\\" in case_id:
+        raise InputError(predictions_dir, f"unsafe case id {case_id!r}")
+    folder = Path(predictions_dir) / case_id
+    if not folder.is_dir():
+        raise InputError(folder, "no prediction folder for this case")
+    return folder
+
+
+class PredictionsFolder:
+    """Predictions written beforehand by any method: ``DIR/<case id>/`` is the case's object folder.
+
+    :param folder: the predictions folder
+    :param label: display label (default ``predictions:<folder name>``)
+    :param regime: the input regime the external method had (default ``image``)
+    """
+
+    name = "predictions"
+    version = "1"
+    inputs: tuple[str, ...] = ()
+
+    def __init__(self, folder: str | Path, label: str | None = None, regime: str = "image"):
+        self.folder = Path(folder).expanduser().resolve()
+        if not self.folder.is_dir():
+            raise InputError(self.folder, "predictions folder not found")
+        self._label = label or f"predictions:{self.folder.name}"
+        self.regime = regime
+
+    def label(self) -> str:
+        return self._label
+
+    def config(self) -> dict:
+        return {"predictions": str(self.folder)}
+
+    def generate(self, case: CaseInput, out_dir: Path) -> Generation:
+        """The case's folder of predictions (nothing is copied into ``out_dir``)."""
+        folder = prediction_folder(self.folder, case.case_id)
+        return Generation(folder, {"source": str(folder)})
+
+
+def make_predictions(options: dict) -> PredictionsFolder:
+    """The registry's factory: ``options["predictions"]`` is the folder (``--predictions DIR``)."""
+    if not options.get("predictions"):
+        raise SparkBenchError("--method predictions needs --predictions DIR")
+    return PredictionsFolder(options["predictions"], options.get("label"), options.get("regime") or "image")

@@ -1,0 +1,126 @@
+"""The method registry: built-ins, methods registered at run time, entry points, and ``ours``' regime."""
+
+from __future__ import annotations
+
+import json
+import sys
+from importlib.metadata import EntryPoint
+
+import pytest
+
+from spark_bench.errors import SparkBenchError
+from spark_bench.methods import registry
+from spark_bench.methods.base import Method, MethodSpec
+from spark_bench.methods.registry import available_methods, make_method, register_method, unregister_method
+
+
+class Plugin:
+    name, version, inputs, regime = "plugin", "2", ("image",), "image"
+
+    def label(self):
+        return "plugin"
+
+    def config(self):
+        return {}
+
+    def generate(self, case, out_dir):
+        return None
+
+
+def test_builtin_methods_are_registered():
+    names = available_methods()
+    for name in ("oracle", "geometry", "predictions", "command", "ours"):
+        assert name in names
+    oracle = make_method("oracle")
+    assert oracle.label() == "oracle" and oracle.inputs == ("gt",) and isinstance(oracle, Method)
+    geometry = make_method("geometry")
+    assert geometry.inputs == ("part_meshes",) and "contact_eps" in geometry.config()
+
+
+def test_unknown_method_and_missing_options():
+    with pytest.raises(SparkBenchError, match="unknown method 'nope'.*oracle"):
+        make_method("nope")
+    with pytest.raises(SparkBenchError, match="--predictions DIR"):
+        make_method("predictions")
+    with pytest.raises(SparkBenchError, match="--methods-file"):
+        make_method("command")
+
+
+def test_method_spec_is_plain_hashable_data():
+    a = MethodSpec.create("predictions", predictions="/x", label=None, regime="image")
+    b = MethodSpec.create("predictions", regime="image", predictions="/x")
+    assert a == b and hash(a) == hash(b) and a.option_dict == {"predictions": "/x", "regime": "image"}
+
+
+def test_register_and_unregister_a_method():
+    seen = []
+
+    def factory(options):
+        seen.append(options)
+        return Plugin()
+
+    register_method("plugin-test", factory)
+    try:
+        assert "plugin-test" in available_methods()
+        with pytest.raises(ValueError, match="already registered"):
+            register_method("plugin-test", factory)
+        assert make_method(MethodSpec.create("plugin-test", label="x")).version == "2"
+        assert seen == [{"label": "x"}]
+    finally:
+        unregister_method("plugin-test")
+    assert "plugin-test" not in available_methods()
+    with pytest.raises(ValueError, match="not registered"):
+        unregister_method("plugin-test")
+    # a built-in can be replaced for a while; unregistering brings the original back
+    register_method("oracle", lambda options: Plugin(), overwrite=True)
+    try:
+        assert make_method("oracle").label() == "plugin"
+    finally:
+        unregister_method("oracle")
+    assert make_method("oracle").label() == "oracle"
+
+
+def test_a_methods_file_entry_is_a_method_unless_a_registered_name_takes_it(tmp_path):
+    methods = tmp_path / "m.toml"
+    methods.write_text('[methods.spark]\ncommand = ["prog", "{out}"]\n[methods.oracle]\ncommand = ["prog", "{out}"]\n')
+    assert make_method("spark", methods_file=str(methods)).label() == "spark"
+    assert make_method("oracle", methods_file=str(methods)).name == "oracle"  # the built-in comes first
+
+
+def test_entry_point_methods(monkeypatch):
+    module = type(sys)("fake_plugin")
+    module.factory = lambda options: Plugin()
+    module.broken = lambda options: object()
+    monkeypatch.setitem(sys.modules, "fake_plugin", module)
+    eps = [EntryPoint("plugin", "fake_plugin:factory", registry.ENTRY_POINT_GROUP),
+           EntryPoint("broken", "fake_plugin:broken", registry.ENTRY_POINT_GROUP)]
+    monkeypatch.setattr(registry, "entry_points", lambda group: [e for e in eps if e.group == group])
+    assert "plugin" in available_methods()
+    assert make_method("plugin").version == "2"
+    with pytest.raises(SparkBenchError, match="without"):
+        make_method("broken")
+
+
+def test_ours_label_and_regime_say_what_was_simulated(tmp_path):
+    pytest.importorskip("spark_bench.spark.config", reason="the SPARK pipeline is not installed")
+    ours = make_method("ours")
+    assert ours.label().startswith("ours (prior=annotation,")
+    # the default reads the open state's per-part masks: the regime says so, with every gt stage
+    assert ours.regime == ("image + gt camera + gt open image + gt open part masks + "
+                           "gt structure (simulated prior) + gt geometry")
+    assert ours.inputs == ("image", "camera", "open_image", "open_masks", "gt")
+    config = tmp_path / "spark.json"
+    config.write_text(json.dumps({"optimize": {"part_masks": False}}))
+    no_parts = make_method("ours", config=str(config))
+    assert "open part masks" not in no_parts.regime and "open_masks" not in no_parts.inputs
+    assert "gt open image" in no_parts.regime
+    config.write_text(json.dumps({"optimize": {"enabled": False}}))
+    plain = make_method("ours", config=str(config))
+    assert plain.label().endswith("opt=none)") and plain.config()["optimize"]["enabled"] is False
+    assert plain.regime == "image + gt structure (simulated prior) + gt geometry"
+    assert plain.inputs == ("image", "gt")
+    # nothing simulated: no ground truth among the inputs
+    config.write_text(json.dumps({"prior": {"backend": "file", "file_dir": str(tmp_path)},
+                                  "geometry": {"backend": "predictions", "predictions_dir": str(tmp_path)}}))
+    honest = make_method("ours", config=str(config))
+    assert honest.regime == "image + gt camera + gt open image" and "gt" not in honest.inputs
