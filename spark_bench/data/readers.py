@@ -1,8 +1,10 @@
-"""Readers for object folders: PartNet-Mobility, GAPartNet's extra files, and SPARK's own output.
+"""Readers for object folders: PartNet-Mobility and GAPartNet's extra files.
 
-All three share one layout (a ``mobility.urdf`` beside its meshes); what differs is the side files:
-``semantics.txt`` and ``meta.json`` (PartNet-Mobility), ``link_annotation_gapartnet.json`` and
-``semantics_gapartnet.txt`` (GAPartNet), and GLB meshes, one per link (SPARK).
+Both share one layout (a ``mobility.urdf`` beside its meshes, any mesh format trimesh reads, GLB
+included); what differs is the side files: ``semantics.txt`` and ``meta.json`` (PartNet-Mobility),
+``link_annotation_gapartnet.json`` and ``semantics_gapartnet.txt`` (GAPartNet). SPARK's run folders are
+not object folders (their URDF points where no mesh is, their frame is SPARK's):
+:mod:`spark_bench.spark_output.reader` converts them.
 """
 
 from __future__ import annotations

@@ -2,7 +2,10 @@
 
 A predictions folder holds one object folder per case, ``DIR/<case id>/`` (PartNet-Mobility
 conventions). :func:`prediction_folder` is how every user finds a case's folder in it: the
-``predictions`` method and the ``predictions`` geometry backend of the SPARK pipeline.
+``predictions`` method and the ``predictions`` geometry backend of the SPARK pipeline. A case folder
+written by ``spark-bench import spark`` holds ``import.json``; its results row then says which SPARK run,
+which URDF of it (``mobility_optimized.urdf``...) and which alignment it came from
+(:func:`spark_bench.spark_output.reader.row_fields`).
 """
 
 from __future__ import annotations
@@ -56,9 +59,13 @@ class PredictionsFolder:
         return {"predictions": str(self.folder)}
 
     def generate(self, case: CaseInput, out_dir: Path) -> Generation:
-        """The case's folder of predictions (nothing is copied into ``out_dir``)."""
+        """The case's folder of predictions (nothing is copied into ``out_dir``); its info names the folder
+        and, for an imported SPARK run, what the import read (``spark_run``, ``spark_urdf``,
+        ``spark_urdf_kind``, ``spark_alignment``)."""
+        from spark_bench.spark_output.reader import read_import_record, row_fields
+
         folder = prediction_folder(self.folder, case.case_id)
-        return Generation(folder, {"source": str(folder)})
+        return Generation(folder, {"source": str(folder), **row_fields(read_import_record(folder))})
 
 
 def make_predictions(options: dict) -> PredictionsFolder:

@@ -3,14 +3,19 @@
 - ``annotation``: the case's ground-truth part meshes at rest (offline default; shape metrics of rows
   made with it measure nothing, the leaderboard shows them as n/a).
 - ``predictions``: an object folder per case, ``<dir>/<case id>/`` (any format
-  :func:`spark_bench.data.load_object` reads), e.g. SPARK's generated assets copied from elsewhere.
-- ``spark``: SPARK's public pipeline run as an external command per case; it must write
-  ``mobility.urdf`` with one GLB per link into the folder it is given.
+  :func:`spark_bench.data.load_object` reads), e.g. SPARK runs imported by ``spark-bench import spark``.
+- ``spark``: SPARK run per case by an external command (e.g. ``spark-bench run-spark --image {image}
+  --output {out}``, which runs SPARK's own stage scripts); the command leaves a SPARK run folder in
+  ``{out}`` as SPARK writes it, read by :func:`spark_bench.spark_output.reader.read_spark_run` (SPARK's
+  names, its meshes under ``inference/<tag>/``, its frame, its own joints).
 
 Every backend returns :class:`PartGeometry`: meshes by part name, in the benchmark frame, at rest.
 Predicted objects are first normalized to the benchmark frame (rest-pose box centered, fit to [-1, 1]).
 A part is a maximal group of links that move together: a movable joint's child and every link hanging
-from it by fixed joints (:func:`group_parts`); the root part is everything that never moves.
+from it by fixed joints (:func:`group_parts`); the root part is everything that never moves. A
+prediction's parts keep their own names and the object they came from (:attr:`PartGeometry.asset`,
+with its own joints); :func:`spark_bench.spark.assemble.pair_parts` pairs them with the prior's links
+by geometry or structure, never by name.
 """
 
 from __future__ import annotations
@@ -60,6 +65,13 @@ class PartGeometry:
     :param source: the backend name and where the meshes came from, for the report
     :param members: part name -> the source object's links merged into it (where known)
     :param root: the name of the part that never moves (where known)
+    :param asset: the predicted object the parts come from (benchmark frame, its own link names and
+        joints: SPARK's for the ``spark`` backend); None for the ground truth's own parts
+    :param parts: the parts of ``asset`` (:func:`group_parts`), root first
+    :param offered_to_prior: whether the pipeline hands these part names to the prior backend before it
+        answers (``annotation``, ``predictions``: a ``vlm`` or ``file`` prior then names them itself);
+        False for ``spark``, which runs after the prior and names its parts its own way
+    :param record: what the backend read, for the report (the ``spark`` backend: SPARK's import record)
     """
 
     meshes: dict[str, trimesh.Trimesh]
@@ -67,6 +79,10 @@ class PartGeometry:
     source: str = ""
     members: dict[str, list[str]] = field(default_factory=dict)
     root: str = ""
+    asset: ArticulatedAsset | None = None
+    parts: list[Part] = field(default_factory=list)
+    offered_to_prior: bool = True
+    record: dict = field(default_factory=dict)
 
     @property
     def names(self) -> list[str]:
@@ -106,7 +122,8 @@ def part_meshes(asset: ArticulatedAsset, parts: list[Part] | None = None) -> Par
         labels[part.name] = part.label
         if pieces:
             meshes[part.name] = merge_meshes(pieces)
-    return PartGeometry(meshes, labels, members={p.name: list(p.links) for p in parts}, root=parts[0].name)
+    return PartGeometry(meshes, labels, members={p.name: list(p.links) for p in parts}, root=parts[0].name,
+                        parts=list(parts))
 
 
 def annotation_geometry(gt: ArticulatedAsset) -> PartGeometry:
@@ -127,8 +144,20 @@ def _normalized_parts(asset: ArticulatedAsset, source) -> PartGeometry:
     from spark_bench.asset.ops import normalize_asset
 
     asset, _, _ = normalize_asset(asset)
+    return predicted_parts(asset, source)
+
+
+def predicted_parts(asset: ArticulatedAsset, source, offered_to_prior: bool = True) -> PartGeometry:
+    """A predicted object's part meshes, keeping the object (its names and joints) beside them.
+
+    :param asset: the object, already in the benchmark frame
+    :param source: where it came from, for the report
+    :param offered_to_prior: see :class:`PartGeometry`
+    """
     out = part_meshes(asset)
     out.source = str(source)
+    out.asset = asset
+    out.offered_to_prior = offered_to_prior
     return out
 
 
@@ -136,6 +165,10 @@ def predictions_geometry(predictions_dir: str | Path, case_id: str) -> PartGeome
     """The ``predictions`` backend: ``<predictions_dir>/<case_id>/`` is an object folder
     (:func:`spark_bench.methods.predictions.prediction_folder`, which refuses unsafe case ids)."""
     return load_predicted_object(prediction_folder(predictions_dir, case_id))
+
+
+#: The placeholders of a ``spark`` command template.
+COMMAND_FIELDS = ("image", "prior", "out", "case_id", "case")
 
 
 def command_fields(command: str) -> set[str]:
@@ -151,8 +184,8 @@ def command_fields(command: str) -> set[str]:
 
 
 def _bad_template(command: str, exc: Exception) -> str:
-    return (f"geometry.spark_command {command!r} is not a valid template (placeholders: {{image}} {{prior}} "
-            f"{{out}} {{case}}; double literal braces): {exc!r}")
+    return (f"geometry.spark_command {command!r} is not a valid template (placeholders: "
+            f"{' '.join('{' + f + '}' for f in COMMAND_FIELDS)}; double literal braces): {exc!r}")
 
 
 def spark_command_argv(command: str, case: CaseInput, prior_json: Path, out: Path) -> list[str]:
@@ -163,7 +196,7 @@ def spark_command_argv(command: str, case: CaseInput, prior_json: Path, out: Pat
     :raises InputError: when the template does not split or names an unknown placeholder
     """
     fields = command_fields(command)
-    values = {"prior": Path(prior_json).resolve(), "out": Path(out).resolve()}
+    values = {"prior": Path(prior_json).resolve(), "out": Path(out).resolve(), "case_id": case.case_id}
     if "image" in fields:
         values["image"] = Path(case.image).resolve()
     if "case" in fields:
@@ -193,53 +226,97 @@ def run_spark_command(argv: list[str], timeout_s: float) -> ProgramResult:
     return done
 
 
-def read_spark_output(out: Path) -> ArticulatedAsset:
-    """SPARK's output folder: ``mobility.urdf`` whose links each show one mesh file (GLB).
+def find_spark_run(out: Path) -> Path:
+    """The SPARK run folder a command left in ``out``: ``out`` itself when it holds a run's files
+    (a URDF or ``metadata.json``), else the newest ``<name>_<YYYYmmdd_HHMMSS>/`` folder in it (the
+    folder ``run.py`` and ``spark-bench run-spark`` make).
 
-    GLB scenes are flattened with their node transforms (:func:`spark_bench.asset.urdf.load_mesh_file`).
-
-    :raises InputError: naming the file when the URDF is missing or broken, a mesh file is missing or
-        unreadable, or a mesh file holds no triangles
+    :raises InputError: naming ``out`` when it holds neither
     """
-    from spark_bench.data import load_object
+    from spark_bench.spark_output import layout
 
-    urdf = Path(out) / "mobility.urdf"
-    if not urdf.is_file():
-        raise InputError(urdf, "the SPARK geometry command wrote no mobility.urdf")
-    asset = load_object(out)
-    for link in asset.links.values():
-        for visual in link.visuals:
-            if visual.source and len(visual.mesh.faces) == 0:
-                raise InputError(Path(out) / visual.source, f"mesh of link {link.name!r} holds no triangles")
-    if not any(link.has_geometry for link in asset.links.values()):
-        raise InputError(urdf, "no link has a mesh")
-    return asset
+    out = Path(out)
+    if any(out.glob("*.urdf")) or (out / layout.METADATA).is_file():
+        return out
+    runs = []
+    for entry in sorted(out.iterdir()) if out.is_dir() else []:
+        parsed = layout.parse_run_name(entry.name) if entry.is_dir() else None
+        if parsed is not None:
+            runs.append((parsed[1], entry.name, entry))
+    if not runs:
+        raise InputError(out, "the SPARK geometry command left no SPARK run (expected a URDF or metadata.json "
+                              "there, or <name>_<YYYYmmdd_HHMMSS>/ run folders)")
+    return max(runs)[2]
+
+
+def read_spark_geometry(run: Path, case: CaseInput, import_dir: Path | None = None) -> PartGeometry:
+    """One SPARK run folder as part geometry in the case's benchmark frame, with SPARK's own object.
+
+    Read by :func:`spark_bench.spark_output.reader.read_spark_run`: SPARK's URDF (``*_optimized.urdf``
+    first), its meshes where SPARK leaves them, its joints, its frame mapped to ours. The turn about the
+    up axis that SPARK's view-dependent frame leaves is resolved with the case camera (``alignment =
+    camera``) when the method declared the ``camera`` input, as ``ours`` does whenever it optimizes
+    joints against the case's images; otherwise it is left (``icp``) and recorded.
+
+    :param run: the run folder
+    :param case: the case (its camera is read only when declared)
+    :param import_dir: where to write SPARK's own object (its joints) with its ``import.json``
+    :raises InputError: naming the file, with the first SPARK stage whose output is missing (SPARK
+        exits 0 when a stage fails)
+    """
+    from spark_bench.spark_output import layout
+    from spark_bench.spark_output.reader import read_spark_run, write_import
+
+    camera_declared = "camera" in case.allowed
+    camera_path = case.path("camera") if camera_declared else None
+    try:
+        result = read_spark_run(run, alignment="camera" if camera_declared else "icp",
+                                camera=case.camera if camera_declared else None, camera_source=camera_path,
+                                name=case.case_id)
+    except InputError as exc:
+        failed = layout.diagnose(run).failed_stage
+        where = f"; first SPARK stage without its output: {failed}" if failed else ""
+        raise InputError(exc.path, exc.problem + where) from None
+    result.record["case_id"] = case.case_id
+    if import_dir is not None:
+        write_import(result, import_dir)
+    out = predicted_parts(result.asset, run, offered_to_prior=False)
+    out.record = result.record
+    return out
 
 
 def spark_geometry(command: str, case: CaseInput, prior_json: Path, work_dir: Path,
                    timeout_s: float = 3600.0) -> PartGeometry:
-    """The ``spark`` backend: run SPARK's public pipeline as an external command.
+    """The ``spark`` backend: run SPARK on the case by an external command and read what it left.
 
-    ``command`` is a template with ``{image}`` (the case's input image), ``{prior}`` (the coarse URDF
-    JSON of stage 1), ``{out}`` (an empty folder where it must write ``mobility.urdf`` with one GLB per
-    link) and ``{case}`` (the case folder: it holds the ground truth, so ``ours`` then declares the
-    ``gt`` input and says so in its regime), all absolute paths, e.g.
-    ``python /opt/SPARK/infer.py --image {image} --urdf_prior {prior} --output {out}``. It runs without
-    a shell. Its links must be named as the prior's (the root part may have another name: it becomes
-    the prior's root), its meshes may be at any scale and position: they are normalized to the
-    benchmark frame like any predicted object.
+    ``command`` is a template with ``{image}`` (the case's input image), ``{out}`` (an empty folder where
+    SPARK's run must end up), ``{case_id}``, ``{prior}`` (the coarse URDF JSON of stage 1, for a command
+    that wants it; SPARK's own code makes its own) and ``{case}`` (the case folder: it holds the ground
+    truth, so ``ours`` then declares the ``gt`` input and says so in its regime), paths absolute. It runs
+    without a shell, e.g. ``spark-bench run-spark --spark /opt/SPARK --image {image} --name {case_id}
+    --output {out} --python /opt/conda/envs/spark/bin/python --skip texture``, which runs SPARK's stage
+    scripts with their real flags in SPARK's folder. The run folder it leaves (:func:`find_spark_run`) is
+    read as SPARK writes it (:func:`read_spark_geometry`); SPARK's own object, joints included, is kept
+    in ``<work_dir>/spark_import/`` and as :attr:`PartGeometry.asset`. Nothing requires SPARK's part
+    names to be the prior's: :func:`spark_bench.spark.assemble.pair_parts` pairs them. The case camera
+    is required: without it SPARK's parts would stay turned by the view while the prior's joints are not.
 
     :param case: the case (:class:`~spark_bench.methods.base.CaseInput`)
     :param work_dir: ``{out}`` is ``<work_dir>/spark_geometry``, emptied first
     :param timeout_s: time limit; the command's whole process group is killed after it
-    :raises InputError: one line naming the command or the file, on any failure
+    :raises InputError: one line naming the command or the file, on any failure (also when the case
+        camera is not an input of the method)
     """
+    if "camera" not in case.allowed:  # before SPARK runs for an hour
+        raise InputError(case.case.camera_path, "the spark geometry backend needs the case camera (input "
+                                                "'camera') to bring SPARK's view-turned parts into the "
+                                                "prior's frame")
     out = Path(work_dir) / "spark_geometry"
-    if out.exists():  # a stale mobility.urdf from an earlier run must not pass for this one's
+    if out.exists():  # a stale run from an earlier call must not pass for this one's
         shutil.rmtree(out)
     out.mkdir(parents=True)
     run_spark_command(spark_command_argv(command, case, prior_json, out), timeout_s)
-    return _normalized_parts(read_spark_output(out), out)
+    return read_spark_geometry(find_spark_run(out), case, Path(work_dir) / "spark_import")
 
 
 def decimate(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:

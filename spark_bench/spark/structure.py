@@ -50,6 +50,18 @@ def axis_vector(name: str) -> np.ndarray:
     return np.asarray(CANONICAL_AXES[name], dtype=float)
 
 
+def object_axis(name: str, axis_frame=None) -> np.ndarray:
+    """The object-frame direction of a prior joint's axis name.
+
+    :param name: a key of :data:`CANONICAL_AXES`
+    :param axis_frame: 3x3 rotation whose columns are the object-frame vectors of the named frame's x, y
+        and z, when the prior names its axes in another frame (the case camera's, see
+        :func:`spark_bench.spark.prior.camera_axis_frame`); None: the names are the object frame's
+    """
+    vector = axis_vector(name)
+    return vector if axis_frame is None else np.asarray(axis_frame, dtype=float) @ vector
+
+
 def nearest_axis_name(vector) -> str:
     """The canonical direction closest in angle to ``vector`` (object frame), sign included."""
     v = np.asarray(vector, dtype=float)

@@ -69,3 +69,28 @@ def test_spark_predictions_backend_refuses_unsafe_case_ids(tmp_path):
         write_toy_case(folder, case_id=case_id)
         with pytest.raises(InputError, match="unsafe case id"):
             run_ours(ours_case(folder, config), tmp_path / f"out{k}", config)
+
+
+def test_an_imported_spark_run_says_what_was_read(tmp_path):
+    """A case folder written by ``spark-bench import spark`` carries its import record into the row's info."""
+    from spark_bench.jsonio import to_json_text
+
+    bench = make_tiny_bench(tmp_path, n=2)
+    benchmark = Benchmark(bench)
+    preds = tmp_path / "preds"
+    for case_id in ("cab0", "cab1"):
+        shutil.copytree(benchmark.case(case_id).gt_dir, preds / case_id)
+    record = {"format": "spark-bench spark import 1", "run": "/spark/output/cab0_20250101_120000",
+              "urdf": "mobility_optimized.urdf", "urdf_kind": "optimized", "alignment": "icp"}
+    (preds / "cab0" / "import.json").write_text(to_json_text(record))
+    method = PredictionsFolder(preds)
+    info = method.generate(CaseInput(benchmark.case("cab0"), frozenset()), tmp_path / "out").info
+    assert info == {"source": str(preds / "cab0"), "spark_run": "/spark/output/cab0_20250101_120000",
+                    "spark_urdf": "mobility_optimized.urdf", "spark_urdf_kind": "optimized",
+                    "spark_alignment": "icp"}
+    # a folder from anywhere else says only where it is
+    assert method.generate(CaseInput(benchmark.case("cab1"), frozenset()), tmp_path / "out").info == {
+        "source": str(preds / "cab1")}
+    (preds / "cab1" / "import.json").write_text("{not json")
+    with pytest.raises(InputError, match="cab1/import.json: unreadable SPARK import record"):
+        method.generate(CaseInput(benchmark.case("cab1"), frozenset()), tmp_path / "out")
