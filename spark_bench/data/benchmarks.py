@@ -3,6 +3,11 @@
 ``synth-v1``: 50 procedural objects (``spark_bench.data.synth``, seed 0) over at least 20 categories,
 prepared with the default :class:`~spark_bench.data.prepare.PrepareOptions` (512 px renders, R=200).
 
+``spark-test``: the SPARK paper's own 42 test objects, PartNet-Mobility ids listed in SPARK's code
+(:data:`SPARK_TEST_IDS`). Their meshes cannot be shipped: :func:`prepare_listed` prepares the ones found
+in a user's PartNet-Mobility download (``spark-bench data prepare --src DIR --bench spark-test``), seen
+by SPARK's camera (radius 4, 40 degree field of view, straight at the front and level).
+
 Building is safe to interrupt: the objects are generated into a temporary folder renamed into place,
 the cases resume (each case is renamed into place when complete), and the benchmark counts as built
 only when the marker file, written last, is there. A lock keeps two processes from building at once.
@@ -12,11 +17,12 @@ from __future__ import annotations
 
 import json
 import shutil
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
+from spark_bench.data.camera import DEFAULT_DISTANCE, DEFAULT_FOV_DEG, SPARK_AZIMUTH_DEG, SPARK_ELEVATION_DEG
 from spark_bench.data.case import Benchmark
-from spark_bench.data.prepare import PrepareOptions, bench_lock, prepare_benchmark
+from spark_bench.data.prepare import PrepareOptions, bench_lock, find_objects, prepare_benchmark
 from spark_bench.data.readers import read_json
 from spark_bench.errors import InputError, SparkBenchError
 from spark_bench.paths import cache_dir
@@ -35,6 +41,8 @@ class BenchmarkSpec:
     :param seed: seed of the synth generator
     :param min_categories: the generated objects must span at least this many categories
     :param options: prepare options
+    :param ids: the object ids of a benchmark of listed real objects (prepared from the user's download
+        with :func:`prepare_listed`, never generated); empty for a synth benchmark
     """
 
     name: str
@@ -42,10 +50,32 @@ class BenchmarkSpec:
     seed: int = 0
     min_categories: int = 1
     options: PrepareOptions = field(default_factory=PrepareOptions)
+    ids: tuple[str, ...] = ()
 
+    @property
+    def is_listed(self) -> bool:
+        """Whether this benchmark is a list of real objects the user provides."""
+        return bool(self.ids)
+
+
+#: SPARK's test objects: the ``SELECT`` list of ``datasets/create_testset.py`` in SPARK's code
+#: (``mebam1/spark``), 42 PartNet-Mobility ids, in its order.
+SPARK_TEST_IDS = (
+    "100162", "100202", "100448", "100473", "101362", "102834", "103048", "103105", "12092", "12540",
+    "8867", "8897", "100021", "100051", "10090", "10101", "7221", "7236", "101773", "101931",
+    "103863", "103872", "10627", "10900", "100828", "101011", "101593", "102301", "35059", "44817",
+    "100550", "100825", "20411", "25913", "103477", "103482", "101323", "102632", "101377", "102155",
+    "103518", "103521",
+)
+#: SPARK's rendering (``datasets/preprocess/render.py``): camera on a sphere of radius 4, 40 degree field of
+#: view, azimuth 0 and elevation 0 of its mesh frame (our front view, level). Its 2048 px renders become the
+#: benchmark's default 512 px (``--image-size`` changes it).
+SPARK_VIEW = PrepareOptions(fov_deg=DEFAULT_FOV_DEG, distance=DEFAULT_DISTANCE, azimuth_deg=SPARK_AZIMUTH_DEG,
+                            elevation_deg=SPARK_ELEVATION_DEG)
 
 BENCHMARKS: dict[str, BenchmarkSpec] = {
     "synth-v1": BenchmarkSpec("synth-v1", n_objects=50, seed=0, min_categories=20),
+    "spark-test": BenchmarkSpec("spark-test", n_objects=len(SPARK_TEST_IDS), options=SPARK_VIEW, ids=SPARK_TEST_IDS),
 }
 DEFAULT_BENCHMARK = "synth-v1"
 
@@ -67,7 +97,7 @@ def expected_marker(spec: BenchmarkSpec) -> dict:
     from spark_bench.data.synth import GENERATOR_VERSION
 
     return {"name": spec.name, "n_objects": spec.n_objects, "seed": spec.seed,
-            "generator_version": GENERATOR_VERSION, "options": asdict(spec.options)}
+            "generator_version": GENERATOR_VERSION, "options": spec.options.to_json()}
 
 
 def _json_object(path: Path) -> dict | None:
@@ -143,7 +173,9 @@ def build_benchmark(spec: BenchmarkSpec, folder: Path, workers: int = 1, progres
 
 def ensure_benchmark(name: str = DEFAULT_BENCHMARK, rebuild: bool = False, workers: int = 1,
                      progress: bool = True) -> Path:
-    """The folder of a named benchmark, built on first use and reused after.
+    """The folder of a named benchmark, built on first use and reused after. A benchmark of listed real
+    objects (``spark-test``) is never built here: it must have been prepared into the cache from the
+    user's download (:func:`prepare_listed` with its default ``out``).
 
     :param name: a key of :data:`BENCHMARKS`
     :param rebuild: delete and rebuild it (a build of other settings or generator version is rebuilt anyway)
@@ -152,6 +184,13 @@ def ensure_benchmark(name: str = DEFAULT_BENCHMARK, rebuild: bool = False, worke
     """
     spec = benchmark_spec(name)
     folder = benchmark_dir(name)
+    if spec.is_listed:
+        bench = Benchmark(folder)
+        if not bench.exists or not bench.case_ids():
+            raise SparkBenchError(f"benchmark {name} is made from your PartNet-Mobility download: run "
+                                  f"`spark-bench data prepare --src PARTNET_MOBILITY_DIR --bench {name}` first "
+                                  f"(it is prepared into {folder})")
+        return folder
     if is_built(folder, spec) and not rebuild:
         return folder
     with bench_lock(folder.parent / f".{name}.build", wait=True):
@@ -161,3 +200,56 @@ def ensure_benchmark(name: str = DEFAULT_BENCHMARK, rebuild: bool = False, worke
             build_benchmark(spec, folder, workers=workers, progress=progress)
     Benchmark(folder).manifest()  # a readable manifest, or an input error naming it
     return folder
+
+
+@dataclass
+class ListedResult:
+    """What :func:`prepare_listed` did.
+
+    :param manifest: the benchmark's manifest
+    :param found: listed ids found in the source, in list order
+    :param missing: listed ids not found in the source, in list order
+    :param folder: the benchmark folder
+    """
+
+    manifest: dict
+    found: list[str]
+    missing: list[str]
+    folder: Path
+
+    @property
+    def prepared(self) -> list[str]:
+        """Listed ids that are complete cases of the benchmark."""
+        return [i for i in self.found if i in self.manifest["cases"]]
+
+
+def prepare_listed(spec: BenchmarkSpec, src: str | Path, out: str | Path | None = None,
+                   options: PrepareOptions | None = None, workers: int = 1, progress: bool = True,
+                   overwrite: bool = False) -> ListedResult:
+    """Prepare the listed objects of ``spec`` found under ``src`` (a PartNet-Mobility download: one folder
+    per object id) into a benchmark folder, one case per id; ids not found are skipped and reported (in the
+    result and the manifest's ``missing``), an object that fails is recorded in the manifest's ``failed``.
+
+    :param spec: a listed benchmark (``spark-test``)
+    :param src: the folder of object folders
+    :param out: the benchmark folder (default: the cache's, where ``eval --bench NAME`` finds it)
+    :param options: prepare options (default: the spec's, SPARK's camera for ``spark-test``)
+    :param workers: processes
+    :param progress: show a progress bar
+    :param overwrite: rebuild complete cases too
+    :raises SparkBenchError: when ``spec`` is not a listed benchmark or no listed object is in ``src``
+    """
+    if not spec.is_listed:
+        raise SparkBenchError(f"benchmark {spec.name} is generated, not listed: build it with "
+                              f"`spark-bench data build {spec.name}`")
+    available = find_objects(src)
+    found = [i for i in spec.ids if i in available]
+    missing = [i for i in spec.ids if i not in available]
+    if not found:
+        raise SparkBenchError(f"{src}: none of the {len(spec.ids)} objects of {spec.name} is there (expected "
+                              f"PartNet-Mobility folders named by id, e.g. {spec.ids[0]}/mobility.urdf)")
+    out = Path(out) if out is not None else benchmark_dir(spec.name)
+    manifest = prepare_benchmark(src, out, ids=found, options=options or spec.options, workers=workers,
+                                 progress=progress, name=spec.name, overwrite=overwrite)
+    manifest = Benchmark(out).write_manifest({**manifest, "listed": list(spec.ids), "missing": missing})
+    return ListedResult(manifest, found, missing, out)

@@ -20,6 +20,12 @@ from spark_bench.errors import InputError
 #: Defaults of the benchmark view (SPARK's rendering setup): radius 4, 40 degree vertical field of view.
 DEFAULT_DISTANCE = 4.0
 DEFAULT_FOV_DEG = 40.0
+#: SPARK's own view of its test objects (``datasets/preprocess/render.py`` and ``data_augmentation.py`` in
+#: SPARK's code call ``render_single_view`` with azimuth 0 and elevation 0: a camera at ``(0, 0, 4)`` of the
+#: Y-up, front +Z mesh frame, looking at the origin): straight at the object's front, level. In this
+#: frame (Z up, front towards -X) that is azimuth 180, elevation 0.
+SPARK_AZIMUTH_DEG = 180.0
+SPARK_ELEVATION_DEG = 0.0
 #: The front hemisphere: azimuth within this many degrees of -X, elevation in this range (degrees).
 FRONT_AZIMUTH_SPAN_DEG = 60.0
 FRONT_ELEVATION_RANGE_DEG = (10.0, 40.0)

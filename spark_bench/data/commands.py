@@ -28,8 +28,14 @@ def add_commands(subparsers) -> None:
                                          "a case folder of BENCH; failed objects are listed in BENCH's manifest. "
                                          "Re-running resumes: finished cases are kept.")
     prepare.add_argument("--src", type=Path, required=True, help="a folder of object folders, or one object")
-    prepare.add_argument("--out", type=Path, required=True, help="the benchmark folder to write")
+    prepare.add_argument("--out", type=Path, default=None,
+                         help="the benchmark folder to write (required unless --bench names a listed benchmark, "
+                              "whose default is the cache folder `eval --bench NAME` reads)")
     prepare.add_argument("--ids", nargs="+", default=None, metavar="ID", help="only these object ids")
+    prepare.add_argument("--bench", default=None, metavar="NAME",
+                         help="a listed benchmark (spark-test: the SPARK paper's 42 PartNet-Mobility test ids): "
+                              "prepare the listed objects found under --src with its camera, skip the others "
+                              "and report them")
     _add_prepare_options(prepare)
     prepare.add_argument("--overwrite", action="store_true", help="rebuild cases that are already complete")
     prepare.set_defaults(func=run_prepare)
@@ -48,10 +54,10 @@ def add_commands(subparsers) -> None:
 
 
 def _add_prepare_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--image-size", type=int, default=512, help="render size in pixels (default 512)")
-    parser.add_argument("--resolution", type=int, default=200,
+    parser.add_argument("--image-size", type=int, default=None, help="render size in pixels (default 512)")
+    parser.add_argument("--resolution", type=int, default=None,
                         help="watertight remesh voxels along a part's largest axis (default 200, as SPARK)")
-    parser.add_argument("--seed", type=int, default=0, help="base seed of the camera views (default 0)")
+    parser.add_argument("--seed", type=int, default=None, help="base seed of the camera views (default 0)")
     parser.add_argument("--workers", type=int, default=1, help="processes (default 1)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
@@ -66,12 +72,25 @@ def run_synth(args) -> int:
     return 0
 
 
+def _options(args, base=None):
+    """``base`` (default :class:`PrepareOptions`) with the options given on the command line."""
+    from dataclasses import replace
+
+    from spark_bench.data.prepare import PrepareOptions
+
+    given = {k: getattr(args, k) for k in ("image_size", "resolution", "seed") if getattr(args, k) is not None}
+    return replace(base or PrepareOptions(), **given)
+
+
 def run_prepare(args) -> int:
     from spark_bench.data.case import Benchmark
-    from spark_bench.data.prepare import PrepareOptions, prepare_benchmark
+    from spark_bench.data.prepare import prepare_benchmark
 
-    options = PrepareOptions(image_size=args.image_size, resolution=args.resolution, seed=args.seed)
-    manifest = prepare_benchmark(args.src, args.out, ids=args.ids, options=options, workers=args.workers,
+    if args.bench is not None:
+        return _run_prepare_listed(args)
+    if args.out is None:
+        raise _usage("data prepare needs --out BENCH_DIR (or --bench NAME of a listed benchmark)")
+    manifest = prepare_benchmark(args.src, args.out, ids=args.ids, options=_options(args), workers=args.workers,
                                  progress=not args.no_progress, overwrite=args.overwrite)
     print(f"{len(manifest['cases'])} cases in {args.out}, {len(manifest['failed'])} failed")
     for case_id, reason in manifest["failed"].items():
@@ -79,6 +98,33 @@ def run_prepare(args) -> int:
     if manifest["cases"]:
         print(f"contact sheet: {Benchmark(args.out).contact_sheet_path}")
     return 1 if manifest["failed"] else 0
+
+
+def _run_prepare_listed(args) -> int:
+    """``data prepare --bench NAME``: the listed objects found under ``--src``; 0 when at least one listed
+    object is a case of the benchmark, else 1 with the reason."""
+    import sys
+
+    from spark_bench.data.benchmarks import benchmark_spec, prepare_listed
+
+    spec = benchmark_spec(args.bench)
+    if not spec.is_listed:
+        raise _usage(f"--bench {args.bench}: a generated benchmark; build it with `spark-bench data build {args.bench}`")
+    if args.ids:
+        raise _usage("--ids and --bench exclude each other: the benchmark lists its ids")
+    result = prepare_listed(spec, args.src, args.out, options=_options(args, spec.options), workers=args.workers,
+                            progress=not args.no_progress, overwrite=args.overwrite)
+    manifest, out = result.manifest, result.folder
+    print(f"{spec.name}: {len(result.found)} of {len(spec.ids)} listed objects found in {args.src}, "
+          f"{len(result.prepared)} prepared into {out}, {len(manifest['failed'])} failed")
+    if result.missing:
+        print(f"  missing ({len(result.missing)}): {' '.join(result.missing)}")
+    for case_id, reason in manifest["failed"].items():
+        print(f"  failed {case_id}: {reason}")
+    if not result.prepared:
+        print(f"error: none of the listed objects of {spec.name} could be prepared", file=sys.stderr)
+        return 1
+    return 0
 
 
 def run_build(args) -> int:

@@ -2,8 +2,9 @@
 
 For each object (docs/formats.md, "Benchmark"): read it; merge each link's visuals into one mesh with
 the area-weighted mean colour; make it watertight (SPARK appendix remesh); keep only convex collision
-shapes; normalize into the benchmark frame; write the ground truth; render the input (rest) and open
-states with per-link masks from a seeded front view; write the camera and, last, the case record
+shapes; normalize into the benchmark frame; write the ground truth (with the source's GAPartNet part
+classes, when it has them); render the input (rest) and open states with per-link masks from a seeded
+front view (or the fixed view of :class:`PrepareOptions`); write the camera and, last, the case record
 (:class:`~spark_bench.data.case.BenchmarkCase` names the files). A case is built in a hidden temporary
 folder and renamed into place, so a case folder with a record is always complete and a killed run
 resumes where it stopped.
@@ -42,6 +43,9 @@ class PrepareOptions:
     :param fov_deg: vertical field of view of the camera
     :param distance: radius of the camera sphere (benchmark frame)
     :param seed: base seed of the per-case views
+    :param azimuth_deg: a fixed camera azimuth for every case (degrees from +X towards +Y; 180: the
+        object's front); None: a seeded view of the front hemisphere per case
+    :param elevation_deg: the fixed camera elevation (degrees above the XY plane), given with ``azimuth_deg``
     """
 
     image_size: int = 512
@@ -50,10 +54,35 @@ class PrepareOptions:
     fov_deg: float = 40.0
     distance: float = 4.0
     seed: int = 0
+    azimuth_deg: float | None = None
+    elevation_deg: float | None = None
 
     def __post_init__(self):
         if self.image_size < 16 or self.resolution < 4 or self.n_min < 1:
             raise SparkBenchError(f"invalid prepare options {self}: image_size >= 16, resolution >= 4, n_min >= 1")
+        if (self.azimuth_deg is None) != (self.elevation_deg is None):
+            raise SparkBenchError(f"invalid prepare options {self}: give both azimuth_deg and elevation_deg, or neither")
+
+    def to_json(self) -> dict:
+        """The options as the manifest stores them; a fixed view's angles only when set, so the options of
+        a seeded-view benchmark read as they did before fixed views existed."""
+        out = asdict(self)
+        if self.azimuth_deg is None:
+            del out["azimuth_deg"], out["elevation_deg"]
+        return out
+
+    def view(self, case_id: str):
+        """The case's camera: the fixed view when set, else the seeded front view of ``case_id``.
+
+        :returns: ``(CameraView, view seed)``
+        """
+        from spark_bench.data.camera import CameraView, view_seed
+
+        seed = view_seed(case_id, self.seed)
+        if self.azimuth_deg is not None:
+            return CameraView.on_sphere(self.azimuth_deg, self.elevation_deg, self.distance, self.image_size,
+                                        self.fov_deg), seed
+        return CameraView.front(seed, self.distance, self.image_size, self.fov_deg), seed
 
 
 @dataclass
@@ -133,6 +162,30 @@ def _joint_label(asset: ArticulatedAsset, joint_name: str) -> str:
     return ""
 
 
+#: GAPartNet's per-link annotation file of an object folder (read by :func:`~spark_bench.data.readers.load_object`).
+GAPARTNET_ANNOTATIONS = "link_annotation_gapartnet.json"
+
+
+def write_gapartnet_annotations(asset: ArticulatedAsset, folder: Path) -> Path | None:
+    """Carry the source's GAPartNet part classes into an object folder (``link_annotation_gapartnet.json``:
+    ``link_name``, ``is_gapart``, ``category`` per annotated link), so that the metrics can give each
+    ground-truth joint its part class. The boxes (``bbox``, in the source's frame and units) are not
+    carried. Nothing is written for an asset without annotations.
+
+    :returns: the file written, or None
+    """
+    import json
+
+    items = [{"link_name": name, "is_gapart": bool(link.annotations.get("is_gapart", True)),
+              "category": str(link.annotations.get("category") or "")}
+             for name, link in asset.links.items() if link.annotations.get("category")]
+    if not items:
+        return None
+    path = Path(folder) / GAPARTNET_ANNOTATIONS
+    path.write_text(json.dumps(items, indent=1) + "\n")
+    return path
+
+
 def joint_records(asset: ArticulatedAsset) -> list[dict]:
     """The case record's ``joints``: every movable joint in file order, world frame at rest (a point on the axis
     and the unit axis), its limits and ``open``, the value it has in ``open.png``."""
@@ -185,7 +238,6 @@ def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions 
     """
     from spark_bench.asset.ops import normalize_asset
     from spark_bench.asset.urdf import write_object_folder
-    from spark_bench.data.camera import CameraView, view_seed
     from spark_bench.data.render import AssetRenderer
 
     options = options or PrepareOptions()
@@ -207,8 +259,8 @@ def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions 
             gt, center, scale = normalize_asset(gt)
             gt.name = case_id
             write_object_folder(gt, case.gt_dir)
-        seed = view_seed(case_id, options.seed)
-        view = CameraView.front(seed, options.distance, options.image_size, options.fov_deg)
+            write_gapartnet_annotations(gt, case.gt_dir)
+        view, seed = options.view(case_id)
         links = list(gt.links)
         with timer("render"):
             with timer("render.scene"):  # a sub-stage: building the MuJoCo model (mesh processing)
@@ -289,7 +341,7 @@ def write_manifest(bench: Benchmark, name: str, options: PrepareOptions, failed:
     now = datetime.now(UTC).isoformat(timespec="seconds")
     manifest = {"name": name, "convention": CONVENTION_VERSION, "cases": cases,
                 "failed": {k: v for k, v in sorted(failed.items()) if k not in cases},
-                "created": created or now, "updated": now, "source": source, "options": asdict(options)}
+                "created": created or now, "updated": now, "source": source, "options": options.to_json()}
     return bench.write_manifest(manifest)
 
 
@@ -315,7 +367,7 @@ def _previous(bench: Benchmark, options: PrepareOptions) -> dict:
     if not bench.exists:
         return {}
     old = bench.manifest()
-    if old.get("options") and old["options"] != asdict(options) and bench.complete_case_ids():
+    if old.get("options") and old["options"] != options.to_json() and bench.complete_case_ids():
         raise SparkBenchError(f"{bench.folder}: prepared with other options {old['options']}; "
                               "use another output folder or --overwrite")
     return old

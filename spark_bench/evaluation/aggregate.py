@@ -3,9 +3,12 @@
 - Shape metrics (CD, F-Scores): mean over the ``ok`` cases whose shape metrics are valid; None (shown
   as n/a) when no case has valid shape metrics (a method that reuses the ground-truth geometry).
 - Articulation metrics: mean over the ``ok`` cases that have the value (DESIGN.md: mean over joints
-  per object, then over objects).
+  per object, then over objects); ``joint_mean`` beside them: ``axis_err``, ``pivot_err``, ``type_err``
+  averaged over every joint of the ``ok`` cases (from each row's stored per-joint errors).
 - Rates (sim pass, scripted opening): over every case of the run where the stage ran, a failed case
   counting as not passed; None when the stage never ran.
+
+Rows scored under different metric conventions (the ``convention`` column) are never averaged together.
 """
 
 from __future__ import annotations
@@ -13,7 +16,9 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 
-from spark_bench.metrics.names import ARTICULATION_KEYS, METRIC_COLUMNS, SHAPE_KEYS
+from spark_bench.errors import SparkBenchError
+from spark_bench.metrics.names import ARTICULATION_KEYS, JOINT_MEAN, METRIC_COLUMNS, SHAPE_KEYS
+from spark_bench.metrics.report import joint_errors, mean_by_part_class, mean_over_joints
 
 # The keys (SUMMARY_KEYS: SHAPE_KEYS, ARTICULATION_KEYS, RATE_KEYS) and which way each is better are
 # listed in spark_bench.metrics.names.
@@ -37,14 +42,49 @@ def _rate(rows: Sequence[dict], column: str, stage_ran) -> float | None:
     return sum(float(r.get(column) or 0.0) for r in counted if r["status"] == "ok") / len(counted)
 
 
+def check_convention(rows: Sequence[dict]) -> str:
+    """The one metric convention of ``rows`` (``""`` for rows that name none).
+
+    :param rows: result rows
+
+    :raises SparkBenchError: when the rows were scored under several conventions
+    """
+    found = sorted({str(r.get("convention") or "") for r in rows})
+    if len(found) > 1:
+        raise SparkBenchError(f"result rows scored under different metric conventions "
+                              f"({', '.join(c or '(none)' for c in found)}) cannot be averaged together; "
+                              "re-run `spark-bench eval` to score every case under the current one")
+    return found[0] if found else ""
+
+
+def joint_records(rows: Sequence[dict]) -> list[dict]:
+    """The per-joint errors (:func:`~spark_bench.metrics.report.joint_errors`) of the ``ok`` rows.
+
+    :param rows: result rows (their ``metrics`` JSON holds ``matching`` and ``missing_joints``)
+    """
+    return [record for r in rows if r["status"] == "ok" for record in joint_errors(r.get("metrics") or {})]
+
+
+def by_part_class(rows: Sequence[dict]) -> dict[str, dict]:
+    """AxisErr, PivotErr, TypeErr and ``n_joints`` per GAPartNet part class over the joints of the ``ok``
+    rows (joints of ground truths without GAPartNet annotations are left out).
+
+    :param rows: result rows of one run and variant, all of one metric convention
+    """
+    check_convention(rows)
+    return mean_by_part_class(joint_records(rows))
+
+
 def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = ()) -> dict:
     """The per-benchmark metrics of one run's rows (one variant), keys
-    :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``).
+    :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``), then :data:`JOINT_MEAN`.
 
-    :param rows: result rows of one run and variant (ok and failed)
+    :param rows: result rows of one run and variant (ok and failed), all of one metric convention
     :param sim: whether the sim stages were asked for (False: the rates are None)
     :param extra: further keys: ``cd_open``, ``rl_success_rate``
+    :raises SparkBenchError: for rows of several metric conventions
     """
+    check_convention(rows)
     ok = [r for r in rows if r["status"] == "ok"]
     shape_ok = [r for r in ok if r.get("shape_metrics_valid", True)]
     out: dict = {}
@@ -59,4 +99,5 @@ def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = ())
         out["cd_open"] = _mean(_value(r, "cd_open") for r in shape_ok)
     if "rl_success_rate" in extra:
         out["rl_success_rate"] = _rate(rows, "rl_success", lambda r: r.get("rl_success") is not None)
+    out[JOINT_MEAN] = mean_over_joints(joint_records(rows))
     return out

@@ -6,8 +6,10 @@ by it (Markdown, LaTeX, CSV) and by :mod:`spark_bench.evaluation.leaderboard_htm
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
+from spark_bench import CONVENTION_VERSION
+from spark_bench.evaluation.aggregate import by_part_class
 from spark_bench.metrics.names import (
     ARTICULATION_KEYS,
     HEADLINE_KEYS,
@@ -64,12 +66,27 @@ class Entry:
 
 @dataclass
 class Table:
-    """A titled table: its metric keys and one entry per row."""
+    """A titled table: its metric keys and one entry per row.
+
+    :param joints: a per-part-class table: its count column is the class's joints (``n_joints`` of each
+        entry's metrics), not the run's cases and failures
+    """
 
     key: str
     title: str
     metrics: tuple[str, ...]
     entries: list[Entry]
+    joints: bool = False
+
+    def count_headers(self) -> list[str]:
+        """Headers of the count columns after the metrics."""
+        return ["Joints"] if self.joints else ["Cases", "Failed"]
+
+    def count_cells(self, entry: Entry) -> list[str]:
+        """The count cells of ``entry``, see :meth:`count_headers`."""
+        if self.joints:
+            return [str(entry.metrics.get("n_joints", 0))]
+        return [str(entry.n_cases), str(entry.n_failed)]
 
     def ranks(self) -> dict[tuple[int, str], int]:
         """``{(entry index, metric): 1 or 2}`` for the best and second best ranked values."""
@@ -86,11 +103,17 @@ class Table:
 
 @dataclass
 class Leaderboard:
-    """Everything the renderers need: the benchmark, its entries, per-category entries."""
+    """Everything the renderers need: the benchmark, its entries, per-category entries.
+
+    :param convention: the metric convention of every row shown
+    :param left_out: rows of the benchmark not shown, by the (other) convention they were scored under
+    """
 
     bench: str
     entries: list[Entry]
     categories: dict[str, list[Entry]] = field(default_factory=dict)
+    convention: str = CONVENTION_VERSION
+    left_out: dict[str, int] = field(default_factory=dict)
 
     def tables(self, entries: list[Entry] | None = None) -> list[Table]:
         entries = self.entries if entries is None else entries
@@ -101,6 +124,35 @@ class Leaderboard:
                 Table("articulation", "URDF parameter estimation", ARTICULATION_KEYS, entries),
                 Table("sim", "Sim-readiness", tuple(sim_keys), entries)]
 
+    def part_class_tables(self) -> list[Table]:
+        """One articulation table per GAPartNet part class found in the rows (``hinge_door``,
+        ``slider_drawer``, ...): each entry's AxisErr, PivotErr and TypeErr over the joints of that class
+        (:func:`~spark_bench.evaluation.aggregate.by_part_class`); an entry without such joints is left out
+        of that class's table. Empty when no ground truth carries GAPartNet annotations."""
+        per_entry = [by_part_class(e.rows) for e in self.entries]
+        classes = sorted({name for found in per_entry for name in found})
+        out = []
+        for name in classes:
+            entries = [replace(e, metrics=found[name]) for e, found in zip(self.entries, per_entry) if name in found]
+            out.append(Table(f"part-{name}", f"URDF parameter estimation: {part_class_title(name)}",
+                             ARTICULATION_KEYS, entries, joints=True))
+        return out
+
+    def notes(self) -> list[str]:
+        """What every rendering says under its tables: how the articulation errors are averaged, what the
+        open-success column measures, the metric convention and the rows of other conventions left out."""
+        notes = [ARTICULATION_NOTE, OPEN_SUCCESS_NOTE, f"Metric convention: {self.convention}."]
+        if self.left_out:
+            scored = ", ".join(f"{n} under {c or 'no convention'}" for c, n in sorted(self.left_out.items()))
+            notes.append(f"Not shown: {sum(self.left_out.values())} result rows scored under older metric "
+                         f"definitions ({scored}); re-run `spark-bench eval` to score them under {self.convention}.")
+        return notes
+
+
+def part_class_title(name: str) -> str:
+    """A GAPartNet part class as a title: ``hinge_door`` -> ``hinge door``."""
+    return name.replace("_", " ")
+
 
 def is_number(value) -> bool:
     """Whether ``value`` is a finite number (not a bool): a value a table shows and ranks."""
@@ -108,12 +160,24 @@ def is_number(value) -> bool:
 
 
 def fmt_value(value, digits: int = 4) -> str:
-    """A metric for a table: ``n/a`` for None, else ``digits`` decimals."""
+    """A metric for a table: ``n/a`` for None, else ``digits`` decimals; a dict of metrics (``joint_mean``)
+    as ``key value`` pairs."""
+    if isinstance(value, dict):
+        return ", ".join(f"{key} {fmt_value(v, digits)}" for key, v in value.items())
     if not is_number(value):
         return "n/a"
     return f"{value:.{digits}f}"
 
 
+#: How the articulation errors are averaged, under every rendering of the tables.
+ARTICULATION_NOTE = ("AxisErr, PivotErr and TypeErr are per object (the mean over its joints), then averaged over "
+                     "objects; `eval --json` also gives the mean over all joints (`joint_mean`). PivotErr "
+                     "(FreeArt3D's rule) scores every matched ground-truth revolute joint, whatever the "
+                     "predicted type.")
+#: Under the per-part-class tables.
+PART_CLASS_NOTE = ("Per GAPartNet part class: AxisErr, PivotErr and TypeErr averaged over the joints of that "
+                   "class (every joint weighs the same), for ground truths with GAPartNet annotations "
+                   "(link_annotation_gapartnet.json).")
 #: What the open-success column measures, under every rendering of the tables.
 OPEN_SUCCESS_NOTE = ("Open success: the scripted opener, planned from the predicted joints, opening each "
                      "ground-truth drawer and door at its real size; cases whose joints it cannot open even "

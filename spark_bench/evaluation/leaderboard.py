@@ -6,6 +6,12 @@ Three tables, one row per method label, variant and input regime (the latest run
 2. articulation (paper Table 2): AxisErr, PivotErr, TypeErr;
 3. sim-readiness: sim pass rate, scripted-opening success (and RL transfer success when measured).
 
+Only rows of the current metric convention (:data:`spark_bench.CONVENTION_VERSION`) are shown; the note
+under the tables counts the rows of older conventions left out. The articulation errors are per object
+(mean over its joints, then over objects), and the note says so. With ``per_part_class`` the articulation
+errors are also broken down by GAPartNet part class (hinge door, slider drawer, hinge lid, ...), over the
+joints of that class, for ground truths with GAPartNet annotations.
+
 Best and second best of each column are marked (LaTeX: ``\\cellcolor{Palette5}`` and
 ``\\cellcolor{Palette4}`` as in the paper; Markdown: bold and italics). Reference rows (the oracle,
 regime ``ground truth``) are shown but never ranked. Shape metrics of a method whose geometry is the
@@ -19,13 +25,14 @@ import csv
 import io
 from pathlib import Path
 
+from spark_bench import CONVENTION_VERSION
 from spark_bench.errors import SparkBenchError
 from spark_bench.evaluation.aggregate import summarize
 from spark_bench.evaluation.board import (
     HEADERS,
     LATEX_HEADERS,
-    OPEN_SUCCESS_NOTE,
     PALETTE,
+    PART_CLASS_NOTE,
     Entry,
     Leaderboard,
     Table,
@@ -81,16 +88,26 @@ def build_leaderboard(store: ResultsStore, bench: str | None = None, labels: lis
         rows = [r for r in rows if r["label"] in labels]
     if not rows:
         raise SparkBenchError(f"no results for benchmark {bench!r} in {store.path}")
+    left_out: dict[str, int] = {}
+    for row in rows:
+        if row["convention"] != CONVENTION_VERSION:
+            left_out[row["convention"]] = left_out.get(row["convention"], 0) + 1
+    rows = [r for r in rows if r["convention"] == CONVENTION_VERSION]
+    if not rows:
+        found = ", ".join(f"{c or 'no convention'} ({n} rows)" for c, n in sorted(left_out.items()))
+        raise SparkBenchError(f"no results for benchmark {bench!r} under the current metric definitions "
+                              f"({CONVENTION_VERSION}) in {store.path}, only under {found}; re-run "
+                              "`spark-bench eval` to score them again (generations are cached)")
     categories: dict[str, list[Entry]] = {}
     for category in sorted({r["category"] for r in rows if r["category"]}):
         categories[category] = _entries([r for r in rows if r["category"] == category])
-    return Leaderboard(bench, _entries(rows), categories)
+    return Leaderboard(bench, _entries(rows), categories, CONVENTION_VERSION, left_out)
 
 
 # ----- text formats ---------------------------------------------------------------------------------
 def _md_table(table: Table) -> str:
     ranks = table.ranks()
-    head = ["Method", "Regime", *[HEADERS[m] for m in table.metrics], "Cases", "Failed"]
+    head = ["Method", "Regime", *[HEADERS[m] for m in table.metrics], *table.count_headers()]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for i, e in enumerate(table.entries):
         cells = []
@@ -98,13 +115,26 @@ def _md_table(table: Table) -> str:
             text = fmt_value(e.metrics.get(m))
             rank = ranks.get((i, m))
             cells.append(f"**{text}**" if rank == 1 else f"_{text}_" if rank == 2 else text)
-        lines.append("| " + " | ".join([e.name.replace("|", "\\|"), e.regime, *cells, str(e.n_cases),
-                                        str(e.n_failed)]) + " |")
+        lines.append("| " + " | ".join([e.name.replace("|", "\\|"), e.regime, *cells,
+                                        *table.count_cells(e)]) + " |")
     return "\n".join(lines)
 
 
-def to_markdown(board: Leaderboard, per_category: bool = False) -> str:
-    """Markdown tables (best in bold, second best in italics)."""
+def _part_class_tables(board: Leaderboard) -> list[Table]:
+    tables = board.part_class_tables()
+    if not tables:
+        raise SparkBenchError(f"no GAPartNet part classes in the results of {board.bench!r}: its ground truths "
+                              "carry no GAPartNet annotations (link_annotation_gapartnet.json in the source "
+                              "object folders, prepared under the current metric convention)")
+    return tables
+
+
+def to_markdown(board: Leaderboard, per_category: bool = False, per_part_class: bool = False) -> str:
+    """Markdown tables (best in bold, second best in italics).
+
+    :param per_category: add per-category tables
+    :param per_part_class: add one articulation table per GAPartNet part class
+    """
     parts = [f"# spark-bench leaderboard: {board.bench}", ""]
     for table in board.tables():
         parts += [f"## {table.title}", "", _md_table(table), ""]
@@ -113,9 +143,13 @@ def to_markdown(board: Leaderboard, per_category: bool = False) -> str:
             parts += [f"## {category}", ""]
             for table in board.tables(entries):
                 parts += [f"### {table.title}", "", _md_table(table), ""]
-    parts.append("Best **bold**, second best _italics_ (reference rows with regime `ground truth` are not "
-                 "ranked). n/a: not measured or not meaningful (geometry taken from the ground truth). "
-                 + OPEN_SUCCESS_NOTE)
+    if per_part_class:
+        for table in _part_class_tables(board):
+            parts += [f"## {table.title}", "", _md_table(table), ""]
+        parts += [PART_CLASS_NOTE, ""]
+    parts.append(" ".join(["Best **bold**, second best _italics_ (reference rows with regime `ground truth` are "
+                           "not ranked). n/a: not measured or not meaningful (geometry taken from the ground "
+                           "truth).", *board.notes()]))
     return "\n".join(parts) + "\n"
 
 
@@ -146,8 +180,9 @@ def _latex_table(table: Table, caption: str, label: str) -> str:
     return "\n".join(lines)
 
 
-def to_latex(board: Leaderboard, per_category: bool = False) -> str:
-    """LaTeX tables in the paper's style (needs ``\\usepackage[table]{xcolor}`` and the palette below)."""
+def to_latex(board: Leaderboard, per_category: bool = False, per_part_class: bool = False) -> str:
+    """LaTeX tables in the paper's style (needs ``\\usepackage[table]{xcolor}`` and the palette below);
+    the notes as comments at the end."""
     parts = ["% spark-bench leaderboard: " + board.bench,
              r"% needs \usepackage[table]{xcolor} and the paper's colours:",
              *[rf"\providecolor{{{name}}}{{RGB}}{{{r},{g},{b}}}" for name, (r, g, b) in PALETTE.items()], ""]
@@ -158,38 +193,63 @@ def to_latex(board: Leaderboard, per_category: bool = False) -> str:
             for table in board.tables(entries):
                 parts += [_latex_table(table, f"{table.title}: {category}.",
                                        f"tab:{table.key}-{category.lower()}"), ""]
+    if per_part_class:
+        for table in _part_class_tables(board):
+            parts += [_latex_table(table, f"{table.title} on {board.bench} (mean over joints).",
+                                   f"tab:{table.key}"), ""]
+    parts += [f"% {note}" for note in board.notes()]
     return "\n".join(parts)
 
 
-def to_csv(board: Leaderboard, per_category: bool = False) -> str:
-    """One CSV line per entry (and per category and entry with ``per_category``); every metric."""
+def to_csv(board: Leaderboard, per_category: bool = False, per_part_class: bool = False) -> str:
+    """One CSV line per entry (and per category and entry with ``per_category``); every metric. With
+    ``per_part_class`` two more columns, ``part_class`` and ``n_joints``, and one more line per GAPartNet part
+    class and entry (its articulation errors over the joints of that class; the other metrics n/a)."""
     keys = list(HEADLINE_KEYS)
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(["bench", "category", "method", "label", "variant", "regime", "version", "config_hash",
-                     "n_cases", "n_failed", *keys])
+                     "n_cases", "n_failed", *keys, *(["part_class", "n_joints"] if per_part_class else [])])
+
+    def values(metrics: dict) -> list[str]:
+        return ["n/a" if not is_number(metrics.get(k)) else repr(float(metrics[k])) for k in keys]
+
     groups = [("", board.entries)] + (list(board.categories.items()) if per_category else [])
     for category, entries in groups:
         for e in entries:
             writer.writerow([board.bench, category, e.method, e.label, e.variant, e.regime, e.version,
-                             e.config_hash, e.n_cases, e.n_failed,
-                             *["n/a" if not is_number(e.metrics.get(k)) else repr(float(e.metrics[k])) for k in keys]])
+                             e.config_hash, e.n_cases, e.n_failed, *values(e.metrics),
+                             *(["", ""] if per_part_class else [])])
+    if per_part_class:
+        for table in _part_class_tables(board):
+            name = table.key.removeprefix("part-")
+            for e in table.entries:
+                writer.writerow([board.bench, "", e.method, e.label, e.variant, e.regime, e.version,
+                                 e.config_hash, e.n_cases, e.n_failed, *values(e.metrics), name,
+                                 e.metrics.get("n_joints", 0)])
     return buffer.getvalue()
 
 
 def render(board: Leaderboard, fmt: str, per_category: bool = False, out: Path | None = None,
-           max_cases: int = 24) -> str:
-    """The leaderboard as text in ``fmt`` (``html`` writes its images beside ``out``)."""
+           max_cases: int = 24, per_part_class: bool = False) -> str:
+    """The leaderboard as text in ``fmt`` (``html`` writes its images beside ``out``).
+
+    :param per_category: add per-category tables
+    :param per_part_class: add the articulation errors per GAPartNet part class (SparkBenchError when no
+        ground truth of the benchmark carries GAPartNet annotations)
+    """
     if fmt == "md":
-        return to_markdown(board, per_category)
+        return to_markdown(board, per_category, per_part_class)
     if fmt == "latex":
-        return to_latex(board, per_category)
+        return to_latex(board, per_category, per_part_class)
     if fmt == "csv":
-        return to_csv(board, per_category)
+        return to_csv(board, per_category, per_part_class)
     if fmt == "html":
         if out is None:
             raise SparkBenchError("the HTML leaderboard needs an output file for its images")
         from spark_bench.evaluation.leaderboard_html import to_html
 
-        return to_html(board, Path(out), per_category, max_cases)
+        if per_part_class:
+            _part_class_tables(board)  # the same error as the text formats, before any image is drawn
+        return to_html(board, Path(out), per_category, max_cases, per_part_class)
     raise SparkBenchError(f"unknown format {fmt!r}; choose from {', '.join(FORMATS)}")

@@ -14,8 +14,8 @@ from pathlib import Path
 from spark_bench.data.case import BenchmarkCase
 from spark_bench.evaluation.board import (
     HEADERS,
-    OPEN_SUCCESS_NOTE,
     PALETTE,
+    PART_CLASS_NOTE,
     Leaderboard,
     Table,
     fmt_value,
@@ -53,7 +53,7 @@ def copy_file(src: Path, dst: Path) -> bool:
 def _table_html(table: Table) -> str:
     ranks = table.ranks()
     head = "".join(f"<th>{html_escape(h)}</th>" for h in
-                   ["Method", "Regime", *[HEADERS[m] for m in table.metrics], "Cases", "Failed"])
+                   ["Method", "Regime", *[HEADERS[m] for m in table.metrics], *table.count_headers()])
     lines = [f"<table class='metrics' id='table-{table.key}'><tr>{head}</tr>"]
     for i, e in enumerate(table.entries):
         cells = []
@@ -62,8 +62,9 @@ def _table_html(table: Table) -> str:
             rank = ranks.get((i, m))
             css = "best" if rank == 1 else "second" if rank == 2 else ("na" if not is_number(value) else "")
             cells.append(f"<td class='{css}'>{fmt_value(value)}</td>")
+        counts = "".join(f"<td>{html_escape(c)}</td>" for c in table.count_cells(e))
         lines.append(f"<tr><td>{html_escape(e.name)}</td><td>{html_escape(e.regime)}</td>{''.join(cells)}"
-                     f"<td>{e.n_cases}</td><td>{e.n_failed}</td></tr>")
+                     f"{counts}</tr>")
     lines.append("</table>")
     return "\n".join(lines)
 
@@ -161,13 +162,15 @@ def _gallery(board: Leaderboard, assets: Path, max_cases: int) -> str:
     return "\n".join(lines)
 
 
-def to_html(board: Leaderboard, out: Path, per_category: bool = False, max_cases: int = 24) -> str:
+def to_html(board: Leaderboard, out: Path, per_category: bool = False, max_cases: int = 24,
+            per_part_class: bool = False) -> str:
     """The page's HTML; its images are written into ``<out stem>_files/`` beside ``out``.
 
     :param board: the leaderboard
     :param out: the HTML file the text will be written to
     :param per_category: add per-category tables
     :param max_cases: cases shown in the gallery
+    :param per_part_class: add one articulation table (and chart) per GAPartNet part class
     """
     out = Path(out)
     assets = out.parent / f"{out.stem}_files"
@@ -179,7 +182,7 @@ def to_html(board: Leaderboard, out: Path, per_category: bool = False, max_cases
              "<p>Best of each column <span style='background:rgb{}'>highlighted</span>, second best "
              "<span style='background:rgb{}'>lighter</span>; reference rows (regime <i>ground truth</i>) are "
              "not ranked; n/a: not measured or not meaningful. {}</p>".format(
-                 PALETTE["Palette5"], PALETTE["Palette4"], html_escape(OPEN_SUCCESS_NOTE))]
+                 PALETTE["Palette5"], PALETTE["Palette4"], html_escape(" ".join(board.notes())))]
     charts = []
     for table in board.tables():
         parts += [f"<h2>{html_escape(table.title)}</h2>", _table_html(table)]
@@ -191,6 +194,13 @@ def to_html(board: Leaderboard, out: Path, per_category: bool = False, max_cases
             parts.append(f"<h2>{html_escape(category)}</h2>")
             for table in board.tables(entries):
                 parts += [f"<h3>{html_escape(table.title)}</h3>", _table_html(table)]
+    if per_part_class:
+        for table in board.part_class_tables():
+            parts += [f"<h2>{html_escape(table.title)}</h2>", _table_html(table)]
+            chart = bar_chart(table, assets / f"chart_{table.key}.png")
+            if chart is not None:
+                charts.append(f"<img src='{assets.name}/{chart.name}' alt='{html_escape(table.title)} chart'>")
+        parts.append(f"<p>{html_escape(PART_CLASS_NOTE)}</p>")
     parts += ["<h2>Charts</h2>", "<div class='charts'>", *charts, "</div>",
               "<h2>Cases</h2>", _gallery(board, assets, max_cases), "</body></html>"]
     return "\n".join(parts) + "\n"

@@ -6,6 +6,10 @@ for the method's own output and names a side result otherwise (``w/o joint opt.`
 before joint optimization). Writing a row replaces any row with the same key, inside one transaction,
 so a crashed or repeated write never leaves two results for one case.
 
+Every row carries the ``convention`` (:data:`spark_bench.CONVENTION_VERSION`) its metrics were computed
+under; rows of different conventions are never averaged together (:meth:`ResultsStore.done_cases`
+re-scores old ones, the leaderboard shows only the current one).
+
 Concurrency: WAL lets readers run beside one writer; writers from several processes wait for each
 other (``busy_timeout``) instead of failing. Each :class:`ResultsStore` opens its own connection, so
 one may be created per process (never share a connection across a ``fork``).
@@ -21,6 +25,7 @@ import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
+from spark_bench import CONVENTION_VERSION
 from spark_bench.errors import InputError
 from spark_bench.jsonio import plain
 from spark_bench.metrics.names import METRIC_COLUMNS
@@ -210,12 +215,21 @@ class ResultsStore:
             return self._conn.execute(query, args).rowcount
 
     # ----- reading ----------------------------------------------------------------------------
-    def done_cases(self, bench: str, label: str, config_hash_value: str) -> set[str]:
-        """Case ids of a run that already have a final result (ok or failed) for the main variant."""
-        cursor = self._conn.execute(
-            "SELECT case_id FROM results WHERE bench=? AND label=? AND config_hash=? AND variant=''",
-            (bench, label, config_hash_value))
-        return {r[0] for r in cursor}
+    def done_cases(self, bench: str, label: str, config_hash_value: str,
+                   convention: str | None = CONVENTION_VERSION) -> set[str]:
+        """Case ids of a run that already have a final result (ok or failed) for the main variant.
+
+        A row scored under another metric convention is not done: a run resumed after the metric
+        definitions changed scores those cases again (from the cached generation), and the new rows
+        replace the old ones, so a run never averages two conventions.
+
+        :param convention: only rows of this convention count (None: any)
+        """
+        query = "SELECT case_id FROM results WHERE bench=? AND label=? AND config_hash=? AND variant=''"
+        args: list = [bench, label, config_hash_value]
+        if convention is not None:
+            query, args = query + " AND convention=?", [*args, convention]
+        return {r[0] for r in self._conn.execute(query, args)}
 
     def rows(self, bench: str | None = None, label: str | None = None, status: str | None = None,
              where: Iterable[tuple[str, object]] = ()) -> list[dict]:

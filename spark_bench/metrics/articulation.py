@@ -7,6 +7,17 @@ from forward kinematics at rest, in the benchmark frame) and its type:
 - :func:`line_distance`: the distance between the two axis lines (PivotErr), with parallel lines
   handled by the point-to-line distance instead of a division by zero;
 - :func:`same_type`: joint types compared with ``continuous`` counted as ``revolute``.
+
+PivotErr follows FreeArt3D's evaluation code (``eval_utils/joints.py``, function ``eval_joint``, called
+once per object by ``evaluate_partnet.py``; read in the public ``PeterZs/FreeArt3D`` copy): when the
+ground-truth joint is revolute, the error is ``|(o_pred - o_gt) . (a_pred x a_gt)| / |a_pred x a_gt|``,
+the distance between the ground truth's axis line and the predicted joint's line (its axis direction
+through its origin) *whatever the predicted type*; a ground-truth prismatic joint has none (NaN there,
+None here). Differences, all deliberate: ``continuous`` counts as revolute (FreeArt3D knows only
+revolute and prismatic); parallel axes give the point-to-line distance where FreeArt3D divides by zero;
+an object may have several joints (FreeArt3D's objects have one), matched by part
+(:mod:`spark_bench.metrics.matching`); AxisErr is computed with ``atan2`` (the same angle as
+FreeArt3D's ``min(arccos(a.b), arccos(-a.b))``, without its loss of digits near 0).
 """
 
 from __future__ import annotations
@@ -117,7 +128,7 @@ class JointErrors:
     """Errors of one matched pair of joints.
 
     :param axis_err: AxisErr, radians in [0, pi/2]
-    :param pivot_err: PivotErr in benchmark-frame units; None unless both joints rotate
+    :param pivot_err: PivotErr in benchmark-frame units; None when the ground-truth joint does not rotate
     :param type_match: whether the types agree (``continuous`` counts as ``revolute``)
     """
 
@@ -129,11 +140,15 @@ class JointErrors:
 def compare_joints(pred: JointAxis, gt: JointAxis, parallel_tolerance: float = PARALLEL_TOLERANCE) -> JointErrors:
     """AxisErr, PivotErr and type agreement of a predicted joint against a ground-truth joint.
 
+    PivotErr (FreeArt3D's rule): for a rotating ground-truth joint, the distance between its axis line
+    and the predicted joint's line, whatever the predicted type (a prismatic prediction is scored by
+    its axis through its origin); None for a prismatic ground-truth joint.
+
     :param pred: the predicted joint
     :param gt: the ground-truth joint
     :param parallel_tolerance: see :func:`line_distance`
     """
     pivot = None
-    if pred.is_rotational and gt.is_rotational:
+    if gt.is_rotational:
         pivot = line_distance(gt.point, gt.direction, pred.point, pred.direction, parallel_tolerance)
     return JointErrors(axis_error(pred.direction, gt.direction), pivot, same_type(pred.type, gt.type))

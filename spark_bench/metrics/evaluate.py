@@ -2,7 +2,8 @@
 
 Order of work: check both assets; map each into its own benchmark frame; optionally align the
 prediction (``icp``); shape scores at rest and at the open state; part matching at rest; shape scores
-per matched part; joint errors per matched pair. Every surface is sampled with the same seed, so an
+per matched part; joint errors per matched pair, each with the ground-truth part's GAPartNet class when
+the ground truth carries GAPartNet annotations. Every surface is sampled with the same seed, so an
 asset compared with itself gives exactly zero everywhere and a rerun gives identical numbers.
 """
 
@@ -20,6 +21,7 @@ from spark_bench.metrics.geometry import (
     benchmark_transform,
     has_area,
     joint_axes,
+    part_class,
     part_links,
     posed_triangles,
     transform_triangles,
@@ -140,7 +142,7 @@ def compute_metrics(pred: ArticulatedAsset, gt: ArticulatedAsset, n_samples: int
         part = scores(p_side.rest(p_links), g_side.rest(g_links), f"part of {g_axis.name}")
         matches.append(JointMatch(g_axis.name, p_axis.name, g_axis.type, p_axis.type, list(g_links),
                                   list(p_links), pair.cost, errors.axis_err, errors.pivot_err,
-                                  errors.type_match, part))
+                                  errors.type_match, part, part_class(gt, g_axis.name)))
     matched_gt = {m.gt_joint for m in matches}
     matched_pred = {m.pred_joint for m in matches}
     return MetricsResult(
@@ -150,4 +152,5 @@ def compute_metrics(pred: ArticulatedAsset, gt: ArticulatedAsset, n_samples: int
         thresholds=thresholds, n_samples=int(n_samples), n_match_samples=int(n_match_samples),
         seed=int(seed), align=align,
         alignment=p_side.alignment,
-        pred_name=pred.name, gt_name=gt.name)
+        pred_name=pred.name, gt_name=gt.name,
+        part_classes={name: c for name in g_side.joints if (c := part_class(gt, name)) is not None})

@@ -101,6 +101,30 @@ def part_links(asset: ArticulatedAsset, joint: str) -> list[str]:
     return links
 
 
+#: GAPartNet part classes of parts that do not move on their own (a handle fixed to a door or drawer):
+#: never the class of a joint.
+FIXED_PART_CLASSES = ("line_fixed_handle", "round_fixed_handle")
+
+
+def part_class(asset: ArticulatedAsset, joint: str) -> str | None:
+    """The GAPartNet part class of what a movable joint moves (``hinge_door``, ``slider_drawer``,
+    ``hinge_lid``, ...), from the links' ``link_annotation_gapartnet.json`` annotations
+    (:attr:`~spark_bench.asset.model.Link.annotations`): the first link of the joint's own part, child
+    first, annotated ``is_gapart`` with a class that is not a fixed handle; None when there is none (an
+    object without GAPartNet annotations, a part GAPartNet does not annotate).
+
+    :param asset: the asset (its links carry the annotations)
+    :param joint: a movable joint's name
+    """
+    for name in asset.part_of_joint(joint):
+        notes = asset.links[name].annotations
+        category = notes.get("category")
+        if notes.get("is_gapart", True) and isinstance(category, str) and category \
+                and category not in FIXED_PART_CLASSES:
+            return category
+    return None
+
+
 def joint_axes(asset: ArticulatedAsset, frame: np.ndarray) -> list[JointAxis]:
     """World-frame axis lines of the movable joints at rest, mapped by ``frame``: the full transform
     for the points on the axes, its rotation only for the directions.

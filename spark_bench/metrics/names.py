@@ -21,6 +21,9 @@ UNITS = {
 SHAPE_FAMILIES = ("cd", "fscore")
 #: The articulation families, per object: means over its joints.
 ARTICULATION_FAMILIES = ("axis_err", "pivot_err", "type_err")
+#: The key of the articulation errors averaged over all joints (every joint weighs the same), beside the
+#: per-object means: in ``spark-bench metrics --json`` and in ``eval --json``'s ``metrics``.
+JOINT_MEAN = "joint_mean"
 #: Per-object joint counts that are averaged over objects too.
 JOINT_COUNTS = ("n_missing_joints", "n_extra_joints")
 #: Prefixes of the per-object scalar keys averaged over objects
@@ -89,5 +92,5 @@ def header(key: str, up: str = "↑", down: str = "↓") -> str:
 
 
 __all__ = ["ARTICULATION_FAMILIES", "ARTICULATION_KEYS", "BY_KEY", "HEADLINE", "HEADLINE_KEYS", "HIGHER_IS_BETTER",
-           "JOINT_COUNTS", "METRIC_COLUMNS", "RATE_KEYS", "SCALAR_PREFIXES", "SHAPE_FAMILIES", "SHAPE_KEYS",
+           "JOINT_COUNTS", "JOINT_MEAN", "METRIC_COLUMNS", "RATE_KEYS", "SCALAR_PREFIXES", "SHAPE_FAMILIES", "SHAPE_KEYS",
            "SUMMARY_KEYS", "UNITS", "Headline", "header", "summary_keys"]

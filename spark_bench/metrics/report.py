@@ -3,6 +3,12 @@
 :class:`MetricsResult` holds everything a results row needs: shape scores (rest, open, per part),
 articulation errors with the joint matching that produced them, the alignment used, and the units and
 convention version of the definitions. :func:`mean_over_objects` gives the per-benchmark numbers.
+
+Two averages of the articulation errors are kept (DESIGN.md, "Articulation metrics"): per object (mean
+over its joints, then over objects: ``axis_err``, ``pivot_err``, ``type_err``, the leaderboard's
+numbers) and over joints (every joint of every object weighs the same: ``joint_mean``).
+:func:`joint_errors` reads the per-joint errors back from a stored metrics dict, so both averages, and
+the breakdown by GAPartNet part class (:func:`mean_by_part_class`), come from the same records.
 """
 
 from __future__ import annotations
@@ -14,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spark_bench import CONVENTION_VERSION
-from spark_bench.metrics.names import SCALAR_PREFIXES, UNITS
+from spark_bench.metrics.names import ARTICULATION_FAMILIES, JOINT_MEAN, SCALAR_PREFIXES, UNITS
 from spark_bench.metrics.shape import ShapeScores
 
 
@@ -33,6 +39,8 @@ class JointMatch:
     :param pivot_err: PivotErr; None unless both joints rotate
     :param type_match: whether the types agree (continuous counts as revolute)
     :param part: shape scores of the two parts at rest (full sample count)
+    :param gt_part_class: the ground-truth part's GAPartNet class (``hinge_door``...), None without
+        annotations
     """
 
     gt_joint: str
@@ -46,12 +54,14 @@ class JointMatch:
     pivot_err: float | None
     type_match: bool
     part: ShapeScores | None = None
+    gt_part_class: str | None = None
 
     def to_dict(self) -> dict:
         out = {"gt_joint": self.gt_joint, "pred_joint": self.pred_joint, "gt_type": self.gt_type,
                "pred_type": self.pred_type, "gt_links": list(self.gt_links),
                "pred_links": list(self.pred_links), "match_cd": self.match_cd,
-               "axis_err": self.axis_err, "pivot_err": self.pivot_err, "type_match": self.type_match}
+               "axis_err": self.axis_err, "pivot_err": self.pivot_err, "type_match": self.type_match,
+               "gt_part_class": self.gt_part_class}
         if self.part is not None:
             out.update(self.part.to_dict(prefix="part_"))
         return out
@@ -80,6 +90,7 @@ class MetricsResult:
     :param pred_name: predicted asset name
     :param gt_name: ground-truth asset name
     :param convention: version of the metric definitions
+    :param part_classes: GAPartNet part class of each ground-truth movable joint that has one
     """
 
     rest: ShapeScores
@@ -96,6 +107,7 @@ class MetricsResult:
     pred_name: str = ""
     gt_name: str = ""
     convention: str = CONVENTION_VERSION
+    part_classes: dict[str, str] = field(default_factory=dict)
 
     # ----- per-object articulation numbers: means over joints ---------------------------------------
     @property
@@ -113,7 +125,8 @@ class MetricsResult:
 
     @property
     def pivot_err(self) -> float | None:
-        """Mean PivotErr over matched pairs of rotating joints; None when there is none."""
+        """Mean PivotErr over the matched rotating ground-truth joints (whatever the predicted type);
+        None when there is none."""
         return _mean(m.pivot_err for m in self.matches)
 
     @property
@@ -141,21 +154,76 @@ class MetricsResult:
         out.update(self.part_scores())
         out.update({
             "axis_err": self.axis_err, "pivot_err": self.pivot_err, "type_err": self.type_err,
-            "n_gt_joints": self.n_gt_joints, "n_pred_joints": self.n_pred_joints,
+            JOINT_MEAN: None, "n_gt_joints": self.n_gt_joints, "n_pred_joints": self.n_pred_joints,
             "n_missing_joints": len(self.missing_joints), "n_extra_joints": len(self.extra_joints),
             "matching": [m.to_dict() for m in self.matches],
             "missing_joints": list(self.missing_joints), "extra_joints": list(self.extra_joints),
-            "align": self.align, "alignment": np.asarray(self.alignment).tolist(),
+            "gt_part_classes": dict(self.part_classes), "align": self.align, "alignment": np.asarray(self.alignment).tolist(),
             "n_samples": self.n_samples, "n_match_samples": self.n_match_samples, "seed": self.seed,
             "thresholds": list(self.thresholds), "pred": self.pred_name, "gt": self.gt_name,
             "convention": self.convention, "units": dict(UNITS),
         })
+        out[JOINT_MEAN] = mean_over_joints(joint_errors(out))
         return out
+
+
+# ----- per joint --------------------------------------------------------------------------------------
+#: The articulation errors of one joint, in :func:`joint_errors` records and ``joint_mean``.
+JOINT_ERROR_KEYS = ARTICULATION_FAMILIES
+
+
+def joint_errors(metrics: Mapping | MetricsResult) -> list[dict]:
+    """One record per ground-truth movable joint of one object: ``gt_joint``, ``part_class`` (None
+    without GAPartNet annotations), ``axis_err`` (None when unmatched), ``pivot_err`` (None when
+    unmatched or not rotating), ``type_err`` (0.0 or 1.0; an unmatched joint counts as wrong).
+
+    :param metrics: a metrics result or its ``to_dict()`` (as stored in a results row)
+    """
+    d = metrics.to_dict() if isinstance(metrics, MetricsResult) else metrics
+    classes = d.get("gt_part_classes") or {}
+    out = []
+    for m in d.get("matching") or []:
+        name = m.get("gt_joint")
+        out.append({"gt_joint": name, "part_class": m.get("gt_part_class") or classes.get(name),
+                    "axis_err": m.get("axis_err"), "pivot_err": m.get("pivot_err"),
+                    "type_err": 0.0 if m.get("type_match") else 1.0})
+    for name in d.get("missing_joints") or []:
+        out.append({"gt_joint": name, "part_class": classes.get(name), "axis_err": None, "pivot_err": None,
+                    "type_err": 1.0})
+    return out
+
+
+def mean_over_joints(records: Iterable[Mapping]) -> dict[str, float | None]:
+    """``{"axis_err", "pivot_err", "type_err"}``: each the mean over the joint records that have it
+    (every joint weighs the same, whatever object it belongs to); None when none has it.
+
+    :param records: :func:`joint_errors` records, of one object or of many
+    """
+    records = list(records)
+    return {key: _mean(_number_or_none(r.get(key)) for r in records) for key in JOINT_ERROR_KEYS}
+
+
+def mean_by_part_class(records: Iterable[Mapping]) -> dict[str, dict]:
+    """Per GAPartNet part class: :func:`mean_over_joints` of its joints and ``n_joints`` (joints without a
+    class are left out), classes sorted by name.
+
+    :param records: :func:`joint_errors` records
+    """
+    groups: dict[str, list[Mapping]] = {}
+    for record in records:
+        if record.get("part_class"):
+            groups.setdefault(str(record["part_class"]), []).append(record)
+    return {name: {**mean_over_joints(group), "n_joints": len(group)} for name, group in sorted(groups.items())}
+
+
+def _number_or_none(value) -> float | None:
+    return float(value) if _is_number(value) else None
 
 
 def mean_over_objects(rows: Iterable[Mapping | MetricsResult]) -> dict[str, float | int | None]:
     """Per-benchmark numbers: the mean over objects of each scalar metric (absent values skipped),
-    with ``n_objects`` and, for each metric, ``n_<key>`` objects that had it.
+    with ``n_objects`` and, for each metric, ``n_<key>`` objects that had it; ``joint_mean``: the
+    articulation errors averaged over every joint of every object (:func:`mean_over_joints`).
 
     :param rows: results (or their ``to_dict()``) of the objects of one benchmark
     """
@@ -170,6 +238,7 @@ def mean_over_objects(rows: Iterable[Mapping | MetricsResult]) -> dict[str, floa
         values = [row[key] for row in dicts if _is_number(row.get(key))]
         out[key] = _mean(values)
         out[f"n_{key}"] = len(values)
+    out[JOINT_MEAN] = mean_over_joints(record for row in dicts for record in joint_errors(row))
     return out
 
 
@@ -206,6 +275,9 @@ def format_table(result: MetricsResult) -> str:
         rows = [(m.gt_joint, m.gt_type, m.pred_joint, m.pred_type, _fmt(m.match_cd),
                  _fmt(m.part.cd if m.part else None), _fmt(m.axis_err), _fmt(m.pivot_err), _fmt(m.type_match))
                 for m in result.matches]
+        if any(m.gt_part_class for m in result.matches):  # GAPartNet-annotated ground truth
+            header += ("part class",)
+            rows = [(*row, m.gt_part_class or "-") for row, m in zip(rows, result.matches)]
         widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
         lines.append("matching:")
         for row in [header, *rows]:

@@ -12,7 +12,9 @@ from pathlib import Path
 import pytest
 from helpers_bench import FAST, make_tiny_bench
 
+from spark_bench import CONVENTION_VERSION
 from spark_bench.data.case import Benchmark, BenchmarkCase
+from spark_bench.errors import SparkBenchError
 from spark_bench.evaluation.leaderboard import build_leaderboard, render, to_csv, to_latex, to_markdown
 from spark_bench.evaluation.store import ResultsStore
 
@@ -22,7 +24,7 @@ CHROMIUM = Path("/usr/bin/chromium")
 def _row(label: str, case_id: str, regime: str = "image", variant: str = "", **metrics) -> dict:
     out = {"bench": "b", "case_id": case_id, "category": "Cab" if case_id < "c2" else "Oven", "method": label,
            "label": label, "variant": variant, "regime": regime, "config_hash": "h", "status": "ok",
-           "finished_at": 1.0, "sim_pass": True, "open_success": 1.0}
+           "finished_at": 1.0, "sim_pass": True, "open_success": 1.0, "convention": CONVENTION_VERSION}
     out.update(metrics)
     return out
 
@@ -159,3 +161,66 @@ def test_read_camera_default_and_bad_file(tmp_path):
     bad.write_text('{"width": 64, "height": 64}')
     with pytest.raises(InputError, match=rf"{bad}: malformed camera"):
         read_camera(bad)
+
+
+def test_rows_of_older_conventions_left_out_and_noted(tmp_path):
+    with ResultsStore(tmp_path / "r.sqlite") as s:
+        s.put([_row("A", "c1", axis_err=0.1), _row("A", "c2", axis_err=0.3)])
+        s.put([{**_row("old", c, axis_err=0.9), "convention": "spark-bench-conv-1"} for c in ("c1", "c2")])
+        s.put({**_row("A", "c3", axis_err=5.0), "config_hash": "h0", "finished_at": 0.5,
+               "convention": "spark-bench-conv-1"})
+        board = build_leaderboard(s)
+    assert [e.name for e in board.entries] == ["A"] and board.entries[0].n_cases == 2
+    assert board.entries[0].metrics["axis_err"] == pytest.approx(0.2)  # never averaged with the old rows
+    assert board.left_out == {"spark-bench-conv-1": 3}
+    md = to_markdown(board)
+    assert f"Metric convention: {CONVENTION_VERSION}." in md
+    assert "Not shown: 3 result rows scored under older metric definitions (3 under spark-bench-conv-1)" in md
+    assert "per object (the mean over its joints), then averaged over objects" in md
+    with ResultsStore(tmp_path / "old.sqlite") as s:
+        s.put({**_row("old", "c1", axis_err=0.9), "convention": "spark-bench-conv-1"})
+        with pytest.raises(SparkBenchError, match=r"current metric definitions \(spark-bench-conv-2\).*"
+                                                  r"spark-bench-conv-1 \(1 rows\)"):
+            build_leaderboard(s)
+
+
+def _joints(*joints) -> dict:
+    """A stored metrics dict of matched joints ``(axis_err, pivot_err, type_match, part class)``."""
+    return {"matching": [{"gt_joint": f"j{k}", "axis_err": a, "pivot_err": p, "type_match": t, "gt_part_class": c}
+                         for k, (a, p, t, c) in enumerate(joints)], "missing_joints": []}
+
+
+def test_per_part_class_tables(tmp_path):
+    with ResultsStore(tmp_path / "r.sqlite") as s:
+        s.put([_row("A", "c1", axis_err=0.1, metrics=_joints((0.1, 0.2, True, "hinge_door"),
+                                                             (0.3, None, False, "slider_drawer"))),
+               _row("A", "c2", axis_err=0.5, metrics=_joints((0.5, 0.4, True, "hinge_door")))])
+        s.put([_row("B", "c1", axis_err=0.0, metrics=_joints((0.0, 0.1, True, "hinge_door"), (0.0, None, True, None)))])
+        board = build_leaderboard(s)
+    tables = {t.key: t for t in board.part_class_tables()}
+    assert list(tables) == ["part-hinge_door", "part-slider_drawer"]
+    door = {e.name: e.metrics for e in tables["part-hinge_door"].entries}
+    assert door["A"] == {"axis_err": pytest.approx(0.3), "pivot_err": pytest.approx(0.3), "type_err": 0.0,
+                         "n_joints": 2}
+    assert [e.name for e in tables["part-slider_drawer"].entries] == ["A"]  # B has no drawer
+    md = to_markdown(board, per_part_class=True)
+    assert "## URDF parameter estimation: hinge door" in md and "## URDF parameter estimation: slider drawer" in md
+    assert "| Method | Regime | AxisErr↓ | PivotErr↓ | TypeErr↓ | Joints |" in md
+    assert "| B | image | **0.0000** | **0.1000** | **0.0000** | 1 |" in md
+    assert "| A | image | _0.3000_ | _0.3000_ | **0.0000** | 2 |" in md  # TypeErr ties at 0: both best
+    assert "Per GAPartNet part class" in md and "hinge door" not in to_markdown(board)
+    lines = list(csv.DictReader(io.StringIO(to_csv(board, per_part_class=True))))
+    drawer = next(r for r in lines if r["part_class"] == "slider_drawer")
+    assert drawer["label"] == "A" and float(drawer["type_err"]) == 1.0 and drawer["n_joints"] == "1"
+    assert drawer["cd"] == "n/a" and next(r for r in lines if r["label"] == "A")["part_class"] == ""
+    assert "tab:part-hinge_door" in to_latex(board, per_part_class=True)
+    page = render(board, "html", out=tmp_path / "page" / "index.html", per_part_class=True)
+    assert "<h2>URDF parameter estimation: hinge door</h2>" in page and "<th>Joints</th>" in page
+    assert (tmp_path / "page" / "index_files" / "chart_part-slider_drawer.png").is_file()
+
+
+def test_per_part_class_without_annotations_is_a_clear_error(store, tmp_path):
+    board = build_leaderboard(store)
+    for fmt in ("md", "csv", "latex", "html"):
+        with pytest.raises(SparkBenchError, match="no GAPartNet part classes"):
+            render(board, fmt, out=tmp_path / "x.html", per_part_class=True)

@@ -12,13 +12,15 @@ import time
 
 import pytest
 
+from spark_bench import CONVENTION_VERSION
 from spark_bench.errors import InputError
 from spark_bench.evaluation.store import ResultsStore, config_hash, export_rows
 
 
 def row(case_id: str, label: str = "m", status: str = "ok", **extra) -> dict:
     base = {"bench": "b", "case_id": case_id, "method": "m", "label": label, "config_hash": "h1",
-            "status": status, "metrics": {"cd": 0.5, "matching": [{"gt_joint": "j"}]}, "cd": 0.5, "type_err": 0.25}
+            "status": status, "metrics": {"cd": 0.5, "matching": [{"gt_joint": "j"}]}, "cd": 0.5, "type_err": 0.25,
+            "convention": CONVENTION_VERSION}
     base.update(extra)
     return base
 
@@ -53,6 +55,18 @@ def test_done_cases_are_per_run(tmp_path):
         assert store.done_cases("b", "m", "other") == {"c3"}
         assert store.delete_run("b", "m", "h1") == 3
         assert store.count() == 1
+
+
+def test_rows_of_another_convention_are_not_done(tmp_path):
+    """A case scored under an older metric convention is scored again, and its new row replaces the old."""
+    with ResultsStore(tmp_path / "r.sqlite") as store:
+        store.put([row("c1", convention="spark-bench-conv-1", cd=0.9), row("c2"), row("c3", convention="")])
+        assert store.done_cases("b", "m", "h1") == {"c2"}
+        assert store.done_cases("b", "m", "h1", convention=None) == {"c1", "c2", "c3"}
+        store.put(row("c1", cd=0.2))  # the re-scored case: same key, current convention
+        rows = {r["case_id"]: r for r in store.rows()}
+        assert len(rows) == 3 and rows["c1"]["convention"] == CONVENTION_VERSION and rows["c1"]["cd"] == 0.2
+        assert store.done_cases("b", "m", "h1") == {"c1", "c2"}
 
 
 def test_bad_rows_and_bad_files(tmp_path):

@@ -190,17 +190,40 @@ def test_type_agreement():
         same_type("ball", "revolute")
 
 
-def test_compare_joints_pivot_only_for_rotating_pairs():
+def test_compare_joints_pivot_for_every_rotating_ground_truth():
+    """FreeArt3D's rule: a ground-truth revolute joint gets a PivotErr whatever the predicted type (a predicted
+    slider is scored by its axis line through its origin); a ground-truth slider gets none."""
     z = np.array([0.0, 0.0, 1.0])
     hinge = JointAxis("g", "revolute", np.zeros(3), z)
     moved = JointAxis("p", "continuous", np.array([0.0, 0.25, 0.0]), -z)
     errors = compare_joints(moved, hinge)
     assert errors.axis_err == pytest.approx(0.0) and errors.pivot_err == pytest.approx(0.25)
     assert errors.type_match
-    slider = JointAxis("p", "prismatic", np.array([0.0, 0.25, 0.0]), np.array([0.0, 1.0, 0.0]))
+    # a slider along +y through (0.3, 0.25, 0.1): skew to the hinge's z axis, 0.3 apart (along x)
+    slider = JointAxis("p", "prismatic", np.array([0.3, 0.25, 0.1]), np.array([0.0, 1.0, 0.0]))
     errors = compare_joints(slider, hinge)
-    assert errors.pivot_err is None and not errors.type_match
+    assert errors.pivot_err == pytest.approx(0.3) and not errors.type_match
     assert errors.axis_err == pytest.approx(np.pi / 2)
+    # a parallel slider 0.4 off the hinge: the point-to-line distance (FreeArt3D's formula divides by zero)
+    parallel = JointAxis("p", "prismatic", np.array([0.0, -0.4, 0.7]), z)
+    assert compare_joints(parallel, hinge).pivot_err == pytest.approx(0.4)
+    # the other way round: a ground-truth slider has no pivot, whatever was predicted
+    gt_slider = JointAxis("g", "prismatic", np.zeros(3), z)
+    assert compare_joints(moved, gt_slider).pivot_err is None
+    assert compare_joints(slider, gt_slider).pivot_err is None
+
+
+def test_line_distance_matches_closest_points_by_least_squares():
+    """PivotErr against an independent computation: the closest points of the two lines by least squares."""
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        pa, pb = rng.normal(size=3), rng.normal(size=3)
+        a, b = rng.normal(size=3), rng.normal(size=3)
+        (s_, t_), *_ = np.linalg.lstsq(np.stack([a, -b], axis=1), pb - pa, rcond=None)
+        expected = np.linalg.norm(pa + s_ * a - (pb + t_ * b))
+        assert compare_joints(JointAxis("p", "prismatic", pb, b / np.linalg.norm(b)),
+                              JointAxis("g", "revolute", pa, a / np.linalg.norm(a))).pivot_err \
+            == pytest.approx(expected, abs=1e-9)
 
 
 # ----- matching ------------------------------------------------------------------------------------
