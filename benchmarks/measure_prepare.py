@@ -32,7 +32,7 @@ REAL_IDS = ("41083", "40147", "45780", "7179", "47645", "102442", "3763")
 #: Steps of the watertight remesh whose cumulative time is reported: (file name part, function names).
 WATERTIGHT_PARTS = {
     "voxelize surface": ("spark_bench/asset/mesh.py", ("voxelize_surface",)),
-    "fill": ("scipy/ndimage", ("binary_fill_holes",)),
+    "fill": ("spark_bench/asset/mesh.py", ("fill_holes",)),
     "marching cubes": ("skimage/measure", ("marching_cubes",)),
     "cleanup (weld, dedupe, split)": ("spark_bench/asset/mesh.py", ("cleanup",)),
 }

@@ -55,45 +55,83 @@ def cleanup(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS, keep_larges
             fix_normals: bool = True) -> trimesh.Trimesh:
     """Weld close vertices, drop degenerate/duplicate faces and unused vertices, fix normals, and
     (``keep_largest``) keep the largest connected component (most faces, then largest volume)."""
+    return _cleanup(mesh, weld_radius, keep_largest, fix_normals)[0]
+
+
+def _cleanup(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS, keep_largest: bool = True,
+             fix_normals: bool = True) -> tuple[trimesh.Trimesh, bool | None]:
+    """:func:`cleanup`, and whether the result is watertight where that came for free (else None)."""
     mesh = mesh.copy()
     mesh.merge_vertices(digits_vertex=max(0, int(-np.log10(weld_radius))))
-    mesh.update_faces(mesh.nondegenerate_faces())
-    mesh.update_faces(mesh.unique_faces())
+    if _min_height(mesh) <= 100 * trimesh.tol.merge:  # else no face is degenerate: skip the slow test
+        mesh.update_faces(mesh.nondegenerate_faces())
+    # a watertight mesh in one piece repeats no face (two copies of a face would be a closed piece of
+    # their own): then removing repeated faces would change nothing and is skipped
+    structure = _edge_structure(mesh.faces) if keep_largest else None
+    if structure != (True, True) or len(mesh.faces) <= 2:
+        mesh.update_faces(mesh.unique_faces())
+        structure = None
     mesh.remove_unreferenced_vertices()
-    # a mesh in one piece is kept as it is: check that first, which costs a fraction of splitting
-    parts = mesh.split(only_watertight=False) if keep_largest and not _in_one_piece(mesh.faces) else [mesh]
-    if len(parts) > 1:
-        mesh = max(parts, key=lambda m: (len(m.faces), abs(m.volume) if m.is_watertight else 0.0))
+    watertight = None
+    if keep_largest:
+        # a mesh in one piece is kept as it is: check that first, which costs a fraction of splitting
+        one_piece, watertight = structure or _edge_structure(mesh.faces)
+        parts = [mesh] if one_piece else mesh.split(only_watertight=False)
+        if len(parts) > 1:
+            mesh = max(parts, key=lambda m: (len(m.faces), abs(m.volume) if m.is_watertight else 0.0))
+            watertight = None
     if fix_normals:
         trimesh.repair.fix_normals(mesh)
-    return mesh
+        watertight = None
+    return mesh, watertight
 
 
-def _in_one_piece(faces: np.ndarray) -> bool:
-    """Whether the faces form one connected component, two faces being adjacent when they share an
-    edge that no third face has (trimesh's ``face_adjacency``, which ``split`` follows)."""
+def _min_height(mesh: trimesh.Trimesh) -> float:
+    """The smallest height of a face over its first two edges (what trimesh's ``nondegenerate_faces``
+    compares with its tolerance), in plain float64 arithmetic: 0 for a face with a zero-length edge."""
+    vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
+    if len(faces) == 0:
+        return np.inf
+    (ax, ay, az), (bx, by, bz) = ([vertices[faces[:, k], d] - vertices[faces[:, 0], d] for d in range(3)]
+                                  for k in (1, 2))
+    area2 = np.sqrt((ay * bz - az * by) ** 2 + (az * bx - ax * bz) ** 2 + (ax * by - ay * bx) ** 2)
+    length = np.sqrt(np.maximum(ax * ax + ay * ay + az * az, bx * bx + by * by + bz * bz))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        height = np.where(length > 0, area2 / length, 0.0)
+    return float(np.min(height))
+
+
+def _edge_structure(faces: np.ndarray) -> tuple[bool, bool]:
+    """``(one piece, watertight)`` of a triangle list, from one sort of its edges.
+
+    One piece: the faces form one connected component, two faces being adjacent when they share an
+    edge that no third face has (trimesh's ``face_adjacency``, which ``split`` follows). Watertight:
+    every edge has exactly two faces (trimesh's ``is_watertight``).
+    """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
     faces = np.asarray(faces, dtype=np.int64)
-    if len(faces) <= 1:
-        return True
+    if len(faces) == 0:
+        return True, False
     edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     key = edges[:, 0] * (int(faces.max()) + 1) + edges[:, 1]
     order = np.argsort(key)
     starts = np.flatnonzero(np.r_[True, np.diff(key[order]) != 0])
-    pairs = starts[np.diff(np.r_[starts, len(key)]) == 2]  # edges shared by exactly two faces
+    counts = np.diff(np.r_[starts, len(key)])
+    pairs = starts[counts == 2]  # edges shared by exactly two faces
     a, b = order[pairs] // 3, order[pairs + 1] // 3
     graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(len(faces), len(faces)))
-    return connected_components(graph, directed=False)[0] == 1
+    return bool(connected_components(graph, directed=False)[0] == 1), bool(len(pairs) * 2 == len(key))
 
 
 def signed_volume(mesh: trimesh.Trimesh) -> float:
     """The signed volume of a closed mesh (positive when its faces wind outwards): trimesh's volume
     integral, without the inertia that ``mesh.volume`` computes along with it."""
-    triangles = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]
-    crosses = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    return float(np.sum(crosses[:, 0] * (triangles[:, 0, 0] + triangles[:, 1, 0] + triangles[:, 2, 0]))) / 6.0
+    vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
+    x, y, z = (vertices[faces, d] for d in range(3))  # (F, 3) each
+    cross_x = (y[:, 1] - y[:, 0]) * (z[:, 2] - z[:, 0]) - (z[:, 1] - z[:, 0]) * (y[:, 2] - y[:, 0])
+    return float(np.dot(cross_x, x[:, 0] + x[:, 1] + x[:, 2])) / 6.0
 
 
 def _barycentric_grid(n: int) -> np.ndarray:
@@ -332,14 +370,15 @@ def make_watertight(mesh: trimesh.Trimesh, resolution: int = 200, n_min: int = 3
     scale[extents <= 0] = 1.0
     shell.vertices = (shell.vertices - center_shell) * scale + center_orig
     # marching cubes orients its faces consistently: skip fix_normals, the slowest part of cleanup
-    shell = cleanup(shell, fix_normals=False)
+    shell, watertight = _cleanup(shell, fix_normals=False)
     if signed_volume(shell) < 0:
-        shell.invert()
+        shell.invert()  # flips every face: the same edges, as watertight as before
     if simplify > 0:
-        shell = simplify_manifold(shell, simplify * pitch)
+        shell, watertight = simplify_manifold(shell, simplify * pitch), None
     if target_faces and len(shell.faces) > target_faces:
-        shell = shell.simplify_quadric_decimation(face_count=target_faces)
-    return shell, WatertightReport("voxel", pitch, bool(shell.is_watertight), len(shell.faces))
+        shell, watertight = shell.simplify_quadric_decimation(face_count=target_faces), None
+    watertight = bool(shell.is_watertight) if watertight is None else watertight
+    return shell, WatertightReport("voxel", pitch, watertight, len(shell.faces))
 
 
 def simplify_manifold(mesh: trimesh.Trimesh, tolerance: float) -> trimesh.Trimesh:
@@ -363,12 +402,17 @@ def drop_degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.n
     faces = np.asarray(faces, dtype=np.int64)
     if len(faces) == 0 or not np.isfinite(vertices).all():
         return None
-    tri = vertices[faces]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    # the cross product and its norm one axis at a time: the operations (and the rounding) of
+    # ``np.cross`` and ``np.linalg.norm``, without building the (F, 3, 3) array of triangles
+    (ax, ay, az), (bx, by, bz) = ([vertices[faces[:, k], d] - vertices[faces[:, 0], d] for d in range(3)]
+                                  for k in (1, 2))
+    area = 0.5 * np.sqrt((ay * bz - az * by) ** 2 + (az * bx - ax * bz) ** 2 + (ax * by - ay * bx) ** 2)
     faces = faces[area > 1e-14 * max(1.0, float(np.ptp(vertices, axis=0).max()) ** 2)]
     if len(faces) == 0:
         return None
-    used = np.unique(faces)
+    referenced = np.zeros(len(vertices), dtype=bool)
+    referenced[faces] = True
+    used = np.flatnonzero(referenced)  # np.unique(faces), without sorting every index
     remap = np.full(len(vertices), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
     return vertices[used], remap[faces]

@@ -7,10 +7,13 @@ import pytest
 import trimesh
 
 from spark_bench.asset.mesh import (
+    _edge_structure,
     _Grid,
-    _in_one_piece,
+    _min_height,
     _sample_grids,
     _walk_rows,
+    cleanup,
+    drop_degenerate_faces,
     fill_holes,
     make_watertight,
     merge_meshes,
@@ -192,7 +195,7 @@ def test_fill_holes_matches_scipy():
     assert fill_holes(shell).all() and not fill_holes(shell[:, :, :-1])[2, 2, 2]  # an open shell stays open
 
 
-def test_one_piece_follows_trimesh_split():
+def test_edge_structure_follows_trimesh_split_and_watertight():
     box = trimesh.creation.box()
     far = box.copy()
     far.apply_translation((3, 0, 0))
@@ -200,8 +203,12 @@ def test_one_piece_follows_trimesh_split():
                           [[0, 1, 2], [0, 1, 3], [0, 1, 4]], process=False)  # one edge, three faces
     pinch = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]],
                             [[0, 1, 2], [0, 3, 4]], process=False)  # two faces sharing a vertex only
-    for mesh, one in ((box, True), (merge_meshes([box, far]), False), (fan, False), (pinch, False)):
-        assert _in_one_piece(mesh.faces) == one == (len(mesh.split(only_watertight=False)) == 1)
+    open_box = trimesh.Trimesh(box.vertices, box.faces[1:], process=False)
+    cases = ((box, True), (merge_meshes([box, far]), False), (fan, False), (pinch, False), (open_box, True))
+    for mesh, one in cases:
+        one_piece, watertight = _edge_structure(mesh.faces)
+        assert one_piece == one == (len(mesh.split(only_watertight=False)) == 1)
+        assert watertight == mesh.is_watertight
 
 
 def test_signed_volume_is_trimesh_volume():
@@ -210,3 +217,50 @@ def test_signed_volume_is_trimesh_volume():
     assert signed_volume(box) == pytest.approx(box.volume, rel=1e-12) and box.volume == pytest.approx(0.024)
     box.invert()
     assert signed_volume(box) == pytest.approx(-0.024, rel=1e-12)
+
+
+def _cleanup_reference(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """cleanup(fix_normals=False) as the plain sequence of trimesh steps, with no shortcut."""
+    mesh = mesh.copy()
+    mesh.merge_vertices(digits_vertex=6)
+    mesh.update_faces(mesh.nondegenerate_faces())
+    mesh.update_faces(mesh.unique_faces())
+    mesh.remove_unreferenced_vertices()
+    parts = mesh.split(only_watertight=False)
+    return max(parts, key=lambda m: (len(m.faces), abs(m.volume) if m.is_watertight else 0.0)) if len(parts) > 1 \
+        else mesh
+
+
+def test_cleanup_shortcuts_change_nothing():
+    """cleanup skips the steps it can prove change nothing: the result is the plain sequence's."""
+    box = trimesh.creation.box()
+    repeated = trimesh.Trimesh(box.vertices, np.vstack([box.faces, box.faces[:1]]), process=False)
+    flat = trimesh.Trimesh(np.vstack([box.vertices, [[0.5, 0.5, 0.5]]]), np.vstack([box.faces, [[0, 0, 8]]]),
+                           process=False)  # a zero-area face
+    speck = box.copy()
+    speck.apply_scale(0.1)
+    speck.apply_translation((3, 0, 0))
+    shell, _ = make_watertight(trimesh.Trimesh(box.vertices, box.faces[1:], process=False), resolution=30)
+    assert _min_height(flat) == 0.0 and _min_height(box) > 0.1
+    for mesh in (box, repeated, flat, merge_meshes([box, speck]), shell):
+        got, want = cleanup(mesh, fix_normals=False), _cleanup_reference(mesh)
+        np.testing.assert_array_equal(got.faces, want.faces)
+        np.testing.assert_array_equal(got.vertices, want.vertices)
+    assert len(cleanup(repeated).faces) == len(cleanup(flat).faces) == 12
+
+
+def test_drop_degenerate_faces_keeps_faces_with_area_and_their_vertices():
+    rng = np.random.default_rng(3)
+    vertices = rng.normal(size=(40, 3))
+    vertices[30] = vertices[2] + 0.5 * (vertices[5] - vertices[2])  # on the segment 2-5
+    faces = rng.integers(0, 30, size=(200, 3))
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+    bad = np.array([[1, 1, 4], [2, 30, 5], [7, 8, 7]])  # a repeated corner, three collinear points
+    mixed = np.vstack([faces[:10], bad, faces[10:]])
+    kept_vertices, kept_faces = drop_degenerate_faces(vertices, mixed)
+    # the faces with an area, in order, on the vertices they use (in order): the same triangles
+    np.testing.assert_array_equal(kept_vertices[kept_faces], vertices[faces])
+    used = np.unique(faces)
+    np.testing.assert_array_equal(kept_vertices, vertices[used])
+    assert drop_degenerate_faces(vertices, bad) is None
+    assert drop_degenerate_faces(np.full((3, 3), np.nan), [[0, 1, 2]]) is None
