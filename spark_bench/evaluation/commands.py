@@ -15,10 +15,12 @@ def add_commands(subparsers) -> None:
                                           "metrics, sim-readiness checks, scripted opening; results go to "
                                           "the SQLite store. A killed run resumes where it stopped.")
     p.add_argument("--method", required=True, metavar="NAME",
-                   help="oracle, geometry, predictions, command, ours, an entry point, or a methods-file entry")
+                   help="oracle, geometry, predictions, command, ours, retrieval, an entry point, or a methods-file entry")
     p.add_argument("--bench", default=None, help="benchmark folder or name (default: synth-v1)")
     p.add_argument("--predictions", metavar="DIR", help="for --method predictions: one folder per case id")
     p.add_argument("--methods-file", metavar="FILE", help="TOML/JSON file of external commands")
+    p.add_argument("--gallery", metavar="DIR",
+                   help="for --method retrieval: a folder of PartNet-Mobility objects (default: synth-gallery-v1)")
     p.add_argument("--entry", metavar="NAME", help="for --method command: which entry of the methods file")
     p.add_argument("--config", metavar="FILE", help="method configuration file (ours)")
     p.add_argument("--label", help="display label of the method's rows (predictions)")
@@ -56,6 +58,8 @@ def add_commands(subparsers) -> None:
     b.add_argument("--format", choices=("md", "latex", "html", "csv"), default="md")
     b.add_argument("--out", help="output file (default: stdout; HTML needs a file)")
     b.add_argument("--per-category", action="store_true", help="add per-category tables")
+    b.add_argument("--per-part-class", action="store_true",
+                   help="articulation errors per GAPartNet part class (needs annotated ground truth)")
     b.add_argument("--methods", help="comma-separated labels to show (default: all)")
     b.add_argument("--max-cases", type=int, default=24, help="HTML: cases shown with renders")
     b.add_argument("--db", help="results database (default: $SPARK_BENCH_HOME/results.sqlite)")
@@ -77,7 +81,8 @@ def run_eval_command(args) -> int:
 
     spec = MethodSpec.create(args.method, predictions=absolute(args.predictions),
                              methods_file=absolute(args.methods_file), entry=args.entry,
-                             config=absolute(args.config), label=args.label, regime=args.regime)
+                             config=absolute(args.config), label=args.label, regime=args.regime,
+                             gallery=absolute(args.gallery))
     options = EvalOptions(sim=args.sim, rl=args.rl, n_samples=args.n_samples, seed=args.seed, align=args.align,
                           rl_timesteps=args.rl_timesteps)
     cases = [c for c in args.cases.split(",") if c] if args.cases else None
@@ -120,7 +125,7 @@ def run_leaderboard_command(args) -> int:
                                   labels=[m for m in args.methods.split(",") if m] if args.methods else None)
     if args.format == "html" and not args.out:
         raise SparkBenchError("--format html needs --out FILE (images are written beside it)")
-    text = render(board, args.format, per_category=args.per_category,
+    text = render(board, args.format, per_category=args.per_category, per_part_class=args.per_part_class,
                   out=Path(args.out) if args.out else None, max_cases=args.max_cases)
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)

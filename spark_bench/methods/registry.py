@@ -54,8 +54,14 @@ def _ours(options: dict) -> Method:
 
 
 #: The built-in methods (always registered under these names).
+def _retrieval(options: dict) -> Method:
+    from spark_bench.methods.retrieval import RetrievalMethod
+
+    return RetrievalMethod.from_options(options)
+
+
 BUILTINS: dict[str, Factory] = {"oracle": _oracle, "geometry": _geometry, "predictions": _predictions,
-                                "command": _command, "ours": _ours}
+                                "command": _command, "ours": _ours, "retrieval": _retrieval}
 _registry: dict[str, Factory] = dict(BUILTINS)
 
 
