@@ -1,4 +1,7 @@
-"""Shared test fixtures: the shared real PartNet-Mobility objects and an isolated cache folder."""
+"""Shared test fixtures: the shared real PartNet-Mobility objects and an isolated cache folder.
+
+Test modules never import this file or each other; helpers shared by several test modules live in
+``tests/helpers_*.py``."""
 
 from __future__ import annotations
 
@@ -7,23 +10,11 @@ import tempfile
 from pathlib import Path
 
 import pytest
+from helpers_real import real_object_path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 # tests never write into the user's cache: one throwaway home per test session unless one is given
 os.environ.setdefault("SPARK_BENCH_HOME", tempfile.mkdtemp(prefix="spark-bench-tests-"))
-
-REPO_ROOT = Path(__file__).resolve().parents[1]
-REAL_OBJECTS = REPO_ROOT.parent / "shared" / "real_objects"
-REAL_IDS = ("41083", "40147", "45780", "7179", "47645", "102442", "3763")
-
-
-def real_object_path(object_id: str) -> Path:
-    """The folder of a shared real object, or skip the test with a clear reason when it is absent."""
-    path = REAL_OBJECTS / object_id
-    if not path.is_dir():
-        pytest.skip(f"shared real objects not available ({path} is absent)")
-    return path
-
 
 @pytest.fixture
 def real_object():

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 import torch
-from conftest import real_object_path
+from helpers_real import real_object_path
 
 from spark_bench.asset.torch_fk import link_poses_torch
 from spark_bench.spark.assemble import apply_pivot_offset

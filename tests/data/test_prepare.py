@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from conftest import REAL_OBJECTS
 from helpers_assets import tiny_cabinet
+from helpers_real import REAL_OBJECTS
 from PIL import Image
 from scipy.ndimage import binary_dilation, binary_erosion
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import REAL_IDS, real_object_path
+from helpers_real import REAL_IDS, real_object_path
 
 from spark_bench.asset.urdf import write_object_folder
 from spark_bench.data import load_object

@@ -1,0 +1,19 @@
+"""The shared real PartNet-Mobility objects (``../shared/real_objects``) and the clean skip where they are absent."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+REAL_OBJECTS = REPO_ROOT.parent / "shared" / "real_objects"
+REAL_IDS = ("41083", "40147", "45780", "7179", "47645", "102442", "3763")
+
+
+def real_object_path(object_id: str) -> Path:
+    """The folder of a shared real object, or skip the test with a clear reason when it is absent."""
+    path = REAL_OBJECTS / object_id
+    if not path.is_dir():
+        pytest.skip(f"shared real objects not available ({path} is absent)")
+    return path
