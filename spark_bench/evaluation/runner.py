@@ -121,9 +121,11 @@ class EvalSummary:
     seconds: float = 0.0
 
     def to_json(self) -> dict:
-        """The ``eval --json`` document."""
-        return {"method": self.run.label, "bench": self.run.bench, "n_cases": self.n_cases,
-                "n_failed": self.n_failed, "metrics": self.metrics}
+        """The ``eval --json`` document: the method's label and input regime (every ground-truth-derived
+        input it read, e.g. ``image + gt camera + gt open image + ...``), the benchmark, the case counts
+        and the metrics."""
+        return {"method": self.run.label, "regime": self.run.regime, "bench": self.run.bench,
+                "n_cases": self.n_cases, "n_failed": self.n_failed, "metrics": self.metrics}
 
 
 # ----- the benchmark ----------------------------------------------------------------------------

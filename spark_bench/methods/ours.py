@@ -2,7 +2,11 @@
 
 Its inputs are what its configuration reads of a case (:meth:`SparkConfig.case_inputs`), and its
 regime names every ground-truth-derived one, the simulated stages by what they take from the ground
-truth. With the default configuration::
+truth. With the default configuration (SPARK's own optimizer on the whole open-state silhouette)::
+
+    image + gt camera + gt open image + gt structure (simulated prior) + gt geometry
+
+and with ``[optimize] method = "native"``, ``part_masks = true`` (label ``opt=native,sup=part-masks``)::
 
     image + gt camera + gt open image + gt open part masks + gt structure (simulated prior) + gt geometry
 

@@ -31,7 +31,13 @@ from spark_bench.sim.converter import load_source
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.relief import summarize_relief
 from spark_bench.sim.results import CheckReport, CheckResult
-from spark_bench.sim.sweep import SweptJoint, check_joint_sweep, swept_joints, swept_joints_of_model
+from spark_bench.sim.sweep import (
+    SWEEP_REACH,
+    SweptJoint,
+    check_joint_sweep,
+    swept_joints,
+    swept_joints_of_model,
+)
 
 REST_SECONDS = 2.0
 REST_DRIFT_TOLERANCE = 0.02
@@ -163,11 +169,17 @@ def run_checks(src, options: ConvertOptions | None = None, render: Path | None =
 
     if not isinstance(src, ArticulatedAsset) and Path(src).suffix.lower() == ".xml":
         return run_model_checks(Path(src), render)
+    clock = time.perf_counter()
     asset = load_source(src)
     report = CheckReport(asset.name)
+    seconds = report.seconds
+    seconds["load"] = time.perf_counter() - clock
     start = time.perf_counter()
     prepared = prepare(asset, options, progress=progress)
-    convert_s = time.perf_counter() - start
+    prepared_at = time.perf_counter()
+    convert_s = prepared_at - start
+    seconds.update(prepared.report.seconds)
+    seconds["coacd_cpu"] = prepared.report.coacd.coacd_cpu_s
     joints = swept_joints(asset)
     try:
         spec = build_spec(asset, prepared=prepared)
@@ -183,9 +195,12 @@ def run_checks(src, options: ConvertOptions | None = None, render: Path | None =
             "hull_methods": prepared.report.methods, "coacd_calls": prepared.report.coacd.calls,
             "coacd_cache_hits": prepared.report.coacd.cache_hits, "convert_seconds": round(convert_s, 3),
             "relief": summarize_relief(prepared.relief), "excluded": sorted(f"{a}|{b}" for a, b in prepared.excluded),
+            "phantom_blocks": [b.to_dict() for b in prepared.phantom],
             "coacd_failures": prepared.report.coacd_failures})
+    seconds["compile"] = time.perf_counter() - prepared_at  # building the spec (visuals included) and compiling
+    start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="spark_pybullet_") as tmp:
-        loaded = load_in_pybullet(write_pybullet_urdf(prepared, Path(tmp)))
+        loaded = load_in_pybullet(write_pybullet_urdf(prepared, Path(tmp), visuals=False))
     expected = {name: len(s) for name, s in prepared.shapes.items()}
     same = loaded.loaded and loaded.n_joints == len(asset.joints) and all(
         loaded.collision_shapes.get(name, 0) == n for name, n in expected.items() if n)
@@ -193,19 +208,51 @@ def run_checks(src, options: ConvertOptions | None = None, render: Path | None =
     if not same:
         details["reason"] = loaded.error or "PyBullet built other joints or hulls than the MJCF"
     report.checks["pybullet_loads"] = CheckResult(same, float(loaded.n_joints), details)
+    seconds["pybullet"] = time.perf_counter() - start
     if model is None:
         for name in ("mass_inertia", "rest_stability", "rest_penetration", "joint_sweep"):
             report.checks[name] = CheckResult(False, float("nan"), {"reason": "the MJCF does not compile"})
         return report
+    start = time.perf_counter()
     report.checks["mass_inertia"] = check_mass_inertia(model)
     report.checks["rest_stability"] = check_rest_stability(model, joints, prepared.size)
     report.checks["rest_penetration"] = check_rest_penetration(model, prepared.size, prepared.excluded)
-    report.checks["joint_sweep"] = check_joint_sweep(spec, joints)
+    seconds["rest"] = time.perf_counter() - start
+    start = time.perf_counter()
+    # the sweep adds actuators and compiles again: without the visual meshes, which do not take part
+    bare = build_spec(asset, prepared=prepared, visuals=False)
+    report.checks["joint_sweep"] = sweep = check_joint_sweep(bare, joints)
+    if not sweep.passed:
+        _explain_sweep(sweep, prepared, bare.compile())
+    seconds["sweep"] = time.perf_counter() - start
     if render is not None:
         from spark_bench.sim.render import render_check_strip
 
+        start = time.perf_counter()
         render_check_strip(spec, Path(render))
+        seconds["render"] = time.perf_counter() - start
+    seconds["total"] = time.perf_counter() - clock
     return report
+
+
+def _explain_sweep(sweep: CheckResult, prepared, model) -> None:
+    """Say, for every blocked joint, whether the object's surfaces or only its hulls block it
+    (:func:`spark_bench.sim.phantom.explain_blocking`); the first one goes into the reason."""
+    from spark_bench.sim.phantom import explain_blocking
+
+    tolerance = 0.5 * prepared.options.clearance * prepared.size
+    first = None
+    for name, joint in sweep.details["joints"].items():
+        if joint["reached"] >= SWEEP_REACH and joint["returned"] >= SWEEP_REACH or not joint["blocked_by"]:
+            continue
+        block = joint["blocked_by"][0]
+        if block.get("body") not in prepared.asset.links or block["blocked_by_body"] not in prepared.asset.links:
+            continue
+        joint["explanation"] = explain_blocking(prepared, model, name, block["body"], block["blocked_by_body"],
+                                                tolerance)
+        first = first or joint["explanation"]
+    if first and "reason" in sweep.details:
+        sweep.details["reason"] += f"; {first}"
 
 
 def run_model_checks(xml: Path, render: Path | None = None) -> CheckReport:

@@ -3,7 +3,9 @@
 Every pair of links collides, as real parts do, except a parent and its child whose hulls overlap at
 rest by more than ``ConvertOptions.exclude_overlap`` of the object's size: that overlap is by
 construction (a cap around a bottle neck, a button sunk into its panel), and a contact there would push
-the parts apart from the first step. "Parent" skips links without geometry (``*_helper`` links).
+the parts apart from the first step. "Parent" skips links without geometry (``*_helper`` links). A parent-child pair whose hulls block the
+child's joint where the parent's surface does not (a button pressed into the hull that covers its
+hole) is excluded too (:mod:`spark_bench.sim.phantom`).
 
 MuJoCo drops contacts between a body and its parent when both move (``filterparent``); such pairs that
 should collide get explicit ``<pair>`` elements instead of a global flag, so a spec extended with a

@@ -3,7 +3,7 @@
 ``model.xml`` is the MJCF of :func:`spark_bench.sim.build_spec` with meshes as OBJ files under
 ``meshes/`` (relative paths, so the folder can be moved); ``model.urdf`` is the PyBullet URDF that
 references the same hull files; ``conversion.json`` records the options, hull counts, CoACD work,
-exclusions, hinge-relief cuts and timings.
+exclusions (with the phantom blockings of :mod:`.phantom`), hinge-relief cuts and timings.
 """
 
 from __future__ import annotations
@@ -77,6 +77,7 @@ def convert(src: Path | str | ArticulatedAsset, out_dir: Path | str, options: Co
         "cached_links": prepared.report.cached_links, "merged_hulls": prepared.report.merged,
         "excluded": {f"{a}|{b}": round(d, 6) for (a, b), d in prepared.excluded.items()},
         "relief": summarize_relief(prepared.relief),
+        "phantom_blocks": [b.to_dict() for b in prepared.phantom],
         "mass": {name: round(p.mass, 6) for name, p in prepared.mass.items()},
         "seconds": {"load": round(loaded - start, 3), "collision_and_physics": round(prepared_at - loaded, 3),
                     "write": round(done - prepared_at, 3), "total": round(done - start, 3)},

@@ -145,6 +145,25 @@ def _weld(mesh: trimesh.Trimesh, tolerance: float) -> trimesh.Trimesh:
     return mesh
 
 
+def simplify(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:
+    """A watertight ``mesh`` with more than ``max_faces`` faces simplified to about that many
+    (quadric decimation, deterministic); any other mesh, or any with ``max_faces`` 0, unchanged.
+
+    Only closed meshes are simplified: CoACD remeshes an open one itself (at its preprocessing
+    resolution, far coarser), and decimating a triangle soup can fold its thin panels.
+    """
+    if max_faces <= 0 or len(mesh.faces) <= max_faces or not mesh.is_watertight:
+        return mesh
+    import fast_simplification
+
+    vertices, faces = fast_simplification.simplify(np.asarray(mesh.vertices, np.float64),
+                                                   np.asarray(mesh.faces, np.int64),
+                                                   target_reduction=1.0 - max_faces / len(mesh.faces))
+    if len(faces) < 4:  # nothing sensible left: keep the original
+        return mesh
+    return trimesh.Trimesh(vertices, faces, process=False)
+
+
 def _element_meshes(link: Link, options: ConvertOptions) -> tuple[list[CollisionShape], list[trimesh.Trimesh]]:
     """Shapes usable as they are, and the non-convex element meshes (in the link frame)."""
     ready, meshes = [], []
@@ -258,7 +277,7 @@ def object_collision_shapes(asset: ArticulatedAsset, options: ConvertOptions | N
             tolerance, thickness, max(tolerance / 3.0, 1e-4 * size), options.max_hull_vertices,
             0.5 * (points.min(0) + points.max(0)), link_diag)
         for mesh in meshes:
-            welded = _weld(mesh, 1e-7 * size)
+            welded = simplify(_weld(mesh, 1e-7 * size), options.max_part_faces)
             if len(welded.faces) == 0:
                 continue
             hulls, rest = _sort_element(welded, geo)

@@ -21,12 +21,12 @@ gripper or a scene can be added to the same spec.
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
 
-from spark_bench.asset.mesh import drop_degenerate_faces
-from spark_bench.asset.model import ArticulatedAsset, Link
+from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.errors import InputError
 from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.contacts import add_contact_filters, geometric_parents, rest_overlaps
@@ -70,14 +70,17 @@ def prepare(asset: ArticulatedAsset, options: ConvertOptions | None = None,
         if name in ("world", "") or not name.isprintable():
             raise InputError(asset.source or asset.name, f"name {name!r} cannot be a MuJoCo body or joint name")
     report = CollisionReport()
+    start = time.perf_counter()
     if shapes is None:
         cache = cache_dir("coacd") if options.use_cache else None
         shapes = object_collision_shapes(asset, options, cache=cache, report=report, progress=progress)
     else:
         report.hulls = {name: len(s) for name, s in shapes.items()}
+    report.seconds["shapes"] = time.perf_counter() - start
     prepared = PreparedObject(asset, options, shapes, {}, {}, object_size(asset), report)
     _update_physics(prepared)
     _resolve_contacts(prepared)
+    report.seconds["contacts"] = time.perf_counter() - start - report.seconds["shapes"]
     return prepared
 
 
@@ -85,6 +88,7 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     """Decide the excluded pairs (overlap at rest), then bevel hinge edges (:mod:`.relief`), then
     recompute masses and joint dynamics from the final hulls."""
     from spark_bench.paths import cache_dir
+    from spark_bench.sim.phantom import find_phantom_blocks
     from spark_bench.sim.relief import relieve
     from spark_bench.sim.shape_cache import load_contacts, object_key, store_contacts
 
@@ -93,12 +97,12 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     key = object_key(prepared) if cache is not None else None
     cached = load_contacts(cache, key) if cache is not None else None
     if cached is not None:
-        prepared.shapes, prepared.excluded, prepared.relief = cached
+        prepared.shapes, prepared.excluded, prepared.relief, prepared.phantom = cached
         _update_physics(prepared)
         return
 
     def probe_model(with_excludes: bool):
-        spec = assemble_spec(prepared)
+        spec = assemble_spec(prepared, visuals=False)
         # every parent-child contact on, as the final model has them (explicit pairs or unfiltered)
         spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
         if with_excludes:
@@ -111,9 +115,12 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     overlaps = rest_overlaps(model, mujoco.MjData(model), pairs)
     limit = prepared.options.exclude_overlap * prepared.size
     prepared.excluded = {pair: depth for pair, depth in overlaps.items() if depth > limit}
-    prepared.relief = relieve(prepared, lambda: probe_model(True), 0.5 * prepared.options.clearance * prepared.size)
+    gap = 0.5 * prepared.options.clearance * prepared.size
+    prepared.relief = relieve(prepared, lambda: probe_model(True), gap)
     if prepared.relief:
         _update_physics(prepared)
+    prepared.phantom = find_phantom_blocks(prepared, probe_model(True), gap)
+    prepared.excluded.update({(b.parent, b.child): overlaps.get((b.parent, b.child), 0.0) for b in prepared.phantom})
     if cache is not None and not prepared.report.coacd.failed:
         store_contacts(cache, key, prepared)
 
@@ -215,18 +222,6 @@ def write_obj_file(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
     Path(path).write_text(text)
 
 
-def link_visual_mesh(link: Link) -> tuple[np.ndarray, np.ndarray, list[float]] | None:
-    if not link.has_geometry:
-        return None
-    merged = link.merged_mesh()
-    cleaned = drop_degenerate_faces(merged.vertices, merged.faces)
-    if cleaned is None:
-        return None
-    areas = np.array([max(float(v.mesh.area), 1e-12) for v in link.visuals])
-    rgba = np.average(np.array([v.rgba for v in link.visuals], dtype=float), axis=0, weights=areas)
-    return cleaned[0], cleaned[1], [float(c) for c in rgba[:3]] + [1.0]
-
-
 class _MeshSink:
     """Puts mesh data into the spec: inline (``uservert``) or as OBJ files under ``mesh_dir``."""
 
@@ -297,11 +292,13 @@ def _set_inertial(body, props: MassProperties) -> None:
     body.inertia = moments.tolist()
 
 
-def assemble_spec(prepared: PreparedObject, mesh_dir: Path | None = None):
+def assemble_spec(prepared: PreparedObject, mesh_dir: Path | None = None, visuals: bool = True):
     """The ``MjSpec`` of a prepared object (see the module docstring for its layout).
 
     :param prepared: output of :func:`prepare`
     :param mesh_dir: write meshes as OBJ files here and reference them (None: meshes inline)
+    :param visuals: add the visual geoms; without them the model simulates the same (they have no
+        contacts and no mass) and compiles much faster (a watertight remesh has ~10^5 faces per link)
     """
     mujoco = mujoco_module()
     asset, options = prepared.asset, prepared.options
@@ -340,9 +337,9 @@ def assemble_spec(prepared: PreparedObject, mesh_dir: Path | None = None):
                 # MuJoCo needs lower < upper; a URDF joint locked by equal limits keeps a 1 um range
                 mj_joint.range = [float(joint.lower), max(float(joint.upper), float(joint.lower) + 1e-6)]
     for index, name in enumerate(order):
-        body, link = bodies[name], asset.links[name]
+        body = bodies[name]
         _set_inertial(body, prepared.mass[name])
-        visual = link_visual_mesh(link)
+        visual = prepared.visual(name) if visuals else None
         if visual is not None:
             vertices, faces, rgba = visual
             spec.add_material(name=f"{name}_material", rgba=rgba, specular=0.2, shininess=0.3)
@@ -355,15 +352,16 @@ def assemble_spec(prepared: PreparedObject, mesh_dir: Path | None = None):
 
 
 def build_spec(asset: ArticulatedAsset, options: ConvertOptions | None = None, *,
-               prepared: PreparedObject | None = None, mesh_dir: Path | None = None):
+               prepared: PreparedObject | None = None, mesh_dir: Path | None = None, visuals: bool = True):
     """The object as a ``mujoco.MjSpec``, ready to compile or to extend (see the module docstring).
 
     :param asset: the object
     :param options: conversion options (default :class:`ConvertOptions`)
     :param prepared: reuse an earlier :func:`prepare` result (collision hulls, masses)
     :param mesh_dir: write meshes as OBJ files there (None: meshes inline in the spec)
+    :param visuals: add the visual geoms (False: the same physics, no visual meshes to compile)
     """
     prepared = prepared if prepared is not None else prepare(asset, options)
-    spec = assemble_spec(prepared, mesh_dir=mesh_dir)
+    spec = assemble_spec(prepared, mesh_dir=mesh_dir, visuals=visuals)
     add_contact_filters(spec, prepared)
     return spec

@@ -93,8 +93,14 @@ class ConvertOptions:
         Measured on 41083: at 0.01 the bevelled door and drawer frames (1.1-1.4 %) go to CoACD, 13
         calls and 62 CPU-seconds; at 0.02 none do, and every check still passes on all seven objects
     :param min_thickness: flat or thin parts are thickened to this fraction of the object's size
-    :param watertight_resolution: voxels along the largest axis when a non-convex part is remeshed
-        watertight before CoACD
+    :param watertight_resolution: unused (kept so that option files stay readable); CoACD's own
+        preprocessing remeshes open parts
+    :param max_part_faces: a closed (watertight) part mesh with more faces is simplified (quadric
+        decimation, to this many) before its convexity test and CoACD. A case's ground truth is a watertight R=200 remesh with
+        10^5-10^6 faces per link; CoACD skips its own remeshing on such manifold input and cuts the full
+        mesh: 18 CPU-s for the 300k-face body of box 47645 and minutes for larger ones; at 5000 faces
+        6 s, the mean distance from its hulls to the surface 0.9 % of the part's diagonal instead of
+        0.5 % (``benchmarks/measure_sim_real.py`` reports the seconds per case). 0: never
     :param clearance: gap left between parts, as a fraction of the object's size: each generated hull
         shrinks by half of it (PartNet-Mobility parts are modelled with zero gap, so a door's edge grazes
         its frame; real furniture has 1-3 mm). Given primitives and convex meshes are not shrunk.
@@ -129,6 +135,7 @@ class ConvertOptions:
     convex_tolerance: float = 0.02
     min_thickness: float = 0.004
     watertight_resolution: int = 64
+    max_part_faces: int = 5000
     clearance: float = 0.001
     hull_budget: int = 48
     max_hull_vertices: int = 64

@@ -7,7 +7,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from spark_bench.asset.model import ArticulatedAsset
+import numpy as np
+
+from spark_bench.asset.mesh import drop_degenerate_faces
+from spark_bench.asset.model import ArticulatedAsset, Link
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.physical import JointDynamics, MassProperties
 from spark_bench.sim.shapes import CollisionReport, CollisionShape
@@ -26,6 +29,11 @@ class PreparedObject:
     :param report: how the collision shapes were made
     :param excluded: parent-child body pairs that do not collide, with their overlap depth at rest
     :param relief: hinge-relief cuts made (:class:`~spark_bench.sim.relief.ReliefCut`)
+    :param visuals: per link, its merged visual mesh ``(vertices, faces, rgba)`` or None, filled on
+        first use by :meth:`visual` (merging and cleaning a 300k-face watertight remesh costs seconds;
+        every spec and the PyBullet URDF reuse it)
+    :param phantom: parent-child pairs excluded because only the hulls, not the meshes, block the
+        child's joint (:class:`~spark_bench.sim.phantom.PhantomBlock`)
     """
 
     asset: ArticulatedAsset
@@ -37,3 +45,25 @@ class PreparedObject:
     report: CollisionReport
     excluded: dict[tuple[str, str], float] = field(default_factory=dict)
     relief: list = field(default_factory=list)
+    visuals: dict = field(default_factory=dict)
+    phantom: list = field(default_factory=list)
+
+    def visual(self, name: str) -> tuple[np.ndarray, np.ndarray, list[float]] | None:
+        """:func:`link_visual_mesh` of link ``name``, computed once."""
+        if name not in self.visuals:
+            self.visuals[name] = link_visual_mesh(self.asset.links[name])
+        return self.visuals[name]
+
+
+def link_visual_mesh(link: Link) -> tuple[np.ndarray, np.ndarray, list[float]] | None:
+    """The link's visuals merged into one mesh in the link frame without degenerate faces, and their
+    area-weighted colour; None when it has none."""
+    if not link.has_geometry:
+        return None
+    merged = link.merged_mesh()
+    cleaned = drop_degenerate_faces(merged.vertices, merged.faces)
+    if cleaned is None:
+        return None
+    areas = np.array([max(float(v.mesh.area), 1e-12) for v in link.visuals])
+    rgba = np.average(np.array([v.rgba for v in link.visuals], dtype=float), axis=0, weights=areas)
+    return cleaned[0], cleaned[1], [float(c) for c in rgba[:3]] + [1.0]

@@ -15,7 +15,7 @@ import numpy as np
 
 from spark_bench.asset.mesh import drop_degenerate_faces
 from spark_bench.asset.transforms import matrix_to_rpy
-from spark_bench.sim.mjcf import link_visual_mesh, write_obj_file
+from spark_bench.sim.mjcf import write_obj_file
 from spark_bench.sim.physical import principal_inertia
 from spark_bench.sim.prepared import PreparedObject
 
@@ -38,18 +38,21 @@ def _write_mesh(folder: Path, name: str, vertices, faces) -> str | None:
     return f"{MESH_DIR}/{name}.obj"
 
 
-def write_pybullet_urdf(prepared: PreparedObject, folder: Path, filename: str = "model.urdf") -> Path:
+def write_pybullet_urdf(prepared: PreparedObject, folder: Path, filename: str = "model.urdf",
+                        visuals: bool = True) -> Path:
     """Write a URDF whose collisions are the prepared hulls (one OBJ each) into ``folder``.
 
     :param prepared: output of :func:`spark_bench.sim.mjcf.prepare`
     :param folder: output folder (``meshes/`` is created inside)
     :param filename: URDF file name
+    :param visuals: write the visual meshes too (the ``pybullet_loads`` check counts joints and
+        collision shapes only, and skips them)
     """
     folder = Path(folder)
     (folder / MESH_DIR).mkdir(parents=True, exist_ok=True)
     asset = prepared.asset
     robot = ET.Element("robot", name=asset.name or "object")
-    for name, link in asset.links.items():
+    for name in asset.links:
         element = ET.SubElement(robot, "link", name=name)
         props = prepared.mass[name]
         moments, axes = principal_inertia(props.inertia)
@@ -60,7 +63,7 @@ def write_pybullet_urdf(prepared: PreparedObject, folder: Path, filename: str = 
         ET.SubElement(inertial, "mass", value=f"{props.mass:.9g}")
         ET.SubElement(inertial, "inertia", ixx=f"{moments[0]:.9g}", iyy=f"{moments[1]:.9g}",
                       izz=f"{moments[2]:.9g}", ixy="0", ixz="0", iyz="0")
-        visual = link_visual_mesh(link)
+        visual = prepared.visual(name) if visuals else None
         if visual is not None:
             rel = _write_mesh(folder, f"{name}_visual", visual[0], visual[1])
             if rel is not None:

@@ -22,17 +22,20 @@ class CheckResult:
 
 @dataclass
 class CheckReport:
-    """All checks of one object. ``to_dict()`` is the ``spark-bench check --json`` output."""
+    """All checks of one object. ``to_dict()`` is the ``spark-bench check --json`` output; ``seconds``
+    says where the time went (wall seconds per stage, and the CPU seconds of the CoACD workers)."""
 
     name: str
     checks: dict[str, CheckResult] = field(default_factory=dict)
+    seconds: dict[str, float] = field(default_factory=dict)
 
     @property
     def passed(self) -> bool:
         return bool(self.checks) and all(c.passed for c in self.checks.values())
 
     def to_dict(self) -> dict:
-        return {"passed": self.passed, "checks": {k: v.to_dict() for k, v in self.checks.items()}}
+        return {"passed": self.passed, "checks": {k: v.to_dict() for k, v in self.checks.items()},
+                "seconds": {k: round(v, 3) for k, v in self.seconds.items()}}
 
     def failures(self) -> list[str]:
         """One line per failed check, with its reason where known."""

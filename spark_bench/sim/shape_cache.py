@@ -33,7 +33,7 @@ def link_key(meshes: Sequence[trimesh.Trimesh], ready: Sequence[CollisionShape],
     digest = hashlib.sha256(SHAPES_VERSION.encode())
     geometry = {k: v for k, v in asdict(options).items()
                 if k in ("coacd", "convex_tolerance", "min_thickness", "clearance", "hull_budget",
-                         "max_hull_vertices", "decompose_visuals")}
+                         "max_hull_vertices", "decompose_visuals", "max_part_faces")}
     digest.update(json.dumps(geometry, sort_keys=True).encode())
     digest.update(np.round(np.float64(size), 9).tobytes())
     for mesh in meshes:
@@ -93,7 +93,7 @@ def _unpack_shapes(data) -> list[CollisionShape]:
 def object_key(prepared) -> str:
     """Key of an object's contact resolution: every link's shapes before relief, the joints, and the
     options that decide exclusions and relief."""
-    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-1".encode())
+    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-2".encode())
     options = prepared.options
     digest.update(json.dumps([options.exclude_overlap, options.clearance, list(options.base_quat)]).encode())
     digest.update(np.round(np.float64(prepared.size), 9).tobytes())
@@ -111,7 +111,8 @@ def object_key(prepared) -> str:
 def store_contacts(cache: Path, key: str, prepared) -> None:
     """Store the resolved shapes, exclusions and relief cuts of ``prepared`` under ``key``."""
     entry = {"excluded": [[a, b, d] for (a, b), d in prepared.excluded.items()],
-             "relief": [c.__dict__ for c in prepared.relief], "links": {}}
+             "relief": [c.__dict__ for c in prepared.relief], "phantom": [b.__dict__ for b in prepared.phantom],
+             "links": {}}
     for name, shapes in prepared.shapes.items():
         sub = hashlib.sha256(f"{key}/{name}".encode()).hexdigest()
         store_shapes(cache, sub, shapes)
@@ -120,7 +121,8 @@ def store_contacts(cache: Path, key: str, prepared) -> None:
 
 
 def load_contacts(cache: Path, key: str):
-    """``(shapes, excluded, relief)`` stored under ``key``, or None."""
+    """``(shapes, excluded, relief, phantom)`` stored under ``key``, or None."""
+    from spark_bench.sim.phantom import PhantomBlock
     from spark_bench.sim.relief import ReliefCut
 
     path = entry_path(Path(cache) / "objects", key, ".json")
@@ -136,6 +138,7 @@ def load_contacts(cache: Path, key: str):
             shapes[name] = loaded
         excluded = {(a, b): float(d) for a, b, d in entry["excluded"]}
         relief = [ReliefCut(**c) for c in entry["relief"]]
+        phantom = [PhantomBlock(**b) for b in entry["phantom"]]
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    return shapes, excluded, relief
+    return shapes, excluded, relief, phantom

@@ -98,6 +98,7 @@ def _blocking_contacts(model, data, moving_bodies: set[int], top: int = 3) -> li
     """The strongest contacts between the moving part and anything else: which geoms blocked it."""
     mujoco = mujoco_module()
     found: dict[tuple[int, int], float] = {}
+    depth: dict[tuple[int, int], float] = {}
     force = np.zeros(6)
     for index, contact in enumerate(data.contact[: data.ncon]):
         b1, b2 = model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2]
@@ -106,8 +107,10 @@ def _blocking_contacts(model, data, moving_bodies: set[int], top: int = 3) -> li
         mujoco.mj_contactForce(model, data, index, force)
         key = (contact.geom1, contact.geom2) if b1 in moving_bodies else (contact.geom2, contact.geom1)
         found[key] = max(found.get(key, 0.0), float(abs(force[0])))
+        depth[key] = max(depth.get(key, 0.0), -float(contact.dist))
     ranked = sorted(found.items(), key=lambda kv: -kv[1])[:top]
     return [{"geom": _geom_name(model, a), "blocked_by": _geom_name(model, b), "force": round(f, 3),
+             "depth": round(depth[(a, b)], 6), "body": model.body(model.geom_bodyid[a]).name,
              "blocked_by_body": model.body(model.geom_bodyid[b]).name} for (a, b), f in ranked]
 
 
@@ -219,6 +222,14 @@ def check_joint_sweep(spec, joints: list[SweptJoint]) -> CheckResult:
     if failed:
         name, r = next(iter(failed.items()))
         what = ", ".join(f"{b['geom']} by {b['blocked_by']}" for b in r["blocked_by"]) or "no contact"
+        if r["blocked_by"]:
+            first = r["blocked_by"][0]
+            joint = next(j for j in joints if j.name == name)
+            at = joint.lower + r["reached"] * (joint.upper - joint.lower)
+            where = f"{np.degrees(at):.0f} deg" if joint.rotational else f"{1000 * at:.0f} mm"
+            deep = 1000 * first.get("depth", 0.0)
+            what = (f"{first.get('body', '?')} runs into {first['blocked_by_body']} at {where}"
+                    + (f", {deep:.1f} mm deep" if deep >= 0.1 else "") + f": {what}")
         details["reason"] = (f"joint {name} reached {r['reached']:.0%} and returned {r['returned']:.0%} "
                              f"of its range (blocked: {what})")
     return CheckResult(not failed, worst, details)

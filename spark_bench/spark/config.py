@@ -14,7 +14,11 @@ Example (TOML)::
     backend = "dataset"      # dataset | http
     [optimize]
     enabled = true
-    screen_blur = 1.0        # any OptimizeConfig field, e.g. the discrete search's knobs
+    method = "spark"         # spark (SPARK's own recipe) | native (the type/axis search + fit)
+    part_masks = false       # native only: also fit the open state's per-part masks (label sup=part-masks)
+    screen_blur = 1.0        # any OptimizeConfig field, e.g. the native search's knobs
+    [optimize.spark]
+    iters = 200              # any SparkFitConfig field
 
 Command-line style overrides (``section.key=value``, value parsed as JSON when it parses) go through
 :meth:`SparkConfig.with_overrides`. :meth:`SparkConfig.label` is the string results rows carry.
@@ -37,6 +41,7 @@ PRIOR_BACKENDS = ("annotation", "vlm", "file")
 GEOMETRY_BACKENDS = ("annotation", "predictions", "spark")
 OPEN_STATE_BACKENDS = ("dataset", "http")
 REFINE_BACKENDS = ("render", "vlm", "none")
+OPTIMIZE_METHODS = ("spark", "native")
 
 
 @dataclass
@@ -105,15 +110,56 @@ class OpenStateConfig:
 
 
 @dataclass
+class SparkFitConfig:
+    """SPARK's own joint optimizer (``optimize.method = "spark"``, :mod:`spark_bench.spark.spark_fit`):
+    the settings of ``URDFoptimizer/optimize_urdf_joint_v4.py`` (YumengHe/PartCrafter) run with
+    ``--learn-angle --init-random``; the defaults are the script's.
+
+    :param iters: Adam iterations per revolute joint (its ``--iters``)
+    :param lr_pivot: Adam step of the pivot shift (``--lr``)
+    :param lr_angle: Adam step of the opening angle (``--lr-angle``)
+    :param angle_bounds: bounds of the learned angle, degrees (``--angle-bounds``)
+    :param closed_weight: weight of the closed-image term (``--closed-weight``)
+    :param reg_pivot: weight of ``|t|^2`` (``--regularization``)
+    :param reg_angle: weight of ``|delta theta|^2`` (``--angle-regularization``)
+    :param threshold: a pixel whose mean RGB (0-1) is below this is object (``--threshold``)
+    :param seed: seed of the random pivot starts (``--random-seed``), combined with the case and joint
+    :param size: render size (px) of the window around the object (the script renders 1024 px of the
+        whole frame; see :mod:`~spark_bench.spark.spark_fit` for what lower sizes were measured to give)
+    :param tau: edge softness (px) of the soft silhouette at that size
+    :param max_faces: per-link face budget of the rendered meshes
+    """
+
+    iters: int = 200
+    lr_pivot: float = 5e-3
+    lr_angle: float = 1e-2
+    angle_bounds: list[float] = field(default_factory=lambda: [35.0, 180.0])
+    closed_weight: float = 0.2
+    reg_pivot: float = 1e-3
+    reg_angle: float = 1e-4
+    threshold: float = 0.9
+    seed: int = 42
+    size: int = 128
+    tau: float = 0.5
+    max_faces: int = 600
+
+
+@dataclass
 class OptimizeConfig:
-    """Stage 4: the native joint optimization (:func:`spark_bench.spark.refine.refine`; the module
-    docstring of :mod:`spark_bench.spark.refine` describes the search these settings drive).
+    """Stage 4: the joint optimization. ``method = "spark"`` (the default) is SPARK's own recipe
+    (:mod:`spark_bench.spark.spark_fit`, its settings in ``spark``); ``native`` is this project's
+    type/axis search and fit (:func:`spark_bench.spark.refine.refine`; the module docstring of
+    :mod:`spark_bench.spark.refine` describes the search the other settings drive).
 
     :param enabled: run the joint optimization (False: export the prior as is)
-    :param refine: discrete type/axis refinement: ``render`` (offline), ``vlm`` (ask the VLM again with
-        the coarse URDF, then fit continuously) or ``none``
-    :param part_masks: also fit and score against the open state's per-part masks when it has them and
-        the parts are the case's own links (``annotation`` geometry with the ``dataset`` open state)
+    :param method: ``spark`` or ``native``
+    :param spark: SPARK's recipe's settings (:class:`SparkFitConfig`)
+    :param refine: ``native`` only: discrete type/axis refinement: ``render`` (offline), ``vlm`` (ask the
+        VLM again with the coarse URDF, then fit continuously) or ``none``
+    :param part_masks: ``native`` only: also fit and score against the open state's per-part masks
+        (ground-truth part masks: the label says ``sup=part-masks``) when the parts are the case's own
+        links (``annotation`` geometry with the ``dataset`` open state); default off, as the paper
+        fits the whole silhouette
     :param screen_size: image size (px) of the first level of each candidate's short fit
     :param screen_tau: edge softness (px) at that level
     :param short_steps: Adam steps of a short fit at that level
@@ -134,6 +180,10 @@ class OptimizeConfig:
         order (radians; for prismatic joints, fractions of the value)
     :param small_part: a part whose rest box is smaller than this fraction of the object's gets only the
         prior's and the centre-line pivot starts (0: off)
+    :param skip_without_evidence: a joint none of whose screened candidates beats its part left at rest
+        (by the margin: a button pressed a millimetre, a knob turned in place) keeps the prior's
+        hypothesis without short fits (measured on PartNet-Mobility 101599, 12 buttons, a knob and a door:
+        the search's CPU seconds fell from 39 to ...)
     :param margin_rel: a candidate of another type or axis must beat the prior's score by this fraction
         of it (and by ``margin_abs`` at least) to replace it
     :param margin_abs: the smallest such margin
@@ -153,8 +203,10 @@ class OptimizeConfig:
     """
 
     enabled: bool = True
+    method: str = "spark"
+    spark: SparkFitConfig = field(default_factory=SparkFitConfig)
     refine: str = "render"
-    part_masks: bool = True
+    part_masks: bool = False
     screen_size: int = 32
     screen_tau: float = 1.0
     short_steps: int = 12
@@ -169,6 +221,7 @@ class OptimizeConfig:
     screen_values_prismatic: list[float] = field(default_factory=lambda: [0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.3])
     screen_local: list[float] = field(default_factory=lambda: [0.06, 0.03])
     small_part: float = 0.0
+    skip_without_evidence: bool = True
     margin_rel: float = 0.1
     margin_abs: float = 0.01
     final_sizes: list[int] = field(default_factory=lambda: [64, 128])
@@ -208,27 +261,38 @@ class SparkConfig:
 
     def label(self) -> str:
         """What a results row made with this config says, e.g. ``prior=annotation,geometry=annotation,
-        open=dataset,opt=native``.
+        open=dataset,opt=spark``.
 
-        A remote model is named (``prior=vlm:gpt-4o``, ``open=http:<model>``); ``opt`` is ``native``
-        (continuous fit with the offline type/axis search), ``native+vlm`` (the VLM re-predicts type and
-        axis), ``fit-only`` (no type/axis search) or ``none``. When a setting that changes results
-        differs from its default (the prior's noise, an optimization knob, the predictions folder, the
-        SPARK command, the VLM's sampling), ``settings=<8 hex>`` names that set of changes, so two runs
-        that differ only there never share a label (the leaderboard keeps one row per label).
+        A remote model is named (``prior=vlm:gpt-4o``, ``open=http:<model>``); ``opt`` is ``spark``
+        (SPARK's own recipe), ``native`` (continuous fit with the offline type/axis search),
+        ``native+vlm`` (the VLM re-predicts type and axis), ``fit-only`` (no type/axis search) or
+        ``none``; ``sup=part-masks`` follows when the fit reads the ground truth's per-part masks. When a
+        setting that changes results differs from its default (the prior's noise, an optimization knob,
+        the predictions folder, the SPARK command, the VLM's sampling), ``settings=<8 hex>`` names that
+        set of changes, so two runs that differ only there never share a label (the leaderboard keeps
+        one row per label).
         """
-        opt = "none" if not self.optimize.enabled else \
-            {"render": "native", "vlm": "native+vlm", "none": "fit-only"}[self.optimize.refine]
         prior = f"vlm:{self.vlm.model}" if self.prior.backend == "vlm" else self.prior.backend
         open_state = self.open_state.backend
         if open_state == "http" and self.open_state.model:
             open_state = f"http:{self.open_state.model}"
-        label = f"prior={prior},geometry={self.geometry.backend},open={open_state},opt={opt}"
+        label = f"prior={prior},geometry={self.geometry.backend},open={open_state},opt={self.opt_name()}"
+        if self.uses_part_masks():
+            label += ",sup=part-masks"
         changed = self.changed_settings()
         if changed:
             digest = hashlib.sha256(json.dumps(changed, sort_keys=True).encode()).hexdigest()[:8]
             label += f",settings={digest}"
         return label
+
+    def opt_name(self) -> str:
+        """The ``opt=`` of the label: ``none``, ``spark``, or the native method's ``native`` |
+        ``native+vlm`` | ``fit-only``."""
+        if not self.optimize.enabled:
+            return "none"
+        if self.optimize.method == "spark":
+            return "spark"
+        return {"render": "native", "vlm": "native+vlm", "none": "fit-only"}[self.optimize.refine]
 
     def changed_settings(self) -> dict:
         """The settings that change results and differ from their defaults, for the stages in use
@@ -239,12 +303,16 @@ class SparkConfig:
             sections.append(("prior.noise", self.prior.noise, default.prior.noise, ()))
         if self.prior.backend == "file":
             sections.append(("prior", self.prior, default.prior, ("backend", "noise")))
-        if self.prior.backend == "vlm" or (self.optimize.enabled and self.optimize.refine == "vlm"):
+        native = self.optimize.enabled and self.optimize.method == "native"
+        if self.prior.backend == "vlm" or (native and self.optimize.refine == "vlm"):
             sections.append(("vlm", self.vlm, default.vlm, ("base_url", "model", "api_key_env", "timeout_s",
                                                              "max_retries", "backoff_s")))
         sections.append(("geometry", self.geometry, default.geometry, ("backend", "timeout_s")))
-        if self.optimize.enabled:
-            sections.append(("optimize", self.optimize, default.optimize, ("enabled", "refine", "threads")))
+        if native:  # the label names the method, the refinement and the part masks
+            sections.append(("optimize", self.optimize, default.optimize,
+                             ("enabled", "method", "spark", "refine", "part_masks", "threads")))
+        elif self.optimize.enabled:
+            sections.append(("optimize.spark", self.optimize.spark, default.optimize.spark, ()))
         out = {}
         for prefix, ours, theirs, skip in sections:
             for f in fields(ours):
@@ -254,19 +322,21 @@ class SparkConfig:
         return out
 
     def uses_part_masks(self) -> bool:
-        """Whether the joint optimization reads the open state's per-part masks: ``optimize.part_masks``
-        with ``annotation`` geometry (whose parts are the case's own links) and the ``dataset`` open
-        state."""
-        return (self.optimize.enabled and self.optimize.part_masks and self.geometry.backend == "annotation"
-                and self.open_state.backend == "dataset")
+        """Whether the joint optimization reads the open state's per-part masks: the ``native`` method
+        with ``optimize.part_masks``, ``annotation`` geometry (whose parts are the case's own links) and
+        the ``dataset`` open state."""
+        return (self.optimize.enabled and self.optimize.method == "native" and self.optimize.part_masks
+                and self.geometry.backend == "annotation" and self.open_state.backend == "dataset")
 
     def case_inputs(self) -> tuple[str, ...]:
         """The input kinds (:data:`spark_bench.methods.base.INPUT_KINDS`) the pipeline reads of a case with
-        this configuration: the input image always; the camera when optimizing, the open image with the
-        ``dataset`` open state, the open state's part masks when :meth:`uses_part_masks`; the ground
-        truth for an ``annotation`` backend, and for a ``spark`` command that is handed the case folder
-        (``{case}``)."""
+        this configuration: the input image always; the camera when optimizing and for the ``annotation``
+        prior (whose axes are snapped in the camera's frame), the open image with the ``dataset`` open
+        state, the open state's part masks when :meth:`uses_part_masks`; the ground truth for an
+        ``annotation`` backend, and for a ``spark`` command that is handed the case folder (``{case}``)."""
         inputs = {"image"}
+        if self.prior.backend == "annotation":
+            inputs.add("camera")
         if self.optimize.enabled:
             inputs.add("camera")
             if self.open_state.backend == "dataset":
@@ -331,7 +401,8 @@ class SparkConfig:
         checks = [("prior.backend", self.prior.backend, PRIOR_BACKENDS),
                   ("geometry.backend", self.geometry.backend, GEOMETRY_BACKENDS),
                   ("open_state.backend", self.open_state.backend, OPEN_STATE_BACKENDS),
-                  ("optimize.refine", self.optimize.refine, REFINE_BACKENDS)]
+                  ("optimize.refine", self.optimize.refine, REFINE_BACKENDS),
+                  ("optimize.method", self.optimize.method, OPTIMIZE_METHODS)]
         for key, value, allowed in checks:
             if value not in allowed:
                 raise InputError(source, f"{key} = {value!r} is not one of {list(allowed)}")
@@ -346,6 +417,15 @@ class SparkConfig:
         opt = self.optimize
         if not (len(opt.final_sizes) == len(opt.final_taus) == len(opt.final_steps)):
             raise InputError(source, "optimize.final_sizes, final_taus and final_steps must have equal lengths")
+        if opt.method == "spark" and opt.part_masks:
+            raise InputError(source, "optimize.part_masks applies to method 'native' only (SPARK's recipe fits "
+                                     "the whole silhouette)")
+        bounds = opt.spark.angle_bounds
+        if len(bounds) != 2 or not 0 <= bounds[0] <= bounds[1]:
+            raise InputError(source, f"optimize.spark.angle_bounds must be [low, high] degrees with "
+                                     f"0 <= low <= high, got {bounds}")
+        if opt.spark.iters < 0 or opt.spark.size < 8 or opt.spark.tau <= 0:
+            raise InputError(source, "optimize.spark needs iters >= 0, size >= 8 and tau > 0")
 
 
 def _build(cls, data, source, prefix):

@@ -32,12 +32,28 @@ OPEN_PROMPT = ("The same object, same camera, same lighting, with every movable 
 
 @dataclass
 class OpenState:
-    """The open-state supervision: ``mask`` (H, W) in [0, 1], where it came from, and, when the source
-    has a segmentation, ``part_masks``: the visible mask of each of the case's links (by link name)."""
+    """The open-state supervision: ``mask`` (H, W) in [0, 1], where it came from, when the source has a
+    segmentation, ``part_masks``: the visible mask of each of the case's links (by link name), and when
+    it is an image, ``rgb``: (H, W, 3) in [0, 1] (SPARK's recipe takes its own mask of it,
+    :func:`spark_bench.spark.spark_fit.spark_mask`)."""
 
     mask: np.ndarray
     source: str
     part_masks: dict[str, np.ndarray] = field(default_factory=dict)
+    rgb: np.ndarray | None = None
+
+
+def image_rgb(image: Image.Image) -> np.ndarray:
+    """(H, W, 3) floats in [0, 1] of an image, composited on white where it has transparency.
+
+    SPARK's loader (``Image.convert("RGB")``) drops an alpha channel, which would turn a transparent
+    background into its stored colour (often black, then all "object"); its images have white
+    backgrounds, which compositing on white reproduces."""
+    if image.mode in ("RGBA", "LA", "P"):
+        rgba = image.convert("RGBA")
+        white = Image.new("RGBA", rgba.size, (255, 255, 255, 255))
+        image = Image.alpha_composite(white, rgba)
+    return np.asarray(image.convert("RGB"), dtype=np.float64) / 255.0
 
 
 def mask_from_image(image: Image.Image, threshold: float = 0.08) -> np.ndarray:
@@ -73,7 +89,7 @@ def dataset_open_state(case: CaseInput, part_masks: bool) -> OpenState:
         raise InputError(image_path, "open-state image not found")
     try:
         with Image.open(image_path) as image:
-            return OpenState(mask_from_image(image), str(image_path))
+            return OpenState(mask_from_image(image), str(image_path), rgb=image_rgb(image))
     except OSError as exc:
         raise InputError(image_path, f"unreadable image: {exc}") from None
 
@@ -92,10 +108,11 @@ def http_open_state(config, input_png: bytes) -> OpenState:
     raw = with_retries(lambda: post_json(config.url, body, config.api_key_env, config.timeout_s), config.url,
                        config.max_retries, config.backoff_s, "image generation")
     image = decode_image_answer(raw, config.url)
-    mask = mask_from_image(_to_input_size(image, input_png))
+    image = _to_input_size(image, input_png)
+    mask = mask_from_image(image)
     if mask.max() <= 0:
         raise InputError(config.url, "the generated open-state image shows no object (empty mask)")
-    return OpenState(mask, config.url)
+    return OpenState(mask, config.url, rgb=image_rgb(image))
 
 
 def decode_image_answer(raw: bytes, source) -> Image.Image:

@@ -5,7 +5,8 @@
 - the refined asset as a PartNet-Mobility object folder (``mobility.urdf``, ``textured_objs/``...);
 - ``prior/``: the same object with the prior's joints, before any optimization (the "w/o joint
   optimization" variant of the ablation; with ``optimize.enabled = False`` both are the prior);
-- ``prior.json``: the coarse URDF answer (reusable by the ``file`` prior backend);
+- ``prior.json``: the coarse URDF answer (reusable by the ``file`` prior backend; for the ``annotation``
+  prior with its ``axis_frame``, the camera frame its axes are named in);
 - ``spark_report.json``: config label, backends, prior and refined joints (world frame), the loss
   curve, candidate losses, timings and, when the ground truth is at hand, name-matched joint errors
   before and after (diagnostics; the official scores come from ``spark_bench.metrics``).
@@ -34,10 +35,18 @@ from spark_bench.spark.geometry import (
     predictions_geometry,
     spark_geometry,
 )
-from spark_bench.spark.open_state import OpenState, dataset_open_state, http_open_state
+from spark_bench.spark.open_state import OpenState, dataset_open_state, http_open_state, image_rgb
 from spark_bench.spark.optimize import OpenStateScene
-from spark_bench.spark.prior import annotation_prior, file_prior
+from spark_bench.spark.prior import (
+    annotation_prior,
+    assemble_prior,
+    camera_axis_frame,
+    file_axis_frame,
+    file_prior,
+    prior_document,
+)
 from spark_bench.spark.refine import RefineSettings, refine
+from spark_bench.spark.spark_fit import spark_fit, spark_mask
 from spark_bench.spark.structure import PriorStructure
 from spark_bench.spark.vlm import request_structure
 
@@ -66,13 +75,24 @@ def _geometry(config: SparkConfig, case: CaseInput, gt, prior_json: Path | None,
 
 
 def _prior(config: SparkConfig, case: CaseInput, gt, geometry: PartGeometry | None):
+    """``(prior, raw answer or None, axis frame or None)``: the axis frame is the one the prior's axis
+    names mean (the camera's for ``annotation``, see :mod:`spark_bench.spark.prior`; None: the object's)."""
     backend = config.prior.backend
     known = geometry.names if geometry is not None else None
     if backend == "annotation":
-        return annotation_prior(gt, case.case_id, config.prior.noise), None
+        frame = camera_axis_frame(load_camera_pose(case.path("camera")))
+        return annotation_prior(gt, case.case_id, config.prior.noise, axis_frame=frame), None, frame
     if backend == "file":
-        return file_prior(config.prior.file_dir, case.case_id, known), None
-    return request_structure(config.vlm, _input_image(case), known, geometry.labels if geometry else None)
+        prior = file_prior(config.prior.file_dir, case.case_id, known)
+        return prior, None, file_axis_frame(config.prior.file_dir, case.case_id)
+    prior, raw = request_structure(config.vlm, _input_image(case), known, geometry.labels if geometry else None)
+    return prior, raw, None
+
+
+def load_camera_pose(path: Path) -> np.ndarray:
+    """The 4x4 camera-to-world pose of a case's ``camera.json``."""
+    camera = load_camera(path)
+    return np.linalg.inv(camera.world_to_camera)
 
 
 def _input_image(case: CaseInput) -> bytes:
@@ -115,22 +135,23 @@ def run_ours(case: CaseInput, out_dir: Path, config: SparkConfig | None = None) 
     geometry = None
     if config.geometry.backend != "spark":  # these know the parts before the prior
         geometry = _geometry(config, case, gt, None, out_dir)
-    prior, raw_answer = _prior(config, case, gt, geometry)
+    prior, raw_answer, axis_frame = _prior(config, case, gt, geometry)
     prior_json = out_dir / "prior.json"
-    prior_json.write_text(json.dumps(raw_answer if raw_answer is not None else prior.to_dict(), indent=1) + "\n")
+    document = raw_answer if raw_answer is not None else prior_document(prior, axis_frame)
+    prior_json.write_text(json.dumps(document, indent=1) + "\n")
     timings["prior"] = time.perf_counter() - tick
     if geometry is None:
         tick = time.perf_counter()
         geometry = _geometry(config, case, gt, prior_json, out_dir)
         timings["geometry"] = time.perf_counter() - tick
 
-    prior_asset = assemble_asset(prior, geometry, name=case_id, category=case.category)
+    prior_asset = assemble_prior(prior, geometry, axis_frame, name=case_id, category=case.category)
     movable = [j.name for j in prior.joints if j.type != "fixed"]
     report = {
         "case": case_id, "label": config.label(), "config": config.to_dict(),
         "backends": {"prior": config.prior.backend, "geometry": config.geometry.backend,
                      "open_state": config.open_state.backend,
-                     "optimize": "none" if not config.optimize.enabled else config.optimize.refine},
+                     "optimize": config.opt_name()},
         "geometry_is_ground_truth": config.geometry.backend == "annotation",
         "prior_joints": joint_summary(prior_asset, [j.name for j in prior.joints]),
     }
@@ -139,7 +160,9 @@ def run_ours(case: CaseInput, out_dir: Path, config: SparkConfig | None = None) 
 
     refined_asset = prior_asset
     if config.optimize.enabled:
+        cpu = time.process_time()
         refined_asset, opt_report = _optimize(config, case, prior, prior_asset, geometry, timings)
+        timings["optimize_cpu"] = time.process_time() - cpu  # this process's CPU seconds, all of stage 4
         report.update(opt_report)
     tick = time.perf_counter()
     write_object_folder(refined_asset, out_dir)
@@ -167,6 +190,8 @@ def _optimize(config: SparkConfig, case: CaseInput, prior: PriorStructure, prior
                                             f"{open_state.mask.shape[0]} px, {camera_path.name} says "
                                             f"{camera.width} x {camera.height}")
     timings["open_state"] = time.perf_counter() - tick
+    if config.optimize.method == "spark":
+        return _optimize_spark(config, case, prior_asset, open_state, camera, timings)
     start_asset = prior_asset
     if config.optimize.refine == "vlm":  # the paper's re-prediction of type and axis, then the fit
         tick = time.perf_counter()
@@ -191,6 +216,48 @@ def _optimize(config: SparkConfig, case: CaseInput, prior: PriorStructure, prior
                            "pivot_offset": np.round(h.pivot_offset, 10).tolist(), "value": h.value, "from": h.tag}
                        for n, h in result.hypotheses.items()},
     }
+
+
+def _optimize_spark(config: SparkConfig, case: CaseInput, prior_asset, open_state: OpenState, camera, timings):
+    """SPARK's own recipe (:mod:`spark_bench.spark.spark_fit`): its masks of the open and the closed
+    (input) images, then each revolute joint's pivot and angle."""
+    settings = config.optimize.spark
+    tick = time.perf_counter()
+    if open_state.rgb is not None:
+        open_mask, open_rule = spark_mask(open_state.rgb, settings.threshold)
+    else:
+        open_mask, open_rule = open_state.mask, "open-state mask"
+    closed_mask, closed_rule = spark_mask(_read_rgb(case.image), settings.threshold)
+    if closed_mask.shape != (camera.height, camera.width):
+        raise InputError(case.image, f"input image is {closed_mask.shape[1]} x {closed_mask.shape[0]} px, the "
+                                     f"camera says {camera.width} x {camera.height}")
+    timings["spark_masks"] = time.perf_counter() - tick
+    tick = time.perf_counter()
+    with torch_threads(config.optimize.threads):
+        scene = OpenStateScene(prior_asset, camera, open_mask, settings.max_faces)
+        result = spark_fit(prior_asset, scene, closed_mask, settings)
+    timings["joint_optimization"] = time.perf_counter() - tick
+    timings.update({f"opt_{k}": v for k, v in result.timings.items()})
+    return result.asset, {
+        "open_state_source": open_state.source, "target_rule": {"open": open_rule, "closed": closed_rule},
+        "part_masks": [], "loss_curve": [round(v, 6) for v in result.curve], "closed_loss": result.closed_loss,
+        "spark_joints": result.joints,
+        "hypotheses": {n: {"type": h.type, "axis": np.round(h.axis, 10).tolist(),
+                           "pivot_offset": np.round(h.pivot_offset, 10).tolist(), "value": h.value, "from": h.tag}
+                       for n, h in result.hypotheses.items()},
+    }
+
+
+def _read_rgb(path: Path) -> np.ndarray:
+    from PIL import Image
+
+    if not path.is_file():
+        raise InputError(path, "input image not found")
+    try:
+        with Image.open(path) as image:
+            return image_rgb(image)
+    except OSError as exc:
+        raise InputError(path, f"unreadable image: {exc}") from None
 
 
 def _part_masks(config: SparkConfig, open_state: OpenState, geometry: PartGeometry, asset) -> dict | None:

@@ -52,7 +52,7 @@ from spark_bench.spark.optimize import (
     canonical_sign,
     fit,
 )
-from spark_bench.spark.structure import CANONICAL_AXES, OBJECT_TO_WORLD, axis_vector
+from spark_bench.spark.structure import CANONICAL_AXES, OBJECT_TO_WORLD
 
 
 @dataclass
@@ -89,6 +89,8 @@ class RefineSettings:
     :param small_part: a part whose rest box is smaller than this fraction of the object's gets only the
         prior's and the centre-line pivot starts (0: off; measured on synth-v1 at 0.15: a door's lever
         handle, hinged at its end, lost its true hinge and took another axis)
+    :param skip_without_evidence: when no screened candidate beats the part left at rest (by the
+        margin), keep the prior's hypothesis without short fits
     """
 
     screen: Stage
@@ -111,6 +113,7 @@ class RefineSettings:
     screen_blur: float
     screen_local: tuple[float, ...]
     small_part: float
+    skip_without_evidence: bool = True
 
     @classmethod
     def from_config(cls, opt: OptimizeConfig | None = None) -> RefineSettings:
@@ -127,7 +130,8 @@ class RefineSettings:
             screen_score_size=opt.screen_score_size, margin_rel=opt.margin_rel, margin_abs=opt.margin_abs,
             screen_values={"revolute": tuple(opt.screen_values_revolute),
                            "prismatic": tuple(opt.screen_values_prismatic)},
-            screen_blur=opt.screen_blur, screen_local=tuple(opt.screen_local), small_part=opt.small_part)
+            screen_blur=opt.screen_blur, screen_local=tuple(opt.screen_local), small_part=opt.small_part,
+            skip_without_evidence=opt.skip_without_evidence)
 
     def short_stages(self) -> list[Stage]:
         """The stages of every finalist's short fit."""
@@ -213,15 +217,26 @@ def candidate_hypotheses(asset: ArticulatedAsset, joint_name: str, prior: Hypoth
     values = default_values or {"revolute": np.pi / 2, "prismatic": 0.5}
     parent_rot, joint_rot, pivot_world = _frames(asset, joint_name)
     part_world = _part_vertices(asset, joint_name)
+    box = None
+    if len(part_world):
+        obj = part_world @ OBJECT_TO_WORLD  # world -> object: R^T p, row-wise
+        box = obj.min(axis=0), obj.max(axis=0)
     out = []
-    for name, direction in CANONICAL_AXES.items():
-        world_dir = OBJECT_TO_WORLD @ np.asarray(direction)
+    directions = {name: OBJECT_TO_WORLD @ np.asarray(direction) for name, direction in CANONICAL_AXES.items()}
+    prior_world = joint_rot @ np.asarray(prior.axis, float)
+    prior_world = prior_world / np.linalg.norm(prior_world)
+    if not any(abs(float(prior_world @ d)) > 1 - 1e-6 for d in directions.values()):
+        # the prior's axis is none of the object's canonical directions (an annotation prior's axes are
+        # the camera's): its own line is a candidate too
+        directions["prior"] = prior_world
+    for name, world_dir in directions.items():
         axis_joint = joint_rot.T @ world_dir
         for jtype in ("revolute", "prismatic"):
             value = prior.value if prior.type == jtype and prior.value > 0 else values[jtype]
             out.append(Hypothesis(jtype, axis_joint, np.zeros(3), value, tag=f"{jtype}/{name}/prior"))
-        if len(part_world):
-            for k, point in enumerate(_box_edges(part_world, axis_vector(name), pivot_world)):
+        if box is not None:
+            axis_object = OBJECT_TO_WORLD.T @ world_dir
+            for k, point in enumerate(_box_edges(box, axis_object, pivot_world)):
                 if small_part and k < 4:
                     continue
                 offset = parent_rot.T @ (point - pivot_world)
@@ -238,11 +253,11 @@ def _part_vertices(asset: ArticulatedAsset, joint_name: str) -> np.ndarray:
     return np.concatenate([m.vertices for m in meshes.values()]) if meshes else np.zeros((0, 3))
 
 
-def _box_edges(points_world: np.ndarray, axis_object: np.ndarray, pivot_world: np.ndarray) -> list[np.ndarray]:
-    """World points on the four edges of the part's object-frame bounding box parallel to the axis, then
-    on its centre line (where knobs, wheels and lids that spin in place turn)."""
-    obj = points_world @ OBJECT_TO_WORLD  # world -> object: R^T p, row-wise
-    lo, hi = obj.min(0), obj.max(0)
+def _box_edges(box: tuple[np.ndarray, np.ndarray], axis_object: np.ndarray, pivot_world: np.ndarray
+               ) -> list[np.ndarray]:
+    """World points on the four edges of the part's object-frame bounding box ``(lo, hi)`` parallel to
+    the axis, then on its centre line (where knobs, wheels and lids that spin in place turn)."""
+    lo, hi = box
     along = int(np.argmax(np.abs(axis_object)))
     others = [d for d in range(3) if d != along]
     pivot_obj = OBJECT_TO_WORLD.T @ pivot_world
@@ -281,6 +296,7 @@ def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSetti
     finest = settings.final[-1] if settings.final else settings.screen
     loss_prior = scene.loss(prior, finest, settings.weights)
     short = settings.short_stages()
+    silent: set[str] = set()  # joints the image says nothing about (see ``skip_without_evidence``)
     with clock.phase("discrete_search"):
         pending = list(current) if settings.refine_discrete else []
         for sweep in range(settings.sweeps):
@@ -288,21 +304,24 @@ def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSetti
             for k, name in enumerate(pending):
                 # the prior stays the reference in every sweep: a joint replaced while the others were
                 # still wrong must beat the prior again once they are right
-                found, rows = _search_joint(asset, scene, current, name, prior[name], short, settings, clock)
+                found, rows, quiet = _search_joint(asset, scene, current, name, prior[name], short, settings, clock)
                 candidates_report.setdefault(name, []).extend({"sweep": sweep, **row} for row in rows)
+                if quiet:
+                    silent.add(name)
                 if not _same_motion(found, current[name]):
                     last_changed = k
                 current[name] = found
             # another sweep helps only a joint that was searched before another's motion changed: the
-            # joints searched after the last change already saw every change
-            pending = pending[:max(last_changed, 0)]
+            # joints searched after the last change already saw every change (and a joint without
+            # evidence stays without)
+            pending = [n for n in pending[:max(last_changed, 0)] if n not in silent]
             if not pending:
                 break
     stages = list(settings.final)
     if not settings.refine_discrete:  # no short fits ran: start coarse
         stages = [replace(settings.screen, steps=2 * settings.short_steps)] + stages
-    with clock.phase("final_fit"):
-        result: FitResult = fit(scene, current, list(current), stages, settings.weights,
+    with clock.phase("final_fit"):  # the joints without evidence keep the prior's hypothesis
+        result: FitResult = fit(scene, current, [n for n in current if n not in silent], stages, settings.weights,
                                 settings.lr_pivot, settings.lr_value)
     final = {n: canonical_sign(h) for n, h in result.hypotheses.items()}
     refined = asset.copy()
@@ -315,10 +334,17 @@ def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSetti
 
 
 def _search_joint(asset, scene, current, name, prior_hyp, short, settings, clock: Clock):
-    """Screen and short-fit the candidates of one joint; returns the winner and a report."""
+    """Screen and short-fit the candidates of one joint; returns the winner, a report, and whether the
+    image had no evidence about the joint (the prior kept without short fits)."""
     with clock.phase("search_screen"):
-        screened, keep = _screen(asset, scene, current, name, prior_hyp, settings)
+        screened, keep, best_screen, rest_screen = _screen(asset, scene, current, name, prior_hyp, settings)
     report = [{"candidate": c.tag, "screen_loss": round(s, 6)} for s, c in screened]
+    if settings.skip_without_evidence and best_screen > rest_screen - _margin(rest_screen, settings):
+        # no candidate moves the part closer to the open state than leaving it at rest does (a button
+        # pressed a millimetre, a knob turned in place, a part out of view): the image says nothing about
+        # this joint, and the finalists' decision would keep the prior's family (see ``_decide``)
+        report.append({"candidate": "(none: no candidate beats the part at rest)", "screen_loss": round(rest_screen, 6)})
+        return prior_hyp, report, True
     with clock.phase("search_exact_scores"):
         exact = scene.seg_scorer(current, name, settings.score_size)
     fitted = []
@@ -338,13 +364,19 @@ def _search_joint(asset, scene, current, name, prior_hyp, short, settings, clock
     # the part left at rest: a knob turned a full turn looks so, and then no motion is evidence of an axis
     with clock.phase("search_exact_scores"):
         rest_score = exact(replace(prior_hyp, value=0.0))
-    return _decide(fitted, prior_hyp, rest_score, settings), report
+    return _decide(fitted, prior_hyp, rest_score, settings), report, False
 
 
-def _screen(asset, scene, current, name, prior_hyp, settings) -> tuple[list, list[Hypothesis]]:
+def _margin(score: float, settings: RefineSettings) -> float:
+    """How much better than ``score`` another candidate must be to count (``margin_rel``, at least
+    ``margin_abs``)."""
+    return max(settings.margin_abs, settings.margin_rel * score)
+
+
+def _screen(asset, scene, current, name, prior_hyp, settings) -> tuple[list, list[Hypothesis], float, float]:
     """Every candidate of one joint scored on the grid of open values (sorted ``(score, candidate)``
-    pairs), and the finalists: the ``top_k`` best after a local search of the value, and the best of the
-    prior's family."""
+    pairs), the finalists (the ``top_k`` best after a local search of the value, and the best of the
+    prior's family), the best screening score after the local search, and the part at rest's."""
     cands = candidate_hypotheses(asset, name, prior_hyp, settings.include_fixed,
                                  small_part=_is_small_part(scene, name, settings.small_part))
     scorer = scene.seg_scorer(current, name, settings.screen_score_size, settings.screen_blur)
@@ -377,7 +409,8 @@ def _screen(asset, scene, current, name, prior_hyp, settings) -> tuple[list, lis
     keep = [c for _, c in refined[: settings.top_k]]
     if not any(_same_family(c, prior_hyp) for c in keep):  # the prior's type and axis line always compete
         keep.append(next(c for _, c in refined if _same_family(c, prior_hyp)))
-    return screened, keep
+    rest = float(scorer.scores([replace(prior_hyp, value=0.0)])[0])
+    return screened, keep, refined[0][0], rest
 
 
 def _decide(fitted: list[tuple], prior_hyp: Hypothesis, rest_score: float, settings: RefineSettings
@@ -396,7 +429,7 @@ def _decide(fitted: list[tuple], prior_hyp: Hypothesis, rest_score: float, setti
     best_score, _, best, _ = min(fitted, key=lambda item: item[:2])
     prior_score, _, prior_best, _ = min((f for f in fitted if _same_family(f[3], prior_hyp)),
                                         key=lambda item: item[:2])
-    margin = max(settings.margin_abs, settings.margin_rel * prior_score)
+    margin = _margin(prior_score, settings)
     if best_score > min(prior_score, rest_score) - margin:
         return prior_best
     close = [f for f in fitted if f[0] <= best_score + margin]

@@ -105,20 +105,21 @@ def test_ours_label_and_regime_say_what_was_simulated(tmp_path):
     pytest.importorskip("spark_bench.spark.config", reason="the SPARK pipeline is not installed")
     ours = make_method("ours")
     assert ours.label().startswith("ours (prior=annotation,")
-    # the default reads the open state's per-part masks: the regime says so, with every gt stage
-    assert ours.regime == ("image + gt camera + gt open image + gt open part masks + "
-                           "gt structure (simulated prior) + gt geometry")
-    assert ours.inputs == ("image", "camera", "open_image", "open_masks", "gt")
+    # the default (SPARK's recipe) fits the whole open-state silhouette: no part masks, every gt stage named
+    assert ours.label().endswith("opt=spark)")
+    assert ours.regime == "image + gt camera + gt open image + gt structure (simulated prior) + gt geometry"
+    assert ours.inputs == ("image", "camera", "open_image", "gt")
     config = tmp_path / "spark.json"
-    config.write_text(json.dumps({"optimize": {"part_masks": False}}))
-    no_parts = make_method("ours", config=str(config))
-    assert "open part masks" not in no_parts.regime and "open_masks" not in no_parts.inputs
-    assert "gt open image" in no_parts.regime
+    config.write_text(json.dumps({"optimize": {"method": "native", "part_masks": True}}))
+    with_parts = make_method("ours", config=str(config))
+    assert "gt open part masks" in with_parts.regime and "open_masks" in with_parts.inputs
+    assert "sup=part-masks" in with_parts.label()
     config.write_text(json.dumps({"optimize": {"enabled": False}}))
     plain = make_method("ours", config=str(config))
     assert plain.label().endswith("opt=none)") and plain.config()["optimize"]["enabled"] is False
-    assert plain.regime == "image + gt structure (simulated prior) + gt geometry"
-    assert plain.inputs == ("image", "gt")
+    # the simulated prior names axes in the case camera's frame (as a VLM reading the image would): it uses the camera
+    assert plain.regime == "image + gt camera + gt structure (simulated prior) + gt geometry"
+    assert plain.inputs == ("image", "camera", "gt")
     # nothing simulated: no ground truth among the inputs
     config.write_text(json.dumps({"prior": {"backend": "file", "file_dir": str(tmp_path)},
                                   "geometry": {"backend": "predictions", "predictions_dir": str(tmp_path)}}))

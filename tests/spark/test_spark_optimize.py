@@ -188,3 +188,28 @@ def test_adam_matches_torch_adam():
     # the same update rule written twice (torch may fuse or reorder it): 20 steps of rounding, ~1e-15
     assert torch.allclose(ours, theirs, atol=1e-12)
     assert float((ours.detach() - start).abs().min()) > 0.1
+
+
+def test_link_poses_with_params_pose_only_the_fitted_subtree_and_match_the_full_kinematics(problem):
+    """The fast path (cached poses of the links the fitted joint does not move, autograd below it) gives
+    the full forward kinematics' poses and gradients."""
+    gt, camera, target, _ = problem
+    prior = assemble_asset(ground_truth_structure(gt), annotation_geometry(gt))
+    scene = OpenStateScene(prior, camera, target)
+    hypotheses = prior_hypotheses(prior)
+    grads = []
+    for fast in (True, False):
+        pivot = torch.tensor([0.05, -0.02, 0.03], dtype=torch.float64, requires_grad=True)
+        value = torch.tensor(0.7, dtype=torch.float64, requires_grad=True)
+        params = {"joint_0": (pivot, value)}
+        poses = scene.link_poses(hypotheses, params) if fast else scene._poses(hypotheses, params)
+        if fast:
+            reference = {k: v.detach() for k, v in scene._poses(hypotheses, params).items()}
+            assert set(poses) == set(reference)
+            for name in poses:
+                np.testing.assert_allclose(poses[name].detach().numpy(), reference[name].numpy(), atol=1e-12)
+            assert not poses["drawer"].requires_grad and poses["door"].requires_grad
+        (poses["door"][:3, 3].sum() + poses["door"][0, 1]).backward()
+        grads.append((pivot.grad.numpy().copy(), float(value.grad)))
+    np.testing.assert_allclose(grads[0][0], grads[1][0], atol=1e-12)
+    assert grads[0][1] == pytest.approx(grads[1][1], abs=1e-12)

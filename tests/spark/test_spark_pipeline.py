@@ -23,17 +23,20 @@ def test_run_ours_offline_end_to_end(tmp_path):
 
     case = tmp_path / "case"
     write_toy_case(case)
-    # a prior with a wrong door axis and both types flipped (p = 1), pivots 0.1 off
+    # a prior with a wrong door axis and both types flipped (p = 1), pivots 0.1 off; the native search
+    # with the ground truth's part masks
     config = SparkConfig().with_overrides(["prior.noise.p_axis=1.0", "prior.noise.p_type=1.0",
-                                           "prior.noise.p_sign=0.0", "prior.noise.sigma_origin=0.1"])
+                                           "prior.noise.p_sign=0.0", "prior.noise.sigma_origin=0.1",
+                                           "optimize.method=native", "optimize.part_masks=true"])
     report = run_ours(ours_case(case, config), tmp_path / "out", config)
     # a non-default noise model: the label says the settings changed
     assert report["label"] == config.label()
-    assert report["label"].startswith("prior=annotation,geometry=annotation,open=dataset,opt=native,settings=")
+    assert report["label"].startswith("prior=annotation,geometry=annotation,open=dataset,opt=native,"
+                                      "sup=part-masks,settings=")
     saved = json.loads((tmp_path / "out" / "spark_report.json").read_text())
     assert saved["loss_curve"] == report["loss_curve"] and len(saved["loss_curve"]) > 20
     assert saved["geometry_is_ground_truth"] is True
-    assert saved["part_masks"] == ["body", "door", "drawer"]  # the default fits the per-part masks too
+    assert saved["part_masks"] == ["body", "door", "drawer"]
     before, after = report["diagnostics"]["prior"], report["diagnostics"]["refined"]
     assert before["type_err"] == 1.0 and before["axis_err"] > 0.7
     assert after["type_err"] == 0.0 and after["axis_err"] < 0.035 and after["pivot_err"] < 0.02
@@ -121,28 +124,42 @@ def test_dataset_open_state_without_the_part_masks_input_never_reads_them(toy_ca
 
 
 def test_the_pipeline_reads_only_what_its_config_declares(toy_case, tmp_path):
-    """Part masks off: ``ours`` does not declare them, and the pipeline runs without them; handed a case
-    that lacks an input its configuration needs, it stops at the gate."""
-    config = SparkConfig().with_overrides(["optimize.part_masks=false", "optimize.refine=none",
+    """Part masks off (the default): ``ours`` does not declare them, and the pipeline runs without them,
+    with either method; handed a case that lacks an input its configuration needs, it stops at the gate."""
+    native = SparkConfig().with_overrides(["optimize.method=native", "optimize.refine=none",
                                            "optimize.final_sizes=[32]", "optimize.final_taus=[0.7]",
                                            "optimize.final_steps=[4]", "optimize.short_fine_steps=0"])
+    spark = SparkConfig().with_overrides(["optimize.spark.iters=3", "optimize.spark.size=32"])
     case = _copy(toy_case, tmp_path / "case")
     case.open_seg.unlink()
-    report = run_ours(ours_case(case.folder, config), tmp_path / "out", config)
-    assert report["part_masks"] == [] and report["open_state_source"] == str(case.open_image)
-    default = SparkConfig()
+    for k, config in enumerate((native, spark)):
+        report = run_ours(ours_case(case.folder, config), tmp_path / f"out{k}", config)
+        assert report["part_masks"] == [] and report["open_state_source"] == str(case.open_image)
+    masks = native.with_overrides(["optimize.part_masks=true"])
     with pytest.raises(PermissionError, match="'open_masks'"):
-        run_ours(CaseInput(toy_case, frozenset(config.case_inputs())), tmp_path / "out2", default)
+        run_ours(CaseInput(toy_case, frozenset(native.case_inputs())), tmp_path / "out2", masks)
     with pytest.raises(PermissionError, match="'gt'"):
-        run_ours(CaseInput(toy_case, frozenset({"image", "camera", "open_image"})), tmp_path / "out3", default)
+        run_ours(CaseInput(toy_case, frozenset({"image", "camera", "open_image"})), tmp_path / "out3", spark)
+    with pytest.raises(PermissionError, match="'camera'"):  # the annotation prior's axes are the camera's
+        run_ours(CaseInput(toy_case, frozenset({"image", "open_image", "gt"})), tmp_path / "out4",
+                 spark.with_overrides(["optimize.enabled=false"]))
 
 
 def test_open_state_of_another_size_than_the_camera_is_an_input_error(toy_case, tmp_path):
     case = _copy(toy_case, tmp_path / "case")
     Image.open(toy_case.open_seg).resize((128, 128), Image.Resampling.NEAREST).save(case.open_seg)
+    masks = SparkConfig().with_overrides(["optimize.method=native", "optimize.part_masks=true"])
     with pytest.raises(InputError, match="open-state mask is 128 x 128 px, camera.json says 256 x 256") as err:
-        run_ours(ours_case(case.folder, SparkConfig()), tmp_path / "out", SparkConfig())
+        run_ours(ours_case(case.folder, masks), tmp_path / "out", masks)
     assert case.open_seg.name in str(err.value)
+    Image.open(toy_case.open_image).resize((128, 128)).save(case.open_image)  # the whole silhouette's source
+    with pytest.raises(InputError, match="open-state mask is 128 x 128 px, camera.json says 256 x 256") as err:
+        run_ours(ours_case(case.folder, SparkConfig()), tmp_path / "out2", SparkConfig())
+    assert case.open_image.name in str(err.value)
+    shutil.copy(toy_case.open_image, case.open_image)
+    Image.open(toy_case.input_image).resize((128, 128)).save(case.input_image)  # SPARK's closed term reads it
+    with pytest.raises(InputError, match="input image is 128 x 128 px, the camera says 256 x 256"):
+        run_ours(ours_case(case.folder, SparkConfig()), tmp_path / "out3", SparkConfig())
 
 
 def test_refine_settings_follow_the_optimize_section():

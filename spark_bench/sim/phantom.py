@@ -1,0 +1,247 @@
+"""Phantom blockings: a part stopped by its parent's convex hulls where the parent's own surface
+leaves it room.
+
+Convex hulls fill holes and recesses. A button sits in a hole of its keypad, a suitcase's latch
+button in a slot of the shell: the parent's hull covers the hole, so the button cannot be pressed by
+even a millimetre, although nothing in the object stops it. A real blocking (a drawer pushed
+backwards into its carcass, a button longer than its hole) has the parent's *surface* in the way.
+
+So for every link whose geometric parent (:func:`~spark_bench.sim.contacts.geometric_parents`) is
+moved against by exactly one joint, that joint is stepped kinematically over its range. Where the
+link's hulls meet the parent's hulls deeper than ``tolerance`` at some step while the parent's visual
+surface (its vertices and area samples near the link's path) enters the link's hulls no deeper than
+``tolerance`` at every step, the pair is excluded from collision, as a pair that overlaps at rest is
+(:mod:`spark_bench.sim.contacts`). Every exclusion is recorded (:class:`PhantomBlock`) and reported by
+the checks.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+from spark_bench.asset.model import ArticulatedAsset, Joint
+from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.sim.contacts import geometric_parents
+
+#: Joint values tried per range (at least; hinges get one per ``1 / STEPS_PER_RADIAN`` rad).
+STEPS = 12
+STEPS_PER_RADIAN = 16
+#: Most surface points of the parent tested against the link's hulls per pair.
+MAX_POINTS = 60_000
+
+
+@dataclass
+class PhantomBlock:
+    """``child``'s hulls meet ``parent``'s while ``joint`` moves, its surface does not.
+
+    :param first: fraction of the joint's range where the hulls first meet deeper than the tolerance
+    :param depth: deepest hull-hull penetration along the range (m)
+    :param surface_depth: deepest entry of the parent's surface into the child's hulls (m)
+    """
+
+    parent: str
+    child: str
+    joint: str
+    first: float
+    depth: float
+    surface_depth: float
+
+    def to_dict(self) -> dict:
+        return {"parent": self.parent, "child": self.child, "joint": self.joint, "first": round(self.first, 4),
+                "depth": round(self.depth, 6), "surface_depth": round(self.surface_depth, 6)}
+
+
+def single_joint(asset: ArticulatedAsset, parent: str, child: str) -> Joint | None:
+    """The one movable joint between ``parent`` and its descendant ``child`` (None if none or several)."""
+    movable, link = [], child
+    while link != parent:
+        joint = asset.joint_of_child(link)
+        if joint is None:
+            return None
+        if joint.is_movable:
+            movable.append(joint)
+        link = joint.parent
+    return movable[0] if len(movable) == 1 else None
+
+
+def joint_steps(joint: Joint) -> np.ndarray:
+    """The joint values tried: its range from rest, rest excluded."""
+    lower, upper = float(joint.lower), float(joint.upper)
+    span = upper - lower
+    count = max(STEPS, int(np.ceil(abs(span) * STEPS_PER_RADIAN))) if joint.is_rotational else STEPS
+    return lower + span * np.linspace(0.0, 1.0, count + 1)[1:]
+
+
+def _pose(data, body: int) -> np.ndarray:
+    out = np.eye(4)
+    out[:3, :3] = data.xmat[body].reshape(3, 3)
+    out[:3, 3] = data.xpos[body]
+    return out
+
+
+def _hull_depth(model, data, body_a: int, body_b: int) -> float:
+    """Deepest contact between collision geoms of two bodies (m, positive = penetration)."""
+    deepest = 0.0
+    for contact in data.contact[: data.ncon]:
+        pair = {int(model.geom_bodyid[contact.geom1]), int(model.geom_bodyid[contact.geom2])}
+        if pair == {body_a, body_b}:
+            deepest = max(deepest, -float(contact.dist))
+    return deepest
+
+
+def _halfspaces(prepared, link: str) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per hull of ``link`` (link frame): its ``(k, 4)`` face planes ``n . x + d <= 0`` and its box."""
+    out = []
+    for shape in prepared.shapes.get(link, []):
+        vertices = np.asarray(shape.to_trimesh().vertices, float)
+        try:
+            out.append((ConvexHull(vertices).equations, vertices.min(0), vertices.max(0)))
+        except (QhullError, ValueError):
+            continue
+    return out
+
+
+def surface_points(vertices: np.ndarray, faces: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                   spacing: float, seed: int = 0) -> np.ndarray:
+    """Vertices and area samples (about ``spacing`` apart, at most :data:`MAX_POINTS`) of the triangles
+    whose bounding box meets the box ``[lo, hi]``."""
+    tri = vertices[faces]
+    near = np.all(tri.min(1) <= hi, axis=1) & np.all(tri.max(1) >= lo, axis=1)
+    tri = tri[near]
+    if len(tri) == 0:
+        return np.zeros((0, 3))
+    corners = np.unique(tri.reshape(-1, 3), axis=0)
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    total = float(area.sum())
+    count = int(min(MAX_POINTS, max(0, MAX_POINTS - len(corners)), total / max(spacing, 1e-9) ** 2))
+    if count <= 0 or total <= 0:
+        return corners[:MAX_POINTS]
+    rng = np.random.default_rng(seed)
+    pick = rng.choice(len(tri), size=count, p=area / total)
+    u, v = rng.random((2, count))
+    flip = u + v > 1
+    u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
+    t = tri[pick]
+    samples = t[:, 0] + u[:, None] * (t[:, 1] - t[:, 0]) + v[:, None] * (t[:, 2] - t[:, 0])
+    return np.concatenate([corners, samples])
+
+
+def surface_depth(points: np.ndarray, hulls: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> float:
+    """How deep the deepest of ``points`` lies inside any of the convex ``hulls`` (planes and box, as
+    :func:`_halfspaces` gives them); 0 when none is inside."""
+    deepest = 0.0
+    for planes, lo, hi in hulls:
+        inside_box = points[np.all((points >= lo) & (points <= hi), axis=1)]  # outside the box: outside
+        if len(inside_box):
+            signed = inside_box @ planes[:, :3].T + planes[:, 3]  # <= 0 inside every face
+            deepest = max(deepest, float(np.max(-signed.max(axis=1))))
+    return deepest
+
+
+@dataclass
+class Trace:
+    """One link's hulls against another link along one joint's range (:func:`trace`).
+
+    :param steps: the joint values tried
+    :param hull_depth: per step, the deepest hull-hull penetration between the two links (m)
+    :param surface_depth: per step up to the first real one, how deep the other link's surface enters
+        the moving link's hulls (m); shorter than ``steps`` when it stopped there
+    """
+
+    steps: np.ndarray
+    hull_depth: list[float]
+    surface_depth: list[float]
+
+    def first(self, depths: list[float], tolerance: float) -> int | None:
+        return next((k for k, d in enumerate(depths) if d > tolerance), None)
+
+
+def trace(prepared, model, joint: Joint, moving: str, other: str, tolerance: float, stop: bool = True) -> Trace:
+    """Step ``joint`` over its range (every other joint at rest) and measure, at each step, how deep the
+    hulls of links ``moving`` and ``other`` interpenetrate, and, where they do, how deep the surface
+    of ``other`` (its visual mesh) enters the hulls of ``moving``.
+
+    :param prepared: the prepared object
+    :param model: its compiled model (contacts between the two links on)
+    :param joint: the joint that moves ``moving`` relative to ``other``
+    :param stop: stop measuring the surface at the first step where it enters deeper than ``tolerance``
+    """
+    mujoco = mujoco_module()
+    data = mujoco.MjData(model)
+    body_o, body_m = model.body(other).id, model.body(moving).id
+    qadr = model.jnt_qposadr[model.joint(joint.name).id]
+    steps = joint_steps(joint)
+    poses, depths = [], []
+    for value in steps:
+        mujoco.mj_resetData(model, data)
+        data.qpos[qadr] = value
+        mujoco.mj_forward(model, data)
+        depths.append(_hull_depth(model, data, body_o, body_m))
+        poses.append(np.linalg.inv(_pose(data, body_m)) @ _pose(data, body_o))  # other -> moving frame
+    result = Trace(steps, depths, [])
+    surface = prepared.visual(other)
+    hulls = _halfspaces(prepared, moving)
+    if surface is None or not hulls or max(depths, default=0.0) <= tolerance:
+        return result
+    # the other link's surface near the moving link's path, in the other link's frame
+    hull_points = np.concatenate([s.to_trimesh().vertices for s in prepared.shapes[moving]])
+    path = np.concatenate([hull_points @ np.linalg.inv(p)[:3, :3].T + np.linalg.inv(p)[:3, 3] for p in poses])
+    spacing = max(tolerance, 0.1 * float(np.min(np.ptp(hull_points, axis=0))))
+    points = surface_points(surface[0], surface[1], path.min(0) - tolerance, path.max(0) + tolerance, spacing)
+    for pose in poses:
+        result.surface_depth.append(surface_depth(points @ pose[:3, :3].T + pose[:3, 3], hulls))
+        if stop and result.surface_depth[-1] > tolerance:
+            break
+    return result
+
+
+def find_phantom_blocks(prepared, model, tolerance: float) -> list[PhantomBlock]:
+    """The parent-child pairs blocked by their hulls only (see the module docstring).
+
+    :param prepared: a :class:`~spark_bench.sim.prepared.PreparedObject` (its exclusions so far applied
+        in ``model``)
+    :param model: the compiled model of ``prepared`` with every parent-child contact on
+    :param tolerance: penetration ignored, hull or surface (m)
+    """
+    found = []
+    for child, parent in sorted(geometric_parents(prepared).items()):
+        joint = single_joint(prepared.asset, parent, child)
+        if joint is None or (parent, child) in prepared.excluded or joint.upper - joint.lower < 1e-9:
+            continue
+        path = trace(prepared, model, joint, child, parent, tolerance)
+        blocked = path.first(path.hull_depth, tolerance)
+        if blocked is None or not path.surface_depth or max(path.surface_depth) > tolerance:
+            continue
+        span = joint.upper - joint.lower
+        found.append(PhantomBlock(parent, child, joint.name, float((path.steps[blocked] - joint.lower) / span),
+                                  float(max(path.hull_depth)), float(max(path.surface_depth))))
+    return found
+
+
+def explain_blocking(prepared, model, joint_name: str, moving: str, other: str, tolerance: float) -> str:
+    """One sentence on a blocked joint: whether ``other``'s surface, not only its hulls, is in the way
+    of ``moving`` (and from where, how deep), so that a person knows what to fix.
+
+    :param model: the object's model (no actuators needed)
+    """
+    joint = prepared.asset.joints[joint_name]
+    path = trace(prepared, model, joint, moving, other, tolerance, stop=False)
+    span = joint.upper - joint.lower
+    hull = path.first(path.hull_depth, tolerance)
+    real = path.first(path.surface_depth, tolerance)
+
+    def at(k: int) -> str:
+        value = path.steps[k]
+        where = f"{np.degrees(value):.0f} deg" if joint.is_rotational else f"{1000 * value:.1f} mm"
+        return f"{where} ({(value - joint.lower) / span:.0%} of the range)"
+
+    if hull is None:
+        return f"{moving} and {other} do not meet when {joint_name} alone moves (another part is in the way)"
+    if real is None:
+        return (f"only the hulls of {moving} and {other} meet (from {at(hull)}): the surfaces stay apart, "
+                f"a collision-hull artefact")
+    return (f"the surface of {other} enters {moving} from {at(real)}, {1000 * max(path.surface_depth):.1f} mm "
+            f"deep at most: the object itself blocks {joint_name} there (its range or its geometry is wrong)")
