@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import trimesh
 
@@ -34,3 +36,25 @@ def tiny_cabinet() -> ArticulatedAsset:
     }
     links = {link.name: link for link in (base, body, drawer, door)}
     return ArticulatedAsset("tiny_cabinet", links, joints, category="StorageFurniture")
+
+
+def object_with_door_meshes(folder: Path, files: dict[str, bytes | None], collisions: bool = False) -> Path:
+    """The tiny cabinet with the door's visual meshes replaced by ``files`` (None: listed, not written);
+    with ``collisions`` the door lists the same files as collision meshes."""
+    from spark_bench.asset.urdf import write_object_folder
+
+    write_object_folder(tiny_cabinet(), folder)
+    for name, data in files.items():
+        if data is not None:
+            (folder / "textured_objs" / name).write_bytes(data)
+    urdf = folder / "mobility.urdf"
+    text = urdf.read_text()
+    start = text.index('<link name="door">')
+    end = text.index("</link>", start) + len("</link>")
+    meshes = "".join(f'<visual><geometry><mesh filename="textured_objs/{n}"/></geometry></visual>'
+                     for n in files)
+    if collisions:
+        meshes += "".join(f'<collision><geometry><mesh filename="textured_objs/{n}"/></geometry></collision>'
+                          for n in files)
+    urdf.write_text(text[:start] + f'<link name="door">{meshes}</link>' + text[end:])
+    return folder

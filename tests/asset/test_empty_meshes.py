@@ -12,10 +12,9 @@ import json
 import logging
 import re
 import struct
-from pathlib import Path
 
 import pytest
-from helpers_assets import tiny_cabinet
+from helpers_assets import object_with_door_meshes, tiny_cabinet
 
 from spark_bench.asset.urdf import EmptyMeshError, load_mesh_file, write_object_folder
 from spark_bench.cli import main
@@ -56,26 +55,6 @@ EMPTY_FILES = {
 def content(name: str) -> bytes:
     data = EMPTY_FILES[name][0]
     return point_cloud_glb() if data is None else data
-
-
-def object_with_door_meshes(folder: Path, files: dict[str, bytes | None], collisions: bool = False) -> Path:
-    """The tiny cabinet with the door's visual meshes replaced by ``files`` (None: listed, not written);
-    with ``collisions`` the door lists the same files as collision meshes."""
-    write_object_folder(tiny_cabinet(), folder)
-    for name, data in files.items():
-        if data is not None:
-            (folder / "textured_objs" / name).write_bytes(data)
-    urdf = folder / "mobility.urdf"
-    text = urdf.read_text()
-    start = text.index('<link name="door">')
-    end = text.index("</link>", start) + len("</link>")
-    meshes = "".join(f'<visual><geometry><mesh filename="textured_objs/{n}"/></geometry></visual>'
-                     for n in files)
-    if collisions:
-        meshes += "".join(f'<collision><geometry><mesh filename="textured_objs/{n}"/></geometry></collision>'
-                          for n in files)
-    urdf.write_text(text[:start] + f'<link name="door">{meshes}</link>' + text[end:])
-    return folder
 
 
 @pytest.mark.parametrize("name", sorted(EMPTY_FILES))

@@ -6,9 +6,7 @@ and the exit code is 1 (some object failed), as for any failing object.
 
 from __future__ import annotations
 
-from pathlib import Path
-
-from helpers_assets import tiny_cabinet
+from helpers_assets import object_with_door_meshes, tiny_cabinet
 
 from spark_bench.asset.urdf import write_object_folder
 from spark_bench.cli import main
@@ -25,22 +23,6 @@ DEFECTS = {
                     ["mesh file 'textured_objs/gone.obj' not found",
                      "mesh file 'textured_objs/empty.glb' is empty (0 bytes)"]),
 }
-
-
-def object_with_door_meshes(folder: Path, files: dict[str, bytes | None]) -> Path:
-    """The tiny cabinet with the door's visual meshes replaced by ``files`` (None: listed, not written)."""
-    write_object_folder(tiny_cabinet(), folder)
-    for name, data in files.items():
-        if data is not None:
-            (folder / "textured_objs" / name).write_bytes(data)
-    urdf = folder / "mobility.urdf"
-    text = urdf.read_text()
-    start = text.index('<link name="door">')
-    end = text.index("</link>", start) + len("</link>")
-    meshes = "".join(f'<visual><geometry><mesh filename="textured_objs/{n}"/></geometry></visual>'
-                     for n in files)
-    urdf.write_text(text[:start] + f'<link name="door">{meshes}</link>' + text[end:])
-    return folder
 
 
 def test_prepare_records_each_object_with_no_surface_and_goes_on(tmp_path, capsys):

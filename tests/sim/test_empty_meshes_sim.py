@@ -6,12 +6,9 @@ naming the URDF, the link and the mesh file, before any conversion work.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
-from helpers_assets import tiny_cabinet
+from helpers_assets import object_with_door_meshes
 
-from spark_bench.asset.urdf import write_object_folder
 from spark_bench.cli import main
 
 #: the door's visual meshes -> (content or None for a listed but absent file) ; what stderr must say
@@ -25,22 +22,6 @@ DEFECTS = {
                                       ["mesh file 'textured_objs/gone.obj' not found",
                                        "mesh file 'textured_objs/empty.glb' is empty (0 bytes)"]),
 }
-
-
-def object_with_door_meshes(folder: Path, files: dict[str, bytes | None]) -> Path:
-    """The tiny cabinet with the door's visual meshes replaced by ``files`` (None: listed, not written)."""
-    write_object_folder(tiny_cabinet(), folder)
-    for name, data in files.items():
-        if data is not None:
-            (folder / "textured_objs" / name).write_bytes(data)
-    urdf = folder / "mobility.urdf"
-    text = urdf.read_text()
-    start = text.index('<link name="door">')
-    end = text.index("</link>", start) + len("</link>")
-    meshes = "".join(f'<visual><geometry><mesh filename="textured_objs/{n}"/></geometry></visual>'
-                     for n in files)
-    urdf.write_text(text[:start] + f'<link name="door">{meshes}</link>' + text[end:])
-    return folder
 
 
 @pytest.mark.parametrize("command", ["check", "convert"])
