@@ -113,10 +113,13 @@ def run_one(folder: Path, workers: int, home: Path | None, timeout: float, rende
            "parts": sorted({label for _, _, label in semantics(folder)}), "workers": workers,
            "cold": home is None}
     row["openable"] = any(OPENABLE.search(label) for label in row["parts"])
-    if code not in (0, 1):
+    try:
+        report = json.loads(out) if code in (0, 1) else None
+    except ValueError:
+        report = None
+    if report is None:  # crashed, timed out or unreadable: recorded, the sweep goes on
         row.update(passed=False, error=(err.strip().splitlines() or ["no output"])[-1][:300])
         return row
-    report = json.loads(out)
     row["passed"] = bool(report["passed"])
     row["checks"] = {name: {"passed": c["passed"], "value": c["value"], "reason": c.get("reason")}
                      for name, c in report["checks"].items()}
@@ -171,7 +174,8 @@ def sweep(folders: dict[str, Path], store: Path, args) -> dict[str, dict]:
         path = store / f"{key.replace(':', '_')}.json"
         if path.is_file() and not args.fresh:
             rows[key] = json.loads(path.read_text())
-            continue
+            if not (args.rerun_failed and not rows[key]["passed"]):
+                continue
         bar.set_postfix_str(key)
         render = Path(args.renders) / f"{key.replace(':', '_')}.png" if args.renders else None
         row = run_one(folder, args.workers, None if args.cold else Path(args.home), args.timeout, render)
@@ -287,6 +291,7 @@ def main(argv=None) -> int:
     parser.add_argument("--label", default="current", help="name of this run's results")
     parser.add_argument("--compare", default=None, help="print verdicts that differ from this label")
     parser.add_argument("--fresh", action="store_true", help="rerun objects that have a stored result")
+    parser.add_argument("--rerun-failed", action="store_true", help="rerun the objects whose stored result failed")
     parser.add_argument("--renders", type=Path, default=None, help="write each object's check strip here")
     parser.add_argument("--timeout", type=float, default=1800.0, help="seconds one check may take")
     parser.add_argument("--out", type=Path, default=RESULTS, help="Markdown report ('-': none)")

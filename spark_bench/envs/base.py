@@ -13,7 +13,7 @@ import numpy as np
 from gymnasium import spaces
 
 from spark_bench.envs.assets import AssetLike, asset_key, load_asset
-from spark_bench.envs.gripper import finger_target
+from spark_bench.envs.gripper import finger_target, grip_command
 from spark_bench.envs.scene import N_SUBSTEPS, TIMESTEP, Scene, build_scene
 from spark_bench.mujoco_gl import mujoco_module
 
@@ -30,7 +30,12 @@ GRASP_RADIUS = 0.03
 TOUCH_THRESHOLD = 0.5
 #: Dense reward weights: reach, grasp, open progress, success; the sum is divided by their total.
 REWARD_WEIGHTS = (1.0, 1.0, 2.0, 1.0)
+#: Observation layouts (see the environments' docstrings): ``basic``, and ``frame`` (``basic`` followed by
+#: the grasp frame and the joint, what a policy needs to act on any asset).
+OBSERVATIONS = ("basic", "frame")
 OBS_SIZE = 19
+FRAME_OBS_SIZE = 37
+JOINT_TYPES = ("prismatic", "revolute", "continuous")
 #: Every observation entry is clipped to [-OBS_BOUND, OBS_BOUND] (positions in m, velocities in m/s).
 OBS_BOUND = 10.0
 
@@ -65,6 +70,9 @@ class SparkArticulationEnv(gym.Env):
     :param width: rendered image width, pixels
     :param height: rendered image height, pixels
     :param seed: seeds the start-state noise (same as the first ``reset(seed=...)``)
+    :param observation: ``basic`` (19 entries) or ``frame`` (37: the grasp frame and the joint follow)
+    :param joint_estimate: ``(axis, pivot, type)``, world frame at rest: the joint the ``frame``
+        observation reports instead of the simulated one's (a prediction's joint, acting on the real object)
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": int(round(1.0 / (N_SUBSTEPS * TIMESTEP)))}
@@ -72,14 +80,18 @@ class SparkArticulationEnv(gym.Env):
 
     def __init__(self, asset: AssetLike = None, joint: str | None = None, target_fraction: float = 0.75,
                  reward_type: str = "dense", render_mode: str | None = None, width: int = 480,
-                 height: int = 360, seed: int | None = None):
+                 height: int = 360, seed: int | None = None, observation: str = "basic",
+                 joint_estimate: tuple | None = None):
         if not 0.0 < target_fraction <= 1.0:
             raise ValueError(f"target_fraction must be in (0, 1], got {target_fraction}")
         if reward_type not in ("dense", "sparse"):
             raise ValueError(f"reward_type must be 'dense' or 'sparse', got {reward_type!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+        if observation not in OBSERVATIONS:
+            raise ValueError(f"observation must be one of {OBSERVATIONS}, got {observation!r}")
         self.scene = make_scene(asset, self.joint_kind, joint)
+        self.observation = observation
         self.target_fraction = float(target_fraction)
         self.reward_type = reward_type
         self.render_mode = render_mode
@@ -88,8 +100,10 @@ class SparkArticulationEnv(gym.Env):
         self.data = mujoco.MjData(self.model)
         self._renderer = None
         self._index()
+        self._index_frame(joint_estimate)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32)
-        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(OBS_SIZE,), dtype=np.float32)
+        size = FRAME_OBS_SIZE if observation == "frame" else OBS_SIZE
+        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(size,), dtype=np.float32)
         self._seed = seed
 
     # ----- indices ---------------------------------------------------------------------------
@@ -117,6 +131,37 @@ class SparkArticulationEnv(gym.Env):
         self._max_opening = g.config.max_opening
         self._low, self._high = self.scene.workspace[0], self.scene.workspace[1]
 
+    def _index_frame(self, joint_estimate: tuple | None) -> None:
+        """The grasp frame in the part's body frame, and the joint the ``frame`` observation reports."""
+        scene, d = self.scene, self.data
+        d.qpos[:] = scene.rest_qpos
+        mujoco.mj_kinematics(self.model, d)
+        to_body = d.xmat[self._body].reshape(3, 3).T  # world -> the part's frame, at rest
+        grasp = scene.grasp
+        self._outward_local = to_body @ grasp.outward
+        self._closing_local = to_body @ grasp.closing
+        self._press_local = to_body @ grasp.press if grasp.inside_grip else np.zeros(3)
+        if grasp.inside_grip:
+            self._approach_grip = 1.0  # closed: the fingers enter the notch, then open against its sides
+        elif grasp.opening is not None:
+            self._approach_grip = grip_command(self._gripper_config, grasp.opening)
+        else:
+            self._approach_grip = -1.0
+        if joint_estimate is None:
+            pivot, axis = scene.asset.joint_frames()[scene.joint.name]
+            joint_type = scene.joint.type
+        else:
+            axis, pivot, joint_type = joint_estimate
+        axis, pivot = np.asarray(axis, dtype=np.float64), np.asarray(pivot, dtype=np.float64)
+        norm = float(np.linalg.norm(axis)) if axis.shape == (3,) else 0.0
+        if not (norm > 1e-9 and np.isfinite(norm) and pivot.shape == (3,) and np.all(np.isfinite(pivot))):
+            raise ValueError(f"joint_estimate needs a non-zero finite 3-vector axis and a finite 3-vector pivot, "
+                             f"got {axis!r}, {pivot!r}")
+        if joint_type not in JOINT_TYPES:
+            raise ValueError(f"joint_estimate type must be one of {JOINT_TYPES}, got {joint_type!r}")
+        self.joint_estimate = (axis / norm, pivot, str(joint_type))
+        self._frame = self.observation == "frame"
+
     # ----- state -----------------------------------------------------------------------------
     @property
     def tcp(self) -> np.ndarray:
@@ -140,7 +185,7 @@ class SparkArticulationEnv(gym.Env):
         d = self.data
         tcp = d.qpos[self._tcp_q]
         grasp = self.grasp_point
-        out = np.empty(OBS_SIZE, dtype=np.float32)
+        out = np.empty(FRAME_OBS_SIZE if self._frame else OBS_SIZE, dtype=np.float32)
         out[0:3] = tcp
         out[3] = d.qpos[self._wrist_q] if self._wrist_q is not None else 0.0
         out[4] = (d.qpos[self._finger_q[0]] + d.qpos[self._finger_q[1]]) / (2 * self._max_opening)
@@ -151,8 +196,28 @@ class SparkArticulationEnv(gym.Env):
         out[15] = d.qvel[self._joint_v] / self._span
         out[16:18] = np.minimum(d.sensordata[self._touch] / 10.0, 1.0)
         out[18] = np.linalg.norm(out[11:14])
+        if self._frame:
+            self._frame_obs(out, grasp)
         np.clip(out, -OBS_BOUND, OBS_BOUND, out=out)
         return out
+
+    def _frame_obs(self, out: np.ndarray, grasp: np.ndarray) -> None:
+        """Entries 19-36: the grasp frame (turned with the part) and the reported joint."""
+        rot = self.data.xmat[self._body].reshape(3, 3)
+        axis, pivot, joint_type = self.joint_estimate
+        out[19:22] = rot @ self._outward_local
+        out[22:25] = rot @ self._closing_local
+        out[25:28] = axis
+        if joint_type == "prismatic":
+            out[28:31] = 0.0
+            out[31] = 0.0
+        else:
+            v = pivot - grasp
+            out[28:31] = v - (v @ axis) * axis
+            out[31] = 1.0
+        out[32] = 1.0 if self.scene.grasp.inside_grip else 0.0
+        out[33] = self._approach_grip
+        out[34:37] = rot @ self._press_local
 
     def _reward_terms(self, obs: np.ndarray) -> dict[str, float]:
         dist = float(obs[18])

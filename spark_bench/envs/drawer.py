@@ -37,6 +37,27 @@ class SparkDrawerEnv(SparkArticulationEnv):
     18     distance TCP to grasp point
     ====== =====================================================================
 
+    With ``observation="frame"`` the space is ``Box(-10, 10, (37,), float32)``: the 19 entries above, then
+    the grasp frame and the joint, what a policy needs to act on any asset (world frame; the directions
+    turn with the part):
+
+    ====== =====================================================================
+    index  meaning
+    ====== =====================================================================
+    19-21  outward: out of the part's front at the grasp (the gripper approaches along its opposite)
+    22-24  closing: the direction the fingers close along (across the handle)
+    25-27  joint axis (unit; opening = increasing joint value)
+    28-30  from the grasp point to the nearest point of the joint axis (revolute; 0 for prismatic)
+    31     1 revolute or continuous, 0 prismatic
+    32     1 for an inside grip (a finger-pull notch: the closed fingers enter it and open), else 0
+    33     the finger command to approach with (-1 fully open; higher to fit pads beside the handle;
+           +1 closed for an inside grip)
+    34-36  inside grip: the direction from the notch's open edge to its inner wall (else 0)
+    ====== =====================================================================
+
+    Entries 25-31 describe the simulated asset's own joint, or ``joint_estimate=(axis, pivot, type)``
+    (world frame at rest) when given: a prediction's joint, reported while acting on the real object.
+
     **Rewards** (``reward_type="dense"``, in [0, 1]): ``(reach + grasp + 2 progress + success) / 5`` with
     ``reach = 1 - tanh(10 d)`` (d: TCP to grasp point, m), ``grasp = 1`` when both pads touch and
     ``d < 0.03``, ``progress = min(fraction / target_fraction, 1)``, ``success = 1`` when
@@ -50,7 +71,8 @@ class SparkDrawerEnv(SparkArticulationEnv):
     (default 100, by ``gymnasium.make``'s ``TimeLimit``).
 
     **Arguments**: ``gymnasium.make("SparkDrawer-v0", asset=None, joint=None, target_fraction=0.75,
-    reward_type="dense", render_mode=None, max_episode_steps=100, seed=None)``; see
+    reward_type="dense", render_mode=None, max_episode_steps=100, seed=None,
+    observation="basic", joint_estimate=None)``; see
     :class:`~spark_bench.envs.base.SparkArticulationEnv`. A joint that does not exist, or an asset with
     no prismatic joint, raises :class:`~spark_bench.errors.InputError` at ``make``.
 

@@ -1,21 +1,32 @@
 """Where to grasp the moving part of a joint: its handle, from labels or from geometry.
 
-A link labelled ``handle`` among the part's links (``semantics.txt`` label, or GAPartNet's
-annotation ``category``) is the handle. Otherwise the handle is found from the part's surface at rest:
-project it on the part's outward direction (the pull direction of a drawer, the swing direction of a
-door's far edge), take the front face as the densest level near the front, and keep what stands
-proud of it by more than :data:`HANDLE_MIN_PROUD`; the connected clusters of those points are handle
-candidates, and the chosen one is the central one (drawers) or the one farthest from the hinge (doors).
-A part with neither has the handle of a part hinged to it (a door's lever or knob, its own joint) as its
-handle, the piece in front of its front face. A labelled handle whose bounding box's center is not over
-the handle (a bucket's bail, an arc) is grasped at its far end (:func:`on_handle`).
-A part with nothing proud of its front face but a finger-pull notch cut into an edge of its front
-(found by rasterising the front face, :func:`find_notch`) gets an *inside grip*: the closed fingers enter
-the notch, the hand presses against the notch's inner wall and the fingers open against its sides
-(``inside_grip=True``, ``press`` the direction of that wall). A revolute part with none of these but a
-tab standing out past its free edge (a box lid's lifting tab, :func:`find_tab`) is pinched across the tab
-from beyond that edge (``outward`` is then the edge's direction, not the swing's). Any other part gets its front face's
-center (drawers) or a point of the front face near its free edge (doors), with ``has_handle=False``.
+The part's *front* is found first: its outward direction (the pull direction of a drawer, the swing
+direction of a door's far edge, made exact by the normal of the faces facing it) and the front face's
+level along it (:func:`~spark_bench.envs.features.front_level`). Handles are then looked for, first
+found first taken:
+
+1. a link labelled ``handle`` among the part's links (``semantics.txt`` label, or GAPartNet's annotation
+   ``category``);
+2. a labelled handle of a part hinged to it (a safe's lever, its own joint) standing in front of the front;
+3. geometry: the surface of the part and of the parts hinged to it (a dial, a knob) standing proud of the
+   front face by more than :data:`HANDLE_MIN_PROUD`, in connected clusters.
+
+Only clusters the open fingers can close around count (narrower than the open fingers by
+:data:`PINCH_MARGIN` on each side, across the closing direction); the chosen one is the central one
+(drawers) or the one farthest from the hinge (doors). A labelled handle whose bounding box's center is
+not over the handle (a bucket's bail, an arc) is grasped at its far end (:func:`on_handle`). The fingers
+reach down the handle as far as they can: the fingertips :data:`TIP_CLEARANCE` above the front face, or
+the pads' whole length below the handle's top when it stands out further, so that a knob's head or a
+bar is held from behind, not pinched at its rounded front.
+
+A part with no handle but a finger-pull notch cut into an edge of its front
+(:func:`~spark_bench.envs.features.find_notch`) gets an *inside grip*: the closed fingers enter the
+notch, the hand presses against the notch's inner wall and the fingers open against its sides
+(``inside_grip=True``, ``press`` the direction of that wall). A revolute part with none of these but a tab
+standing out past its free edge (a box lid's lifting tab, :func:`find_tab`) is pinched across the tab
+from beyond that edge (``outward`` is then the edge's direction, not the swing's). Any other part gets
+its front face's center (drawers) or a point of the front face near its free edge (doors), with
+``has_handle=False`` and a one-line ``reason`` why a parallel gripper cannot pull it.
 
 A pinch grasp is then checked against its neighbourhood (:func:`spark_bench.envs.pads.plan_pads`).
 """
@@ -25,42 +36,35 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from spark_bench.asset.mesh import sample_surface
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.asset.transforms import unit
+from spark_bench.envs.features import (
+    LEVEL_BIN,
+    MIN_CLUSTER,
+    Front,
+    clusters,
+    face_normal,
+    find_notch,
+    front_level,
+    long_axis,
+    min_cluster,
+    perpendicular_basis,
+    rasterise_front,
+    ray_hits,
+)
 from spark_bench.envs.gripper import GripperConfig
+from spark_bench.envs.handles import PINCH_MARGIN, candidates, edge_pinch, pad_center, reach_depth
 from spark_bench.envs.pads import OBSTACLE_MIN_PROUD, plan_pads
 
 #: A surface point counts as handle when it stands this far (m) in front of the front face (twice
 #: :data:`~spark_bench.envs.pads.OBSTACLE_MIN_PROUD`, what counts as in the fingers' way).
 HANDLE_MIN_PROUD = 2 * OBSTACLE_MIN_PROUD  # 8 mm
-#: Bin width (m) of the front-face level histogram.
-LEVEL_BIN = 0.002
-#: A histogram level is a face when it holds this fraction of the densest level's points.
-FACE_DENSITY = 0.1
 #: Surface samples per part.
 N_SAMPLES = 20000
-#: A cluster of surface samples is a feature (not noise) when it holds this many points, and (for the
-#: part's own samples) this fraction of them.
-MIN_CLUSTER = 20
-MIN_CLUSTER_FRACTION = 0.002
-#: Cell size (m) of the front-face raster used to find a notch.
-NOTCH_CELL = 0.003
-#: Smallest extent (m), both ways, of an uncovered region of the front for it to count as a notch. (The
-#: pads' height is fitted to the notch's depth, :data:`spark_bench.envs.scene.NOTCH_CLEARANCE`; across its
-#: width the closed default fingers are 24 mm, two 12 mm pads.)
-NOTCH_MIN = 0.02
-#: Largest notch extent (m) along its open edge: beyond this (and beyond :data:`NOTCH_MAX_FRACTION` of
-#: that edge) it is a gap between parts, not a notch.
-NOTCH_MAX = 0.35
-#: A notch may also be as long as this fraction of its edge (a fridge door's finger-pull runs 0.37 m of a
-#: 1.5 m edge).
-NOTCH_MAX_FRACTION = 0.3
+#: Surface samples of a labelled handle, or of the parts hinged to the grasped one.
+N_HANDLE_SAMPLES = 4000
 #: A labelled handle's grasp point must lie over the handle itself: within this distance (m), in the
 #: front plane, of a handle point. A bucket's bail is an arc: its bounding box's center is in the air.
 HANDLE_ON_TOLERANCE = 0.006
@@ -70,8 +74,22 @@ HANDLE_TIP_BAND = 0.02
 #: A revolute part's free edge must lie this far (m) from its hinge for a feature past it to be a lid's tab:
 #: a shorter part is a lever (a toilet's flush lever, 8 cm), pressed on its face, not pinched at its end.
 TAB_MIN_REACH = 0.15
+#: How far (m) around a handle, in the front plane, the surface it stands on is looked at (a pad's thickness
+#: and margin: what the pads would touch reaching down beside it).
+BASE_MARGIN = 0.016
+#: The hand comes in along the outward direction: nothing of the object may stand in its way out to this
+#: distance (m) in front of the grasp.
+APPROACH_CLEAR = 0.5
+#: A tab is at most this fraction of the part's length along its hinge long (longer: the free edge itself).
+TAB_MAX_FRACTION = 0.5
 #: How far (m) behind the front face the TCP goes in a notch: the fingertips reach 12 mm further.
 NOTCH_DEPTH = 0.004
+#: A handle standing out of its base by this much (m) is held firmly; a lower one (a keyhole plate, an
+#: escutcheon) is taken only when nothing stands out further.
+FIRM_PROUD = 0.02
+#: Smallest extent (m), both ways in the front plane, of a feature standing out of the front for it to be
+#: a handle candidate (a screw head is not).
+MIN_FEATURE = 0.002
 
 
 @dataclass
@@ -83,7 +101,7 @@ class GraspTarget:
     :param long_axis: the handle's long direction (perpendicular to ``outward``); fingers close across it
     :param has_handle: whether a handle was found (label or geometry)
     :param source: ``label``, ``geometry``, ``notch`` (a finger-pull notch), ``tab`` (a lid's tab past its
-        free edge) or ``face`` (no handle)
+        free edge), ``edge`` (the whole front pinched by its edges) or ``face`` (no handle)
     :param grip: ``pinch`` (fingers close across the handle) or ``inside`` (a notch: the closed fingers
         enter it, the hand presses towards its inner wall, the fingers open against its sides)
     :param press: for an ``inside`` grip, the unit direction (in the front plane) from the notch's open
@@ -93,6 +111,7 @@ class GraspTarget:
         open fingers' sweep (None: approach fully open)
     :param pad_thickness: pad thickness (m) the pads must not exceed to fit beside the handle (None: any)
     :param clearance: room (m) left on each side of a pad placed in a gap beside the handle
+    :param reason: why a parallel gripper cannot pull this part open (one line), or None when it can
     """
 
     point: np.ndarray
@@ -106,6 +125,7 @@ class GraspTarget:
     opening: float | None = None
     pad_thickness: float | None = None
     clearance: float | None = None
+    reason: str | None = None
 
     @property
     def inside_grip(self) -> bool:
@@ -136,52 +156,6 @@ def outward_direction(joint_type: str, origin: np.ndarray, axis: np.ndarray, poi
     return unit(np.cross(axis, r))
 
 
-def _face_normal(mesh, guess: np.ndarray, min_cos: float = 0.95) -> np.ndarray:
-    """The area-weighted mean normal of the faces facing ``guess`` (the front face's true normal)."""
-    normals = mesh.face_normals
-    weights = mesh.area_faces * (normals @ guess > min_cos)
-    if weights.sum() <= 0:
-        return guess
-    return unit(weights @ normals)
-
-
-def _perpendicular_basis(n: np.ndarray) -> np.ndarray:
-    """Two unit vectors spanning the plane perpendicular to ``n``, the first as vertical as possible."""
-    up = np.array([0.0, 0.0, 1.0]) if abs(n[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    v = unit(up - np.dot(up, n) * n)
-    return np.stack([v, np.cross(n, v)])
-
-
-def front_level(depth: np.ndarray, window: float = 0.12) -> float:
-    """The front face's level along the outward direction: the densest histogram bin within
-    ``window`` of the front-most point (faces are flat, so a face fills one bin)."""
-    top = depth.max()
-    near = depth[depth > top - window]
-    bins = np.arange(near.min(), top + LEVEL_BIN, LEVEL_BIN)
-    if len(bins) < 2:
-        return float(top)
-    counts, edges = np.histogram(near, bins=bins)
-    # the front-most of the dense levels: a door's back face is as dense as its front face
-    k = int(np.flatnonzero(counts >= FACE_DENSITY * counts.max()).max())
-    return float(0.5 * (edges[k] + edges[k + 1]))
-
-
-def clusters(points: np.ndarray, radius: float = 0.015) -> list[np.ndarray]:
-    """Connected groups of points (neighbours closer than ``radius``), largest first, as index arrays."""
-    if len(points) == 0:
-        return []
-    pairs = cKDTree(points).query_pairs(radius, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(points),) * 2)
-    _, labels = connected_components(graph, directed=False)
-    groups = [np.flatnonzero(labels == k) for k in np.unique(labels)]
-    return sorted(groups, key=len, reverse=True)
-
-
-def _min_cluster(n_points: int) -> int:
-    """The fewest of a part's ``n_points`` surface samples a feature's cluster holds."""
-    return max(MIN_CLUSTER, int(MIN_CLUSTER_FRACTION * n_points))
-
-
 def _handle_links(asset: ArticulatedAsset, links: list[str]) -> list[str]:
     out = []
     for name in links:
@@ -189,88 +163,6 @@ def _handle_links(asset: ArticulatedAsset, links: list[str]) -> list[str]:
         category = str(link.annotations.get("category", "")) if isinstance(link.annotations, dict) else ""
         if "handle" in link.label.lower() or "handle" in category.lower():
             out.append(name)
-    return out
-
-
-def _long_axis(points: np.ndarray, basis: np.ndarray) -> np.ndarray:
-    """The principal direction of ``points`` in the plane spanned by ``basis`` (vertical if round)."""
-    uv = (points - points.mean(0)) @ basis.T
-    if len(uv) < 3:
-        return basis[0]
-    evals, evecs = np.linalg.eigh(np.cov(uv.T))
-    if evals[1] < 1.5 * max(evals[0], 1e-12):  # a knob: no long axis; a vertical one closes sideways
-        return basis[0]
-    return unit(evecs[:, 1] @ basis)
-
-
-@dataclass
-class Notch:
-    """A notch cut into an edge of a front, in the front plane's 2-D coordinates (``basis`` rows).
-
-    :param center: the notch's center, 2-D
-    :param press: unit 2-D direction from its open edge to its inner wall
-    :param depth: extent along ``press``, m
-    :param width: extent along the open edge, m
-    """
-
-    center: np.ndarray
-    press: np.ndarray
-    depth: float
-    width: float
-
-
-def rasterise_front(part, n: np.ndarray, basis: np.ndarray, face: float, cell: float = NOTCH_CELL
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """The front face as a boolean image: cells of ``cell`` m in the plane ``basis`` spans, True where a
-    triangle facing ``n`` at level ``face`` covers the cell's center. Returns (image, 2-D origin)."""
-    from skimage.draw import polygon
-
-    tri = np.asarray(part.triangles)
-    level = tri.mean(1) @ n
-    keep = (part.face_normals @ n > 0.95) & (np.abs(level - face) < 2 * LEVEL_BIN)
-    uv = tri[keep] @ basis.T
-    if len(uv) == 0:
-        return np.zeros((0, 0), bool), np.zeros(2)
-    lo = uv.reshape(-1, 2).min(0)
-    shape = tuple(np.maximum(np.ceil((uv.reshape(-1, 2).max(0) - lo) / cell).astype(int), 1))
-    image = np.zeros(shape, bool)
-    for t in (uv - lo) / cell - 0.5:  # cell (i, j) has its center at lo + (i + 0.5, j + 0.5) * cell
-        rr, cc = polygon(t[:, 0], t[:, 1], shape)
-        image[rr, cc] = True
-    # close the one-cell cracks along shared triangle edges (padding keeps the border intact)
-    padded = np.pad(image, 2, constant_values=True)
-    image = ndimage.binary_closing(padded, structure=np.ones((3, 3)))[2:-2, 2:-2]
-    return image, lo
-
-
-def find_notch(image: np.ndarray, lo: np.ndarray, cell: float = NOTCH_CELL) -> list[Notch]:
-    """Notches of a rasterised front (:func:`rasterise_front`): uncovered regions that open onto one
-    edge of the front's bounding box, fill at least 70 % of their own bounding box, are at least
-    :data:`NOTCH_MIN` across both ways, and along that edge at most :data:`NOTCH_MAX` or
-    :data:`NOTCH_MAX_FRACTION` of the edge, whichever is longer."""
-    if image.size == 0:
-        return []
-    labels, _ = ndimage.label(~image)
-    out = []
-    for k, region in enumerate(ndimage.find_objects(labels), start=1):
-        mask = labels[region] == k
-        extent = np.array([region[0].stop - region[0].start, region[1].stop - region[1].start]) * cell
-        if extent.min() < NOTCH_MIN or mask.mean() < 0.7:  # too small, or not a rectangle-like cut
-            continue
-        # the edge it opens onto: the one border of the image it touches (a corner cut touches two)
-        touches = {(0, -1): region[0].start == 0, (0, 1): region[0].stop == image.shape[0],
-                   (1, -1): region[1].start == 0, (1, 1): region[1].stop == image.shape[1]}
-        sides = [key for key, hit in touches.items() if hit]
-        if len(sides) != 1:
-            continue
-        axis, sign = sides[0]
-        if extent[1 - axis] > max(NOTCH_MAX, NOTCH_MAX_FRACTION * image.shape[1 - axis] * cell):
-            continue
-        press = np.zeros(2)
-        press[axis] = -sign
-        cells = np.argwhere(labels == k)
-        center = lo + (0.5 * (cells.min(0) + cells.max(0)) + 0.5) * cell
-        out.append(Notch(center=center, press=press, depth=float(extent[axis]), width=float(extent[1 - axis])))
     return out
 
 
@@ -301,7 +193,8 @@ def on_handle(handle: np.ndarray, basis: np.ndarray, origin: np.ndarray | None, 
     return handle[radial > radial.max() - HANDLE_TIP_BAND]
 
 
-def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> GraspTarget | None:
+def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray,
+             hinged: np.ndarray | None = None) -> GraspTarget | None:
     """A tab standing out past the free edge of a revolute part (a box lid's lifting tab), or None.
 
     The free edge faces away from the hinge (``radial``, from the hinge to the part's centroid); a feature
@@ -313,10 +206,11 @@ def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> 
     :param points: the part's surface points at rest (world)
     :param origin: a point on the hinge axis
     :param axis: unit hinge axis
+    :param hinged: surface points of parts hinged to it (a box lid's hasp): they may be the tab
     """
     r = points - origin
     r = r - np.outer(r @ axis, axis)
-    radial = _face_normal(part, unit(r.mean(0)))
+    radial = face_normal(part, unit(r.mean(0)))
     depth = points @ radial
     near = depth[depth > depth.max() - 0.12]
     counts, edges = np.histogram(near, bins=np.arange(near.min(), depth.max() + 2 * LEVEL_BIN, LEVEL_BIN))
@@ -325,15 +219,168 @@ def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray) -> 
     if edge - float(origin @ radial) < TAB_MIN_REACH:
         return None
     tip = points[depth > edge + HANDLE_MIN_PROUD]
-    groups = [g for g in clusters(tip) if len(g) >= _min_cluster(len(points))]
+    if hinged is not None and len(hinged):
+        tip = np.concatenate([tip, hinged[hinged @ radial > edge + HANDLE_MIN_PROUD]])
+    basis = perpendicular_basis(radial)
+    # a tab is a small feature of the free edge (which runs along the hinge), not the whole edge
+    length = float(np.ptp(points @ axis))
+    groups = [g for g in clusters(tip) if len(g) >= min_cluster(len(points))
+              and float(np.ptp(tip[g] @ axis)) <= TAB_MAX_FRACTION * length]
     if not groups:
         return None
-    basis = _perpendicular_basis(radial)
     best = tip[max(groups, key=len)]
     uv = best @ basis.T
     point = 0.5 * (uv.min(0) + uv.max(0)) @ basis + float(np.median(best @ radial)) * radial
-    return GraspTarget(point=point, outward=radial, long_axis=_long_axis(best, basis), has_handle=True,
+    return GraspTarget(point=point, outward=radial, long_axis=long_axis(best, basis), has_handle=True,
                        source="tab")
+
+
+def _front_of(asset: ArticulatedAsset, joint: str, seed: int) -> Front:
+    spec = asset.joints[joint]
+    part = asset.mesh(links=asset.part_of_joint(joint))
+    if len(part.faces) == 0:
+        raise ValueError(f"{asset.name}: the part moved by {joint} has no geometry")
+    origin, axis = asset.joint_frames()[joint]
+    points = sample_surface(part, N_SAMPLES, seed=seed)
+    n = outward_direction(spec.type, origin, axis, points)
+    rotational = spec.type != "prismatic"
+    if rotational:
+        n = face_normal(part, n)
+    return Front(part=part, points=points, outward=n, basis=perpendicular_basis(n), face=front_level(points @ n),
+                  origin=origin, axis=axis, rotational=rotational)
+
+
+def _handle_searches(asset: ArticulatedAsset, joint: str, front: Front, seed: int):
+    """The handle searches, in order of preference: ``(source, points, groups)`` with ``groups`` the clusters
+    of ``points`` that are handle candidates, each as ``(indices, anchor, base)``: ``anchor`` is, for a
+    handle on a hinge of its own (a safe's lever, a wheel), that hinge's ``(origin, axis)`` (it is best held
+    near that axis, where a pull does not turn it), else None; ``base`` the level the pads may reach down to
+    (the highest surface of the part around the handle: a knob in a door's recessed panel stands out of
+    the panel, not of the door's rim)."""
+    links = asset.part_of_joint(joint)
+    own_labelled = _handle_links(asset, links)
+    if own_labelled:
+        pts = sample_surface(asset.mesh(links=own_labelled), N_HANDLE_SAMPLES, seed=seed)
+        rest = [name for name in links if name not in own_labelled and asset.links[name].has_geometry]
+        surface = sample_surface(asset.mesh(links=rest), N_SAMPLES // 2, seed=seed) if rest else None
+        # one link may hold several pieces (a wide drawer's two knobs): grasp one of them, not between
+        groups = [g for g in clusters(pts) if len(g) >= MIN_CLUSTER] or [np.arange(len(pts))]
+        bases = [_base(surface, pts[g], front) for g in groups]
+        # a labelled handle sunk into the part (a recessed grip) is no pinch: the notch search sees it
+        yield "label", pts, [(g, None, base) for g, base in zip(groups, bases)
+                             if base is None or float(np.max(pts[g] @ front.outward)) - base >= OBSTACLE_MIN_PROUD]
+    carried = [name for name in carried_links(asset, joint, links) if asset.links[name].has_geometry]
+    frames = asset.joint_frames()
+
+    def hinged(name: str):
+        hinge = _own_joint(asset, name)
+        return frames[hinge] if hinge is not None and asset.joints[hinge].is_rotational else None
+
+    def standing(pts: np.ndarray, anchor) -> list[tuple]:
+        """The clusters of a hinged part's points standing out of the part around them, those points kept."""
+        out = []
+        for g in clusters(pts):
+            base = _base(front.points, pts[g], front)
+            if base is not None:
+                g = g[pts[g] @ front.outward > base]
+            floor = base if base is not None else front.face
+            if len(g) >= MIN_CLUSTER and float(np.max(pts[g] @ front.outward)) - floor >= HANDLE_MIN_PROUD:
+                out.append((g, anchor, base))
+        return out
+
+    for name in _handle_links(asset, carried):  # a handle hinged to the part (a door's lever) is its handle too
+        pts = sample_surface(asset.mesh(links=[name]), N_HANDLE_SAMPLES, seed=seed)
+        yield "label", pts, standing(pts, hinged(name))
+    # what stands out of the front, sampled densely (a 15 mm knob on a large drawer is a few of the part's
+    # samples): the part's own, and a dial or knob on its own joint, which stands out like any handle
+    pts = proud_samples(front.part, front.outward, front.face + HANDLE_MIN_PROUD, N_HANDLE_SAMPLES, seed)
+    groups = [(g, None, front.face) for g in clusters(pts)
+              if len(g) >= MIN_CLUSTER and np.ptp(pts[g] @ front.basis.T, axis=0).min() >= MIN_FEATURE]
+    for name in carried:
+        extra = sample_surface(asset.mesh(links=[name]), N_HANDLE_SAMPLES, seed=seed)
+        groups += [(g + len(pts), anchor, base) for g, anchor, base in standing(extra, hinged(name))]
+        pts = np.concatenate([pts, extra])
+    yield "geometry", pts, groups
+
+
+def _base(surface: np.ndarray | None, feature: np.ndarray, front: Front) -> float | None:
+    """The level the pads may reach down to beside ``feature``: the highest of the ``surface`` points under
+    the feature or within a pad's thickness and margin of it (in the front plane); None when there are
+    none (the feature stands free: a bucket's bail)."""
+    if surface is None or len(surface) == 0:
+        return None
+    uv, near = feature @ front.basis.T, surface @ front.basis.T
+    grow = BASE_MARGIN
+    inside = np.all((near > uv.min(0) - grow) & (near < uv.max(0) + grow), axis=1)
+    if not inside.any():
+        return None
+    return float(np.max(surface[inside] @ front.outward))
+
+
+def proud_samples(mesh, outward: np.ndarray, level: float, count: int, seed: int) -> np.ndarray:
+    """``count`` surface samples of the triangles of ``mesh`` reaching above ``level`` along ``outward``,
+    those above it kept (an empty array when nothing reaches it)."""
+    from trimesh import Trimesh
+
+    triangles = np.asarray(mesh.triangles)
+    keep = (triangles @ outward).max(1) > level
+    if not keep.any():
+        return np.zeros((0, 3))
+    sub = Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces)[keep], process=False)
+    try:
+        points = sample_surface(sub, count, seed=seed)
+    except ValueError:  # zero-area triangles only
+        return np.zeros((0, 3))
+    return points[points @ outward > level]
+
+
+def _own_joint(asset: ArticulatedAsset, link: str) -> str | None:
+    """The movable joint whose part ``link`` belongs to (the nearest movable joint above it), or None."""
+    parents = {j.child: j for j in asset.joints.values()}
+    while link in parents:
+        j = parents[link]
+        if j.is_movable:
+            return j.name
+        link = j.parent
+    return None
+
+
+def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperConfig, seed: int
+           ) -> tuple[GraspTarget | None, str | None]:
+    """The pinch grasp on the best handle candidate, or ``(None, why none fits)``."""
+    n, basis = front.outward, front.basis
+    widest = None
+    span = 2 * gripper.max_opening - 2 * PINCH_MARGIN
+
+    def grasped(points: np.ndarray) -> np.ndarray:
+        return on_handle(points, basis, front.origin if front.rotational else None, front.axis)
+
+    for source, pts, groups in _handle_searches(asset, joint, front, seed):
+        fitting, wide = candidates(pts, groups, front, gripper, grasped)
+        if wide is not None:
+            widest = max(widest or 0.0, wide)
+        if not fitting:
+            continue
+        # a feature standing well out first (a knob, not a keyhole plate), then the best placed
+        best = min(fitting, key=lambda c: (c.base is not None and float(np.max(c.points @ n)) - c.base < FIRM_PROUD,
+                                           front.lateral_score(c.points)))
+        depth = best.points @ n
+        point = pad_center(best, front, gripper) @ basis + reach_depth(best.base, float(depth.max()),
+                                                                      float(depth.min()), gripper) * n
+        grasp = GraspTarget(point=point, outward=n, long_axis=best.long_axis(front), has_handle=True, source=source)
+        links = asset.part_of_joint(joint)
+        others = [name for name in asset.links if name not in links]
+        pads = plan_pads(front.part, asset.mesh(links=others) if others else None, point, n, grasp.closing,
+                         grasp.long_axis, front.face, gripper)
+        if pads is not None:
+            grasp.point = point + pads["shift"] * grasp.closing
+            grasp.opening, grasp.pad_thickness = pads["opening"], pads["pad_thickness"]
+            grasp.clearance = pads["clearance"]
+        return grasp, None
+    if widest is not None:
+        return None, (f"its handle is {1000 * widest:.0f} mm across, wider than the open gripper "
+                      f"({1000 * span:.0f} mm)")
+    return None, None
 
 
 def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
@@ -344,94 +391,76 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
     :param joint: a movable joint's name
     :param seed: seed of the surface sampling
     :param gripper: the gripper's dimensions, for fitting the pads beside the handle (default gripper)
+    :raises ValueError: the part has no geometry, or its centroid lies on its hinge
     """
-    spec = asset.joints[joint]
-    links = asset.part_of_joint(joint)
-    part = asset.mesh(links=links)
-    if len(part.faces) == 0:
-        raise ValueError(f"{asset.name}: the part moved by {joint} has no geometry")
-    origin, axis = asset.joint_frames()[joint]
-    points = sample_surface(part, N_SAMPLES, seed=seed)
-    n = outward_direction(spec.type, origin, axis, points)
-    if spec.type != "prismatic":
-        n = _face_normal(part, n)
-    basis = _perpendicular_basis(n)
-    depth = points @ n
-    face = front_level(depth)
-    rotational = spec.type != "prismatic"
+    gripper = gripper or GripperConfig()
+    grasp = _find(asset, joint, seed, gripper)
+    if _approach_blocked(asset, grasp, gripper):
+        grasp.reason = (f"{joint}: the way the gripper comes in, in front of the {_part_name(asset, joint)}, runs "
+                        "into the object (the joint opens into it: is its axis reversed?)")
+    return grasp
 
-    def lateral_score(group_points: np.ndarray) -> float:
-        center = group_points.mean(0)
-        if rotational:  # doors: far from the hinge
-            r = center - origin
-            return -float(np.linalg.norm(r - np.dot(r, axis) * axis))
-        return float(np.linalg.norm((center - points.mean(0)) @ basis.T))  # drawers: central
 
-    labelled = _handle_links(asset, links)
-    if labelled:
-        handle_pts = sample_surface(asset.mesh(links=labelled), 4000, seed=seed)
-        # one link may hold several pieces (a wide drawer's two knobs): grasp one of them, not between
-        groups = [g for g in clusters(handle_pts) if len(g) >= MIN_CLUSTER] or [np.arange(len(handle_pts))]
-        source = "label"
-    else:
-        proud = np.flatnonzero(depth > face + HANDLE_MIN_PROUD)
-        handle_pts = points[proud]
-        groups = [g for g in clusters(handle_pts) if len(g) >= _min_cluster(len(points))]
-        source = "geometry"
-    if not groups:
-        # a handle hinged to the part (a door's lever or knob) is the part's handle too: the one in front
-        carried = _handle_links(asset, carried_links(asset, joint, links))
-        if carried:
-            handle_pts = sample_surface(asset.mesh(links=carried), 4000, seed=seed)
-            groups = [g for g in clusters(handle_pts)
-                      if len(g) >= MIN_CLUSTER and np.median(handle_pts[g] @ n) > face + HANDLE_MIN_PROUD]
-            source = "label"
-    if groups:
-        scores = [lateral_score(handle_pts[g]) for g in groups]
-        best = on_handle(handle_pts[groups[int(np.argmin(scores))]], basis, origin if rotational else None, axis)
-        uv = best @ basis.T
-        lateral = 0.5 * (uv.min(0) + uv.max(0))
-        along = float(np.median(best @ n))
-        point = lateral @ basis + along * n
-        grasp = GraspTarget(point=point, outward=n, long_axis=_long_axis(best, basis), has_handle=True,
-                            source=source)
-        others = [name for name in asset.links if name not in links]
-        pads = plan_pads(part, asset.mesh(links=others) if others else None, point, n, grasp.closing,
-                         grasp.long_axis, face, gripper or GripperConfig())
-        if pads is not None:
-            grasp.point = point + pads["shift"] * grasp.closing
-            grasp.opening, grasp.pad_thickness = pads["opening"], pads["pad_thickness"]
-            grasp.clearance = pads["clearance"]
+def _approach_blocked(asset: ArticulatedAsset, grasp: GraspTarget, gripper: GripperConfig) -> bool:
+    """Whether the object stands in the hand's way in: rays from the open pads' places along the outward
+    direction, from the palm's level (what stands lower is the pads' business,
+    :func:`~spark_bench.envs.pads.plan_pads`) out to :data:`APPROACH_CLEAR`, cross the object."""
+    across = grasp.closing * gripper.max_opening
+    origins = np.stack([grasp.point + across, grasp.point - across])
+    triangles = np.asarray(asset.mesh().triangles)
+    return ray_hits(triangles, origins, grasp.outward, gripper.finger_length - gripper.tip_beyond_tcp, APPROACH_CLEAR)
+
+
+def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig) -> GraspTarget:
+    """:func:`find_grasp` before the approach check."""
+    front = _front_of(asset, joint, seed)
+    grasp, too_wide = _pinch(asset, joint, front, gripper, seed)
+    if grasp is not None:
         return grasp
+    n, basis, face = front.outward, front.basis, front.face
 
-    image, lo = rasterise_front(part, n, basis, face)
+    image, lo = rasterise_front(front.part, n, basis, face)
     notches = find_notch(image, lo)
     if notches:
-        def notch_score(notch: Notch) -> float:
-            return lateral_score(np.atleast_2d(notch.center @ basis + face * n))
-
-        notch = min(notches, key=notch_score)
+        notch = min(notches, key=lambda notch: front.lateral_score(np.atleast_2d(notch.center @ basis + face * n)))
         press = notch.press @ basis
         return GraspTarget(point=notch.center @ basis + (face - NOTCH_DEPTH) * n, outward=n, long_axis=press,
                            has_handle=True, source="notch", grip="inside", press=press,
                            notch_size=(notch.depth, notch.width))
 
-    if rotational:  # a lid's tab standing out past its free edge, pinched from beyond that edge
-        tab = find_tab(part, points, origin, axis)
+    if front.rotational:  # a lid's tab standing out past its free edge, pinched from beyond that edge
+        carried = [name for name in carried_links(asset, joint, asset.part_of_joint(joint))
+                   if asset.links[name].has_geometry]
+        hinged = sample_surface(asset.mesh(links=carried), N_HANDLE_SAMPLES, seed=seed) if carried else None
+        tab = find_tab(front.part, front.points, front.origin, front.axis, hinged)
         if tab is not None:
             return tab
 
+    links = asset.part_of_joint(joint)
+    others = [name for name in asset.links if name not in links]
+    edge = edge_pinch(front, asset.mesh(links=others) if others else None, gripper)
+    if edge is not None:  # a front narrower than the open fingers, standing clear of its surround
+        return GraspTarget(point=edge[0], outward=n, long_axis=edge[1], has_handle=True, source="edge")
+
     # no handle: a point of the front face, central (drawer) or near the free edge (door)
-    front = points[np.abs(depth - face) < 2 * LEVEL_BIN]
-    uv = front @ basis.T
-    if rotational:
-        r = front - origin
-        radial = np.linalg.norm(r - np.outer(r @ axis, axis), axis=1)
+    depth = front.points @ n
+    face_points = front.points[np.abs(depth - face) < 2 * LEVEL_BIN]
+    uv = face_points @ basis.T
+    if front.rotational:
+        r = face_points - front.origin
+        radial = np.linalg.norm(r - np.outer(r @ front.axis, front.axis), axis=1)
         keep = radial > np.quantile(radial, 0.85)
-        center_v = 0.5 * (uv[:, 0].min() + uv[:, 0].max())
-        lateral = np.array([center_v, np.median(uv[keep, 1])])
+        lateral = np.array([0.5 * (uv[:, 0].min() + uv[:, 0].max()), np.median(uv[keep, 1])])
     else:
         lateral = 0.5 * (uv.min(0) + uv.max(0))
-    point = lateral @ basis + face * n
-    return GraspTarget(point=point, outward=n, long_axis=basis[0] if rotational else basis[1],
-                       has_handle=False, source="face")
+    what = _part_name(asset, joint)
+    reason = too_wide or (f"no handle, knob, notch or tab on the {what}: nothing stands out of its front for "
+                          "a parallel gripper to pull")
+    return GraspTarget(point=lateral @ basis + face * n, outward=n, long_axis=basis[0] if front.rotational else basis[1],
+                       has_handle=False, source="face", reason=f"{joint}: {reason}")
+
+
+def _part_name(asset: ArticulatedAsset, joint: str) -> str:
+    """What to call the part moved by ``joint`` in a message: its link's label, else ``part``."""
+    label = asset.links[asset.joints[joint].child].label.replace("_", " ").strip()
+    return label or "part"

@@ -15,8 +15,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import mujoco
 import numpy as np
+
+from spark_bench.mujoco_gl import mujoco_module
+
+mujoco = mujoco_module()
 
 PREFIX = "spark_gripper"
 
@@ -31,22 +34,30 @@ class GripperConfig:
     :param pad_height: pad extent across the approach and closing directions, m (lower to fit a notch)
     :param pad_thickness: pad extent along the closing direction, m (thinner to fit a pad into a narrow gap
         beside a handle, e.g. between the edge lips of a double door)
-    :param kp: stiffness of the translation servos, N/m
+    :param kp: stiffness of the translation servos, N/m: an action moves the servo target at most 2 cm
+        from the TCP, so this bounds the pull to ``kp * 0.02`` N per axis (60 N; a real safe's 60 kg door
+        needed more than 1500 N/m gave to swing open within the 100 steps)
+    :param dampratio: damping ratio of the translation servos (their damping resists the hand's absolute
+        velocity, so it caps the speed at which a servo target 2 cm ahead can drag a load)
     :param force_limit: force limit of each translation servo, N
     :param finger_kp: stiffness of each finger servo, N/m
     :param squeeze: how far past fully closed (m) the closed command aims: the grip force on a handle of
         width w is about ``finger_kp * (squeeze + w / 2)``, up to ``grip_force``
     :param grip_force: force limit of each finger servo, N
     :param finger_damping: damping of each finger slide, N s/m: it caps the closing speed near
-        ``grip_force / finger_damping`` without lowering the static grip force
+        ``grip_force / finger_damping`` (0.4 m/s, 1.6 mm per 4 ms physics step) without lowering the static
+        grip force. At 2 N s/m (20 m/s) a pad crossed 18 mm in one step and landed inside a real drawer's
+        round knob, whose hull then pushed it out along the pull
     :param pad_friction: sliding friction of the finger pads
     :param pad_solref: contact ``solref`` (time constant s, damping ratio) of the finger pads (they have
         contact priority, so theirs is used): MuJoCo scales a contact's softness with the light fingers'
-        mass, and at its default (0.02 s) a 40 N grip sinks each pad 1-2 mm into what it holds (harmless
-        for the default 12 mm pads; a 3 mm pad nearly passes through a 5 mm lip); twice the physics step
+        mass, and at its default (0.02 s) a 40 N grip sinks each pad 1-2 mm into what it holds: pads closing
+        at 0.4 m/s on a 4 mm lip sank through it (synth StorageFurniture 4 and 7). Twice the physics step
         (MuJoCo's stiffest safe value) keeps it to about 0.5 mm
     :param wrist_stiffness: spring of the passive wrist hinge (doors), N m/rad
     :param wrist_damping: damping of the passive wrist hinge, N m s/rad
+    :param wrist_range: the wrist hinge turns this far (rad) either way: a held handle turns with its door,
+        and a door's task may ask for 75 % of a 180-degree range (135 degrees)
     :param rgba: display colour
     """
 
@@ -55,16 +66,18 @@ class GripperConfig:
     max_opening: float = 0.045
     pad_height: float = 0.024
     pad_thickness: float = 0.012
-    kp: float = 1500.0
+    kp: float = 3000.0
+    dampratio: float = 0.35
     force_limit: float = 150.0
     finger_kp: float = 1000.0
     squeeze: float = 0.025
     grip_force: float = 40.0
-    finger_damping: float = 2.0
+    finger_damping: float = 100.0
     pad_friction: float = 1.5
-    pad_solref: tuple = (0.02, 1.0)
+    pad_solref: tuple = (0.008, 1.0)  # 2 x the scene's 4 ms step
     wrist_stiffness: float = 0.3
     wrist_damping: float = 0.3
+    wrist_range: float = 3.0
     rgba: tuple = (0.15, 0.35, 0.8, 1.0)
 
 
@@ -139,7 +152,7 @@ def add_gripper(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
                            range=[float(workspace[0, i]), float(workspace[1, i])], armature=0.01)
         act = spec.add_actuator(name=f"{name}_servo", target=name,
                                 trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        act.set_to_position(kp=cfg.kp, dampratio=1.0)
+        act.set_to_position(kp=cfg.kp, dampratio=cfg.dampratio)
         act.ctrlrange = [float(workspace[0, i]), float(workspace[1, i])]
         act.forcerange = [-cfg.force_limit, cfg.force_limit]
         act.forcelimited = True
@@ -152,7 +165,7 @@ def add_gripper(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
         wrist = f"{p}_wrist"
         hand.add_joint(name=wrist, type=mujoco.mjtJoint.mjJNT_HINGE, axis=rotation.T @ np.asarray(wrist_axis, float),
                        stiffness=cfg.wrist_stiffness, damping=cfg.wrist_damping, limited=True,
-                       range=[-2.0, 2.0], armature=0.002)
+                       range=[-cfg.wrist_range, cfg.wrist_range], armature=0.002)
     color = list(cfg.rgba)
     length, tip = cfg.finger_length, cfg.tip_beyond_tcp
     palm_x = tip - length - 0.012

@@ -10,15 +10,19 @@ not each other.
 
 from __future__ import annotations
 
+import weakref
+from collections import OrderedDict
 from dataclasses import dataclass, replace
 
-import mujoco
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.envs.grasp import GraspTarget, find_grasp
 from spark_bench.envs.gripper import GripperConfig, GripperHandles, add_gripper
 from spark_bench.errors import InputError
+from spark_bench.mujoco_gl import mujoco_module
+
+mujoco = mujoco_module()
 
 #: Physics step, s. The control period is ``TIMESTEP * N_SUBSTEPS`` (25 Hz).
 TIMESTEP = 0.004
@@ -33,10 +37,16 @@ NOTCH_CLEARANCE = 0.014
 NOTCH_MIN_PAD_HEIGHT = 0.008
 #: Contact ``solref`` of pads thinned to fit beside a handle: the stiffest MuJoCo allows at this step
 #: (2 steps), so that a 3 mm pad squeezing a 5 mm lip sinks about 0.5 mm into it, not 2 mm (at 0.02 s).
-#: The default pads keep MuJoCo's default, which the opener's grasps were tuned on.
+#: The default pads use it too (:class:`~spark_bench.envs.gripper.GripperConfig`'s ``pad_solref``).
 THIN_PAD_SOLREF = (2 * TIMESTEP, 1.0)
+#: Half-range (joint units) left to a joint hinged to the opened part (:func:`hold_hinged_parts`).
+HELD_RANGE = 1e-4
 #: How far (m) around the object's box the gripper may move.
 WORKSPACE_MARGIN = 0.35
+
+#: A default joint's part is at least this fraction of the largest candidate part's size (bounding-box
+#: diagonal): a knob or a lever is a part too, but not the one a task means.
+DEFAULT_PART_FRACTION = 0.3
 
 KIND_TYPES = {"prismatic": ("prismatic",), "revolute": ("revolute", "continuous")}
 
@@ -54,6 +64,7 @@ class Scene:
     :param gripper: names of the gripper's elements
     :param workspace: ``[[min], [max]]`` box the TCP may reach
     :param rest_qpos: the full ``qpos`` with every object joint at rest, gripper at the origin
+    :param held_joints: joints of parts hinged to the opened part, held at rest (:func:`hold_hinged_parts`)
     """
 
     model: mujoco.MjModel
@@ -65,6 +76,7 @@ class Scene:
     gripper: GripperHandles
     workspace: np.ndarray
     rest_qpos: np.ndarray
+    held_joints: tuple[str, ...] = ()
 
     @property
     def joint_range(self) -> tuple[float, float]:
@@ -73,7 +85,11 @@ class Scene:
 
 
 def choose_joint(asset: ArticulatedAsset, kind: str, joint: str | None) -> Joint:
-    """The joint to open: ``joint`` checked against ``kind``, or the first joint of that kind.
+    """The joint to open: ``joint`` checked against ``kind``, or the default one of that kind.
+
+    The default is the first joint of the kind that a task would name: a limited joint before a continuous
+    one (a dial, a turntable), and a part at least :data:`DEFAULT_PART_FRACTION` of the largest such part's
+    size (a safe's door, not the lever on it).
 
     :param kind: ``prismatic`` or ``revolute``
     :raises InputError: no such joint, or not of the right kind
@@ -92,10 +108,23 @@ def choose_joint(asset: ArticulatedAsset, kind: str, joint: str | None) -> Joint
         matches = [j for j in asset.movable_joints() if j.type in types]
         if not matches:
             raise InputError(where, f"asset has no {kind} joint (movable joints: {', '.join(movable) or 'none'})")
-        candidate = matches[0]
+        ranks = _default_rank(asset, matches)
+        candidate = matches[min(range(len(matches)), key=ranks.__getitem__)]
     if candidate.open_value <= candidate.rest_value:
         raise InputError(where, f"joint {candidate.name!r} has an empty range [{candidate.lower}, {candidate.upper}]")
     return candidate
+
+
+def _default_rank(asset: ArticulatedAsset, joints: list[Joint]) -> list[tuple]:
+    """Sort keys of the candidate joints for the default: limited with a range first, large parts first,
+    then the asset's order."""
+    sizes = {}
+    for j in joints:
+        mesh = asset.mesh(links=asset.part_of_joint(j.name))
+        sizes[j.name] = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0))) if len(mesh.vertices) else 0.0
+    largest = max(sizes.values())
+    return [(j.type == "continuous" or j.open_value <= j.rest_value, sizes[j.name] < DEFAULT_PART_FRACTION * largest, k)
+            for k, j in enumerate(joints)]
 
 
 def workspace_box(asset: ArticulatedAsset, margin: float = WORKSPACE_MARGIN) -> np.ndarray:
@@ -119,6 +148,87 @@ def fitted_gripper(grasp: GraspTarget, gripper: GripperConfig | None = None) -> 
     return base
 
 
+#: Grasp plans and prepared objects (collision shapes, masses) kept for the last few assets, so that the
+#: environments of one object's joints (the opening score opens each) share them.
+MEMO_SIZE = 4
+_MEMO: OrderedDict = OrderedDict()
+
+
+def _fingerprint(asset: ArticulatedAsset) -> tuple:
+    """What the memo's entries depend on: the joints and every link's geometry (vertex count and sum), so
+    an asset changed in place is not served a stale entry."""
+    joints = tuple((j.name, j.type, j.parent, j.child, float(j.lower), float(j.upper),
+                    np.asarray(j.origin, float).tobytes(), np.asarray(j.axis, float).tobytes())
+                   for j in asset.joints.values())
+    links = []
+    for name, link in asset.links.items():
+        for visual in link.visuals:
+            vertices = np.asarray(visual.mesh.vertices)
+            links.append((name, len(vertices), float(vertices.sum())))
+        for collision in link.collisions:
+            mesh = np.asarray(collision.mesh.vertices) if collision.mesh is not None else np.zeros((0, 3))
+            links.append((name, collision.kind, np.asarray(collision.origin, float).tobytes(),
+                          np.asarray(collision.size, float).tobytes(), len(mesh), float(mesh.sum())))
+    return joints, tuple(links)
+
+
+def _memo(what: str, asset: ArticulatedAsset, extra, compute):
+    key = (what, id(asset), extra)
+    fingerprint = _fingerprint(asset)
+    hit = _MEMO.get(key)
+    if hit is not None and hit[0]() is asset and hit[1] == fingerprint:
+        _MEMO.move_to_end(key)
+        return hit[2]
+    value = compute()
+    _MEMO[key] = (weakref.ref(asset), fingerprint, value)
+    while len(_MEMO) > MEMO_SIZE:
+        _MEMO.popitem(last=False)
+    return value
+
+
+def plan_grasp(asset: ArticulatedAsset, joint: str, gripper: GripperConfig | None = None) -> GraspTarget:
+    """The grasp on the part moved by ``joint`` (:func:`~spark_bench.envs.grasp.find_grasp`), memoized per
+    asset; its ``reason`` says why the scripted opener cannot open the part, if it cannot.
+
+    :raises InputError: the part has no geometry, or no outward direction
+    """
+    def compute():
+        try:
+            return find_grasp(asset, joint, gripper=gripper)
+        except ValueError as exc:
+            raise InputError(asset.source or asset.name, str(exc)) from None
+
+    return _memo("grasp", asset, (joint, repr(gripper)), compute)
+
+
+def prepared_object(asset: ArticulatedAsset):
+    """The object as prepared for MuJoCo (:func:`spark_bench.sim.prepare`: collision shapes, masses, joint
+    dynamics), memoized per asset: the same for every joint's environment."""
+    from spark_bench.sim import prepare
+
+    return _memo("prepared", asset, None, lambda: prepare(asset))
+
+
+def hold_hinged_parts(spec, asset: ArticulatedAsset, joint: str) -> list[str]:
+    """Hold the parts hinged to the opened part (a safe's wheel or lever, a knob) at rest, in place in
+    ``spec``: their joints get a range of :data:`HELD_RANGE` about their rest value. They move with the
+    part, and a real one resists turning (a latch, friction); free, a pulled wheel spins out of the
+    fingers. Returns the held joints' names."""
+    held = []
+    for name in asset.moving_links(joint):
+        parent = next((j for j in asset.joints.values() if j.child == name), None)
+        if parent is None or not parent.is_movable or parent.name == joint:
+            continue
+        mj_joint = spec.joint(parent.name)
+        if mj_joint is None:
+            continue
+        rest = parent.rest_value
+        mj_joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+        mj_joint.range = [rest - HELD_RANGE, rest + HELD_RANGE]
+        held.append(parent.name)
+    return held
+
+
 def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
                 gripper: GripperConfig | None = None) -> Scene:
     """Compile the object with the gripper, for opening ``joint`` (or the first joint of ``kind``).
@@ -129,13 +239,10 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     :param gripper: gripper dimensions and gains
     """
     chosen = choose_joint(asset, kind, joint)
-    try:
-        grasp = find_grasp(asset, chosen.name, gripper=gripper)
-    except ValueError as exc:
-        raise InputError(asset.source or asset.name, str(exc)) from None
+    grasp = plan_grasp(asset, chosen.name, gripper)
     from spark_bench.sim import build_spec
 
-    spec = build_spec(asset)
+    spec = build_spec(asset, prepared=prepared_object(asset))
     spec.option.timestep = TIMESTEP
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
@@ -146,6 +253,7 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
     spec.visual.headlight.diffuse = [0.6, 0.6, 0.6]
     spec.worldbody.add_light(pos=[-2.0, -1.0, 3.0], dir=[0.5, 0.25, -0.8], diffuse=[0.5, 0.5, 0.5])
+    held = hold_hinged_parts(spec, asset, chosen.name)
     wrist = asset.joint_frames()[chosen.name][1] if chosen.is_rotational else None
     handles = add_gripper(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
                           workspace=workspace, config=fitted_gripper(grasp, gripper))
@@ -166,4 +274,4 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
         raise InputError(asset.source or asset.name, f"MJCF has no body for link {body!r}")
     local = data.xmat[bid].reshape(3, 3).T @ (grasp.point - data.xpos[bid])
     return Scene(model=model, asset=asset, joint=chosen, grasp=grasp, grasp_body=body, grasp_local=local,
-                 gripper=handles, workspace=workspace, rest_qpos=data.qpos.copy())
+                 gripper=handles, workspace=workspace, rest_qpos=data.qpos.copy(), held_joints=tuple(held))

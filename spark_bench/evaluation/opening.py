@@ -4,7 +4,9 @@ the *ground-truth* object (:func:`spark_bench.rl.open_with_joint`).
 Each ground-truth drawer (prismatic) and door (revolute) is opened once in its environment
 (``SparkDrawer-v0`` / ``SparkDoor-v0``), with the parameters of the predicted joint it was matched with
 by the metrics (Hungarian matching on parts). A joint the opener cannot open even with the
-ground-truth parameters tests the opener, not the prediction: it is left out (``success`` None). The
+ground-truth parameters tests the opener, not the prediction: it is left out (``success`` None) with a
+one-line ``reason``, the planner's own when it declines the part before any episode (no handle, knob,
+notch or tab: a flush lid, a button) or the ground-truth run's failure. The
 robot acts on the object at its real size: a case's ground truth is stored in the benchmark frame
 ([-1, 1]^3), so it is scaled back to metres (:meth:`~spark_bench.data.case.BenchmarkCase.to_metres`).
 The predicted axis line is carried from the prediction's frame into the ground truth's: prediction world
@@ -91,10 +93,13 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     :param metrics: :meth:`MetricsResult.to_dict` of the prediction (its ``matching`` and ``alignment``)
     :param seed: environment reset seed
     :param max_steps: step limit per episode
-    :returns: ``{"success_rate": fraction opened (None when nothing can be opened), "joints": {...}}``
+    :returns: ``{"success_rate": fraction opened (None when nothing can be opened), "joints": {...}}``; a
+        joint left out has ``success`` None and a one-line ``reason`` (the planner's: no handle, a flush lid;
+        or the opener failing with the ground-truth joint too)
     """
     from spark_bench.data import load_object
     from spark_bench.envs import make_env
+    from spark_bench.envs.scene import plan_grasp
     from spark_bench.rl import open_with_ground_truth, open_with_joint
 
     gt_files, gt, to_source = ground_truth_in_metres(gt_folder)
@@ -106,6 +111,13 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
         env_id = ENV_OF_TYPE.get(joint.type)
         if env_id is None:
             continue
+        try:  # the planner first: a part a parallel gripper cannot pull (no handle...) is no test
+            reason = plan_grasp(gt, joint.name).reason
+        except InputError as exc:
+            reason = " ".join(str(exc).split())[:200]
+        if reason is not None:
+            joints[joint.name] = {"success": None, "reason": reason}
+            continue
         pred_name = matched.get(joint.name)
         if pred_name is None:
             joints[joint.name] = {"success": False, "why": "no matched predicted joint"}
@@ -116,13 +128,13 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
             continue
         try:
             env = make_env(env_id, asset=gt, joint=joint.name, max_episode_steps=max_steps)
-        except InputError as exc:  # no task for this joint (no graspable surface...): not the method's fault
-            joints[joint.name] = {"success": None, "why": f"no opening task: {' '.join(str(exc).split())[:200]}"}
+        except InputError as exc:  # no task for this joint (the model does not compile...): not the method's fault
+            joints[joint.name] = {"success": None, "reason": f"no opening task: {' '.join(str(exc).split())[:200]}"}
             continue
         try:
             reference = open_with_ground_truth(env, seed=seed, max_steps=max_steps)
             if not reference.success:  # the opener cannot open it even knowing the joint: no test
-                joints[joint.name] = {"success": None, "why": "the scripted opener fails with the ground-truth "
+                joints[joint.name] = {"success": None, "reason": "the scripted opener fails with the ground-truth "
                                       f"joint too (max fraction {reference.max_fraction:.2f})"}
                 continue
             result = open_with_joint(env, axis, pivot, pred_type, seed=seed, max_steps=max_steps)

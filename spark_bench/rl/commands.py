@@ -25,6 +25,8 @@ def run_rollout(args: argparse.Namespace) -> int:
                     joint=args.joint, video=args.video, max_episode_steps=args.max_episode_steps)
     if args.json:
         print(stats_json(stats))
+    elif stats.reason is not None:
+        Console().print(f"[bold]{args.env}[/] {args.policy}: not attempted, {stats.reason}")
     else:
         Console().print(f"[bold]{args.env}[/] {args.policy}: success rate {stats.success_rate:.2f} over "
                         f"{stats.episodes} episodes, mean return {stats.mean_return:.2f}, "
@@ -56,7 +58,8 @@ def add_commands(subparsers) -> None:
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--max-episode-steps", type=int, default=None)
     p.add_argument("--video", default=None, help="write the episodes to a .gif or .mp4")
-    p.add_argument("--json", action="store_true", help='print {"success_rate", "episodes", "mean_return"} as JSON')
+    p.add_argument("--json", action="store_true", help='print {"success_rate", "episodes", "mean_return", "mean_max_fraction"} as JSON '
+                   '(and "reason" when the scripted planner declines the part)')
     p.set_defaults(func=run_rollout)
 
     p = subparsers.add_parser("train", help="train PPO or SAC on an opening task (stable-baselines3)")

@@ -30,14 +30,17 @@ class RolloutStats:
     :param mean_max_fraction: mean of each episode's largest joint fraction
     :param successes: per-episode success
     :param returns: per-episode return
+    :param reason: why the scripted opener's planner declined the part (no handle, a flush lid...): then no
+        episode ran, ``success_rate`` is 0 and the means are None
     """
 
     success_rate: float
     episodes: int
-    mean_return: float
-    mean_max_fraction: float
+    mean_return: float | None
+    mean_max_fraction: float | None
     successes: list[bool] = field(default_factory=list)
     returns: list[float] = field(default_factory=list)
+    reason: str | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -105,10 +108,16 @@ def rollout(env_id: str, asset=None, policy: str = "scripted", episodes: int = 1
     :param joint: the joint to open
     :param video: write the episodes to this ``.gif`` / ``.mp4``
     :param max_episode_steps: time limit (default: the registered one)
+    :returns: the scores; with the scripted policy on a part its planner declines, no episode runs and
+        ``reason`` says why (no video is written then)
     """
     env = make_env(env_id, asset=asset, joint=joint, render_mode="rgb_array" if video else None,
                    max_episode_steps=max_episode_steps)
     try:
+        reason = env.unwrapped.scene.grasp.reason if policy == "scripted" else None
+        if reason is not None:  # the planner says why a parallel gripper cannot open it: nothing to run
+            return RolloutStats(success_rate=0.0, episodes=0, mean_return=None, mean_max_fraction=None,
+                                reason=reason)
         frames = [] if video else None
         stats = run_episodes(env, load_policy(policy), episodes, seed=seed, frames=frames)
         if video:
@@ -119,6 +128,10 @@ def rollout(env_id: str, asset=None, policy: str = "scripted", episodes: int = 1
 
 
 def stats_json(stats: RolloutStats) -> str:
-    """The CLI's JSON line: success rate, episodes, mean return (and the mean largest fraction)."""
-    return json.dumps({"success_rate": stats.success_rate, "episodes": stats.episodes,
-                       "mean_return": stats.mean_return, "mean_max_fraction": stats.mean_max_fraction})
+    """The CLI's JSON line: success rate, episodes, mean return, the mean largest fraction, and the
+    planner's ``reason`` when it declined the part."""
+    out = {"success_rate": stats.success_rate, "episodes": stats.episodes, "mean_return": stats.mean_return,
+           "mean_max_fraction": stats.mean_max_fraction}
+    if stats.reason is not None:
+        out["reason"] = stats.reason
+    return json.dumps(out)

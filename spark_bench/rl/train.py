@@ -1,8 +1,9 @@
 """Train an opening policy with stable-baselines3 (PPO or SAC), evaluating its success rate as it learns.
 
 Output folder: ``model.zip`` (the final model), ``train.json`` (settings, final and transfer scores,
-wall time), ``curve.csv`` (one row per evaluation) and ``curve.png`` (success rate and return against
-environment steps).
+wall time; assets named by path and content hash, :func:`spark_bench.rl.records.asset_record`),
+``curve.csv`` (one row per evaluation) and ``curve.png`` (success rate and return against environment
+steps).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from pathlib import Path
 from spark_bench.envs.registration import make_env
 from spark_bench.errors import InputError
 from spark_bench.rl.policies import ModelPolicy, algo_class
+from spark_bench.rl.records import asset_record
 from spark_bench.rl.rollout import run_episodes
 
 #: Hyper-parameters per algorithm (stable-baselines3 keyword arguments), tuned on the default drawer.
@@ -164,9 +166,9 @@ def train(env_id: str, algo: str = "ppo", steps: int = 100_000, out: str | Path 
         transfer_env = make_env(env_id, asset=eval_asset, joint=joint)
         stats = run_episodes(transfer_env, ModelPolicy(model), eval_episodes, seed=20_000)
         transfer_env.close()
-        result.transfer = {"asset": str(eval_asset), **stats.to_dict()}
+        result.transfer = {"asset": asset_record(eval_asset), **stats.to_dict()}
     meta = {"env_id": env_id, "algo": algo, "steps": int(model.num_timesteps), "n_envs": n_envs, "seed": seed,
-            "asset": None if asset is None else str(asset), "joint": joint, "hyperparams": _jsonable(params),
+            "asset": asset_record(asset), "joint": joint, "hyperparams": _jsonable(params),
             "wall_s": result.wall_s, "final": result.final, "transfer": result.transfer}
     (out / "train.json").write_text(json.dumps(meta, indent=2))
     vec.close()

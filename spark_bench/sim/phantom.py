@@ -189,7 +189,8 @@ def trace(prepared, model, joint: Joint, moving: str, other: str, tolerance: flo
     # the other link's surface near the moving link's path, in the other link's frame
     hull_points = np.concatenate([s.to_trimesh().vertices for s in prepared.shapes[moving]])
     path = np.concatenate([hull_points @ np.linalg.inv(p)[:3, :3].T + np.linalg.inv(p)[:3, 3] for p in poses])
-    spacing = max(tolerance, 0.1 * float(np.min(np.ptp(hull_points, axis=0))))
+    # samples closer than the thinnest hull is thick (at most MAX_POINTS of them)
+    spacing = max(tolerance, 0.25 * min(float(np.min(hi - lo)) for _, lo, hi in hulls))
     points = surface_points(surface[0], surface[1], path.min(0) - tolerance, path.max(0) + tolerance, spacing)
     for pose in poses:
         result.surface_depth.append(surface_depth(points @ pose[:3, :3].T + pose[:3, 3], hulls))

@@ -92,8 +92,9 @@ def _unpack_shapes(data) -> list[CollisionShape]:
 # ----- whole-object contact resolution (exclusions and hinge relief) -------------------------------
 def object_key(prepared) -> str:
     """Key of an object's contact resolution: every link's shapes before relief, the joints, and the
-    options that decide exclusions and relief."""
-    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-2".encode())
+    options that decide exclusions and relief. The ``contacts-N`` tag is bumped whenever the rules
+    (rest overlaps, hinge relief, phantom blockings) change."""
+    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-3".encode())
     options = prepared.options
     digest.update(json.dumps([options.exclude_overlap, options.clearance, list(options.base_quat)]).encode())
     digest.update(np.round(np.float64(prepared.size), 9).tobytes())

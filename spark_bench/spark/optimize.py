@@ -588,6 +588,18 @@ def _with_params(hypotheses: dict[str, Hypothesis], params: dict) -> dict[str, H
     return out
 
 
+def child_box(asset: ArticulatedAsset, joint: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """The rest bounding box of the joint's part (its child and the links fixed to it) in the child's
+    link frame, or None when the part has no geometry."""
+    meshes = asset.link_meshes(links=asset.part_of_joint(joint))
+    if not meshes:
+        return None
+    world = np.concatenate([m.vertices for m in meshes.values()])
+    pose = asset.link_poses()[asset.joints[joint].child]
+    local = (world - pose[:3, 3]) @ pose[:3, :3]
+    return local.min(axis=0), local.max(axis=0)
+
+
 def canonical_sign(hyp: Hypothesis) -> Hypothesis:
     """``(axis, value)`` and ``(-axis, -value)`` are the same motion; keep the one with ``value >= 0``."""
     if hyp.type != "fixed" and hyp.value < 0:

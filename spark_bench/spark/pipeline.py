@@ -35,7 +35,13 @@ from spark_bench.spark.geometry import (
     predictions_geometry,
     spark_geometry,
 )
-from spark_bench.spark.open_state import OpenState, dataset_open_state, http_open_state, image_rgb
+from spark_bench.spark.open_state import (
+    RENDER_TOLERANCE,
+    OpenState,
+    dataset_open_state,
+    http_open_state,
+    image_rgb,
+)
 from spark_bench.spark.optimize import OpenStateScene
 from spark_bench.spark.prior import (
     annotation_prior,
@@ -224,10 +230,10 @@ def _optimize_spark(config: SparkConfig, case: CaseInput, prior_asset, open_stat
     settings = config.optimize.spark
     tick = time.perf_counter()
     if open_state.rgb is not None:
-        open_mask, open_rule = spark_mask(open_state.rgb, settings.threshold)
+        open_mask, open_rule = spark_mask(open_state.rgb, settings.threshold, open_state.tolerance)
     else:
         open_mask, open_rule = open_state.mask, "open-state mask"
-    closed_mask, closed_rule = spark_mask(_read_rgb(case.image), settings.threshold)
+    closed_mask, closed_rule = spark_mask(_read_rgb(case.image), settings.threshold, RENDER_TOLERANCE)
     if closed_mask.shape != (camera.height, camera.width):
         raise InputError(case.image, f"input image is {closed_mask.shape[1]} x {closed_mask.shape[0]} px, the "
                                      f"camera says {camera.width} x {camera.height}")

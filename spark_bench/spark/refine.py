@@ -50,6 +50,7 @@ from spark_bench.spark.optimize import (
     OpenStateScene,
     Stage,
     canonical_sign,
+    child_box,
     fit,
 )
 from spark_bench.spark.structure import CANONICAL_AXES, OBJECT_TO_WORLD
@@ -89,8 +90,9 @@ class RefineSettings:
     :param small_part: a part whose rest box is smaller than this fraction of the object's gets only the
         prior's and the centre-line pivot starts (0: off; measured on synth-v1 at 0.15: a door's lever
         handle, hinged at its end, lost its true hinge and took another axis)
-    :param skip_without_evidence: when no screened candidate beats the part left at rest (by the
-        margin), keep the prior's hypothesis without short fits
+    :param skip_without_evidence: when no finalist, before its short fit, scores better than the part
+        left at rest (exact score) by the decision's margin, keep the prior's hypothesis without short
+        fits, later sweeps or the final fit (its hinge moved into its part's box)
     """
 
     screen: Stage
@@ -198,6 +200,23 @@ def prior_hypotheses(asset: ArticulatedAsset, include_fixed: bool = False) -> di
     return out
 
 
+def canonical_axis(asset: ArticulatedAsset, joint_name: str, hyp: Hypothesis) -> Hypothesis:
+    """``hyp`` with its axis replaced by the nearest of the object's canonical directions (sign kept).
+
+    The search's dictionary is the object's canonical directions (its geometry is in the object's
+    frame); a prior whose axes are named in another frame (the annotation prior's are the camera's: a
+    vertical hinge seen from 30 degrees above is 30 degrees off) is read in that dictionary, as the
+    paper's second VLM query re-reads its coarse URDF."""
+    _, joint_rot, _ = _frames(asset, joint_name)
+    world = joint_rot @ np.asarray(hyp.axis, float)
+    world = world / np.linalg.norm(world)
+    directions = [OBJECT_TO_WORLD @ np.asarray(d, float) for d in CANONICAL_AXES.values()]
+    best = max(directions, key=lambda d: float(d @ world))
+    if float(best @ world) > 1 - 1e-9:
+        return hyp
+    return replace(hyp, axis=joint_rot.T @ best, tag=f"{hyp.tag}/canonical")
+
+
 def _frames(asset: ArticulatedAsset, joint_name: str):
     """World rotation of the parent frame and of the joint frame, and the world pivot, at rest."""
     joint = asset.joints[joint_name]
@@ -290,7 +309,7 @@ def _same_family(a: Hypothesis, b: Hypothesis) -> bool:
 def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSettings) -> RefineResult:
     """The native joint-optimization stage on an assembled prior asset (see the module docstring)."""
     clock = Clock()
-    prior = prior_hypotheses(asset, settings.include_fixed)
+    prior = {n: canonical_axis(asset, n, h) for n, h in prior_hypotheses(asset, settings.include_fixed).items()}
     current = dict(prior)
     candidates_report: dict[str, list[dict]] = {}
     finest = settings.final[-1] if settings.final else settings.screen
@@ -337,16 +356,20 @@ def _search_joint(asset, scene, current, name, prior_hyp, short, settings, clock
     """Screen and short-fit the candidates of one joint; returns the winner, a report, and whether the
     image had no evidence about the joint (the prior kept without short fits)."""
     with clock.phase("search_screen"):
-        screened, keep, best_screen, rest_screen = _screen(asset, scene, current, name, prior_hyp, settings)
+        screened, keep = _screen(asset, scene, current, name, prior_hyp, settings)
     report = [{"candidate": c.tag, "screen_loss": round(s, 6)} for s, c in screened]
-    if settings.skip_without_evidence and best_screen > rest_screen - _margin(rest_screen, settings):
-        # no candidate moves the part closer to the open state than leaving it at rest does (a button
-        # pressed a millimetre, a knob turned in place, a part out of view): the image says nothing about
-        # this joint, and the finalists' decision would keep the prior's family (see ``_decide``)
-        report.append({"candidate": "(none: no candidate beats the part at rest)", "screen_loss": round(rest_screen, 6)})
-        return prior_hyp, report, True
     with clock.phase("search_exact_scores"):
         exact = scene.seg_scorer(current, name, settings.score_size)
+        # the part left at rest: a knob turned a full turn looks so, and then no motion is evidence of an axis
+        rest_score = exact(replace(prior_hyp, value=0.0))
+        if settings.skip_without_evidence:
+            finalists = exact.scores(keep)
+    if settings.skip_without_evidence and float(np.min(finalists)) > rest_score - _margin(rest_score, settings):
+        # no finalist draws the open state better than the part left at rest, by the margin a decision
+        # needs (a button pressed a millimetre, a knob turned in place, a part out of view): the image
+        # says nothing about this joint, and the decision would keep the prior's family (``_decide``)
+        report.append({"candidate": "(none: no finalist beats the part at rest)", "seg_score": round(rest_score, 6)})
+        return _pivot_in_part(asset, name, prior_hyp), report, True
     fitted = []
     for cand in keep:
         with clock.phase("search_short_fits"):
@@ -361,10 +384,27 @@ def _search_joint(asset, scene, current, name, prior_hyp, short, settings, clock
         entry = next(r for r in report if r["candidate"] == cand.tag)
         entry.update(fit_loss=round(res.loss, 6), seg_score=round(score_exact, 6))
         fitted.append((score_exact, res.loss, found, cand))
-    # the part left at rest: a knob turned a full turn looks so, and then no motion is evidence of an axis
-    with clock.phase("search_exact_scores"):
-        rest_score = exact(replace(prior_hyp, value=0.0))
     return _decide(fitted, prior_hyp, rest_score, settings), report, False
+
+
+def _pivot_in_part(asset: ArticulatedAsset, name: str, hyp: Hypothesis) -> Hypothesis:
+    """``hyp`` with its axis line moved to pass through its part's rest bounding box (child frame), where
+    a hinge is (SPARK's optimizer keeps its pivot in that box too): the line's point nearest the box's
+    centre, clamped into the box (a line through the box is kept); prismatic joints have no pivot."""
+    if hyp.type != "revolute":
+        return hyp
+    box = child_box(asset, name)
+    if box is None:
+        return hyp
+    rotation = np.asarray(asset.joints[name].origin, float)[:3, :3]
+    point = rotation.T @ np.asarray(hyp.pivot_offset, float)  # on the line, child frame
+    axis = np.asarray(hyp.axis, float) / np.linalg.norm(hyp.axis)  # the joint frame is the child's at rest
+    centre = (box[0] + box[1]) / 2
+    nearest = point + float((centre - point) @ axis) * axis
+    inside = np.clip(nearest, box[0], box[1])
+    if np.allclose(inside, nearest):
+        return hyp
+    return replace(hyp, pivot_offset=rotation @ inside, tag=f"{hyp.tag}/in-part")
 
 
 def _margin(score: float, settings: RefineSettings) -> float:
@@ -373,10 +413,10 @@ def _margin(score: float, settings: RefineSettings) -> float:
     return max(settings.margin_abs, settings.margin_rel * score)
 
 
-def _screen(asset, scene, current, name, prior_hyp, settings) -> tuple[list, list[Hypothesis], float, float]:
+def _screen(asset, scene, current, name, prior_hyp, settings) -> tuple[list, list[Hypothesis]]:
     """Every candidate of one joint scored on the grid of open values (sorted ``(score, candidate)``
-    pairs), the finalists (the ``top_k`` best after a local search of the value, and the best of the
-    prior's family), the best screening score after the local search, and the part at rest's."""
+    pairs), and the finalists: the ``top_k`` best after a local search of the value, and the best of the
+    prior's family."""
     cands = candidate_hypotheses(asset, name, prior_hyp, settings.include_fixed,
                                  small_part=_is_small_part(scene, name, settings.small_part))
     scorer = scene.seg_scorer(current, name, settings.screen_score_size, settings.screen_blur)
@@ -409,8 +449,7 @@ def _screen(asset, scene, current, name, prior_hyp, settings) -> tuple[list, lis
     keep = [c for _, c in refined[: settings.top_k]]
     if not any(_same_family(c, prior_hyp) for c in keep):  # the prior's type and axis line always compete
         keep.append(next(c for _, c in refined if _same_family(c, prior_hyp)))
-    rest = float(scorer.scores([replace(prior_hyp, value=0.0)])[0])
-    return screened, keep, refined[0][0], rest
+    return screened, keep
 
 
 def _decide(fitted: list[tuple], prior_hyp: Hypothesis, rest_score: float, settings: RefineSettings

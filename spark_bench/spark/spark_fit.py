@@ -60,8 +60,8 @@ from PIL import Image
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.spark.assemble import apply_pivot_offset, set_joint
 from spark_bench.spark.loss import halo_target
-from spark_bench.spark.open_state import mask_from_image
-from spark_bench.spark.optimize import Adam, Hypothesis, OpenStateScene, Stage
+from spark_bench.spark.open_state import GENERATED_TOLERANCE, mask_from_image
+from spark_bench.spark.optimize import Adam, Hypothesis, OpenStateScene, Stage, child_box
 from spark_bench.spark.refine import Clock, prior_hypotheses
 
 #: The script's render size (``--image-size``): the frame its loss terms are means over.
@@ -73,11 +73,14 @@ W_BCE, W_DICE, W_EDGE = 1.0, 0.5, 0.2
 _SOBEL_X = torch.tensor([[-1.0, 0.0, 1.0], [-2.0, 0.0, 2.0], [-1.0, 0.0, 1.0]]) / 8.0
 
 
-def spark_mask(rgb: np.ndarray, threshold: float = 0.9) -> tuple[np.ndarray, str]:
+def spark_mask(rgb: np.ndarray, threshold: float = 0.9, tolerance: float = GENERATED_TOLERANCE
+               ) -> tuple[np.ndarray, str]:
     """SPARK's object mask of an image and the rule used (see the module docstring).
 
     :param rgb: (H, W, 3) in [0, 1]
     :param threshold: object where the mean of R, G, B is below it
+    :param tolerance: the backdrop's colour tolerance when the border is darker than ``threshold``
+        (:data:`~spark_bench.spark.open_state.RENDER_TOLERANCE` for the benchmark's renders)
     :returns: ``(mask (H, W) of 0/1, rule)``, rule ``darker-than-threshold`` (the script's) or
         ``unlike-border`` (the border itself is darker than the threshold)
     """
@@ -86,7 +89,7 @@ def spark_mask(rgb: np.ndarray, threshold: float = 0.9) -> tuple[np.ndarray, str
     border = np.concatenate([bright[0], bright[-1], bright[:, 0], bright[:, -1]])
     if float(np.median(border)) < threshold:
         image = Image.fromarray(np.clip(np.round(rgb * 255), 0, 255).astype(np.uint8))
-        return mask_from_image(image), "unlike-border"
+        return mask_from_image(image, tolerance), "unlike-border"
     return (bright < threshold).astype(np.float64), "darker-than-threshold"
 
 
@@ -100,7 +103,8 @@ def edge_map(image: torch.Tensor) -> torch.Tensor:
 
 
 def spark_terms(sil: torch.Tensor, target: torch.Tensor, area_scale: float | None = None,
-                length_scale: float | None = None) -> dict[str, torch.Tensor]:
+                length_scale: float | None = None, target_edges: torch.Tensor | None = None
+                ) -> dict[str, torch.Tensor]:
     """The script's ``compute_silhouette_loss``, term by term.
 
     With the default scales the BCE and edge terms are means over the image, as in the script; with
@@ -111,6 +115,7 @@ def spark_terms(sil: torch.Tensor, target: torch.Tensor, area_scale: float | Non
     :param target: (H, W) target in [0, 1]
     :param area_scale: factor of the BCE sum (default ``1 / pixels``)
     :param length_scale: factor of the edge term's sum (default ``1 / pixels``)
+    :param target_edges: ``edge_map(target)``, when the caller keeps it for many calls
     :returns: ``{"bce", "dice", "edge", "total"}``, ``total = bce + 0.5 dice + 0.2 edge``
     """
     sil = sil.clamp(0.0, 1.0)
@@ -120,7 +125,8 @@ def spark_terms(sil: torch.Tensor, target: torch.Tensor, area_scale: float | Non
     length_scale = 1.0 / pixels if length_scale is None else length_scale
     bce = F.binary_cross_entropy(sil, target, reduction="sum") * area_scale
     dice = 1.0 - (2.0 * (sil * target).sum() + EPS) / (sil.sum() + target.sum() + EPS)
-    edge = (edge_map(sil) - edge_map(target)).abs().sum() * length_scale
+    target_edges = edge_map(target) if target_edges is None else target_edges.to(sil.dtype)
+    edge = (edge_map(sil) - target_edges).abs().sum() * length_scale
     return {"bce": bce, "dice": dice, "edge": edge, "total": W_BCE * bce + W_DICE * dice + W_EDGE * edge}
 
 
@@ -156,18 +162,6 @@ class SparkFitResult:
     timings: dict[str, float]
 
 
-def child_box(asset: ArticulatedAsset, joint: str) -> tuple[np.ndarray, np.ndarray] | None:
-    """The rest bounding box of the joint's part (its child and the links fixed to it) in the child's
-    link frame, or None when the part has no geometry."""
-    meshes = asset.link_meshes(links=asset.part_of_joint(joint))
-    if not meshes:
-        return None
-    world = np.concatenate([m.vertices for m in meshes.values()])
-    pose = asset.link_poses()[asset.joints[joint].child]
-    local = (world - pose[:3, 3]) @ pose[:3, :3]
-    return local.min(axis=0), local.max(axis=0)
-
-
 def spark_fit(asset: ArticulatedAsset, scene: OpenStateScene, closed_mask: np.ndarray, settings,
               progress=None) -> SparkFitResult:
     """SPARK's recipe on every revolute joint of ``asset`` in turn (see the module docstring).
@@ -188,6 +182,7 @@ def spark_fit(asset: ArticulatedAsset, scene: OpenStateScene, closed_mask: np.nd
         at_rest = {n: replace(h, value=0.0) for n, h in hypotheses.items()}
         closed = float(spark_terms(scene.render(at_rest, stage), closed_target, area, length)["total"])
     target = scene.target(stage.size, stage.tau)
+    target = (target, edge_map(target))
     low, high = (math.radians(b) for b in settings.angle_bounds)
     rows, curve = [], []
     revolute = [n for n, h in hypotheses.items() if h.type == "revolute"]
@@ -222,14 +217,17 @@ def _fit_joint(asset, scene, hypotheses, name, index, stage, target, closed_term
     angle0 = float(np.clip(hyp.value, *bounds))
     delta = torch.zeros((), dtype=torch.float64, requires_grad=True)
     still = scene.still_parts(hypotheses, [name], stage)
-    moving = torch.as_tensor(still.moving, dtype=torch.long)
+    others = [g for g in range(len(scene.link_names)) if g not in set(still.moving)]
+    # the links this joint does not move, drawn once: their silhouette (the maximum of their images)
+    background = still.images[others].amax(dim=0) if others else torch.zeros(stage.size, stage.size)
+    target, target_edges = target
     adam = Adam([pivot, delta], [settings.lr_pivot, settings.lr_angle])
     losses, first = [], None
     for _ in range(stage.steps):
         adam.zero_grad()
         parts = scene.render_parts(hypotheses, stage, {name: (pivot, angle0 + delta)}, still.moving)
-        sil = still.images.index_copy(0, moving, parts).amax(dim=0)
-        terms = spark_terms(sil, target, *scales)
+        sil = torch.maximum(background, parts.amax(dim=0))
+        terms = spark_terms(sil, target, *scales, target_edges)
         loss = (terms["total"].double() + closed_term + settings.reg_pivot * (pivot ** 2).sum()
                 + settings.reg_angle * delta ** 2)
         loss.backward()
@@ -244,8 +242,8 @@ def _fit_joint(asset, scene, hypotheses, name, index, stage, target, closed_term
                     tag="spark")
     with torch.no_grad():
         parts = scene.render_parts({**hypotheses, name: final}, stage, None, still.moving)
-        sil = still.images.index_copy(0, moving, parts).amax(dim=0)
-        last = {k: float(v) for k, v in spark_terms(sil, target, *scales).items()}
+        sil = torch.maximum(background, parts.amax(dim=0))
+        last = {k: float(v) for k, v in spark_terms(sil, target, *scales, target_edges).items()}
     row = {"joint": name, "start_pivot_offset": np.round(start, 6).tolist(),
            "pivot_offset": np.round(final.pivot_offset, 6).tolist(), "start_angle": angle0,
            "angle": final.value, "loss_start": losses[0] if losses else last["total"] + closed_term,

@@ -103,18 +103,36 @@ def test_start_state_is_in_front_of_the_handle():
     assert not info["is_success"] and 0.0 < info["reach"] < 1.0
 
 
+def _pads_cover(grasp, center, thickness, outward):
+    """The grasp is over the bar (in the front plane) and the pads, from the fingertips back along their
+    length, cover the bar's whole depth."""
+    from spark_bench.envs.gripper import GripperConfig
+
+    config = GripperConfig()
+    lateral = (grasp.point - center) - ((grasp.point - center) @ outward) * outward
+    tips = (grasp.point - center) @ outward - config.tip_beyond_tcp  # the fingertips' level, from the bar's
+    return (np.linalg.norm(lateral) < 0.005 and tips < -thickness / 2
+            and tips + config.finger_length > thickness / 2)
+
+
 def test_grasp_point_is_the_handle_bar_on_the_procedural_cabinet():
+    """The pads are centred on the bar and reach down past it towards the front (a bar or a knob's head is
+    held from behind, not pinched at its rounded front), fingertips clear of the front."""
+    from spark_bench.envs.handles import TIP_CLEARANCE
+
     asset = procedural_cabinet(0)
     poses = asset.link_poses()
     drawer = find_grasp(asset, "joint_0")
     bar = asset.links["link_0"].collisions[5]  # the drawer's bar handle
     bar_center = (poses["link_0"] @ bar.origin)[:3, 3]
-    assert np.linalg.norm(drawer.point - bar_center) < 0.01
+    assert _pads_cover(drawer, bar_center, bar.size[0], drawer.outward)
+    front = (poses["link_0"] @ asset.links["link_0"].collisions[0].origin)[0, 3] - 0.01  # the panel's front, x
+    assert drawer.point[0] + 0.012 == pytest.approx(front - TIP_CLEARANCE, abs=0.0025)  # tips 3 mm off it
     np.testing.assert_allclose(drawer.outward, [-1, 0, 0], atol=1e-6)
     assert abs(drawer.long_axis[1]) > 0.99  # a horizontal bar: fingers close vertically
     door = find_grasp(asset, "joint_1")
     bar = asset.links["link_1"].collisions[1]
-    assert np.linalg.norm(door.point - (poses["link_1"] @ bar.origin)[:3, 3]) < 0.01
+    assert _pads_cover(door, (poses["link_1"] @ bar.origin)[:3, 3], bar.size[0], door.outward)
     assert abs(door.long_axis[2]) > 0.99 and door.source == "geometry"
     # nothing else stands beside these handles: the fingers approach fully open, with the default pads
     assert drawer.opening is None and door.opening is None and door.pad_thickness is None

@@ -91,3 +91,18 @@ def test_bad_normalization_is_a_clear_error(case_dir, tmp_path):
     with pytest.raises(InputError, match="bad normalization") as info:
         ground_truth_in_metres(broken.gt_dir)
     assert str(broken.record_path) in str(info.value)
+
+
+def test_a_part_the_planner_declines_is_left_out_with_its_reason(tmp_path):
+    """A drawer with nothing to hold is no test of the prediction: left out (``success`` None) with the
+    planner's one-line reason, before any episode; the door is still scored."""
+    flat = procedural_cabinet(seed=0)
+    drawer = flat.links["link_0"]
+    drawer.visuals, drawer.collisions = drawer.visuals[:5], drawer.collisions[:5]  # the bar handle removed
+    gt_dir = BenchmarkCase(write_case(tmp_path / "bench", "flat0", flat)).gt_dir
+    gt = load_object(gt_dir)
+    result = open_with_predicted_joints(gt_dir, gt_dir, identity_matching(gt))
+    entry = result["joints"]["joint_0"]
+    assert entry["success"] is None and "no handle" in entry["reason"] and "\n" not in entry["reason"]
+    assert result["joints"]["joint_1"]["success"] is True
+    assert result["success_rate"] == 1.0  # the door alone is judged

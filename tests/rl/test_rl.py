@@ -55,6 +55,27 @@ def test_rollout_cli_prints_json(capsys):
     assert out["episodes"] == 2 and out["success_rate"] == 1.0 and out["mean_return"] > 0
 
 
+def test_rollout_reports_why_the_planner_declines_a_flat_front(tmp_path, capsys):
+    """A drawer front with nothing to hold (no handle, knob, notch, tab; too tall to pinch by its edges):
+    no episode runs, the JSON is still one object with ``success_rate`` (0) and the one-line ``reason``."""
+    from spark_bench.asset import write_object_folder
+    from spark_bench.envs.cabinet import procedural_cabinet
+
+    asset = procedural_cabinet(0)
+    drawer = asset.links["link_0"]
+    drawer.visuals, drawer.collisions = drawer.visuals[:5], drawer.collisions[:5]  # the bar handle removed
+    write_object_folder(asset, tmp_path / "flat")
+    code = main(["rollout", "--env", "SparkDrawer-v0", "--asset", str(tmp_path / "flat"), "--episodes", "2", "--json"])
+    assert code == 0
+    out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert out["success_rate"] == 0.0 and out["episodes"] == 0
+    assert "no handle" in out["reason"] and "\n" not in out["reason"]
+    # the door of the same cabinet keeps its bar: attempted, opened, no reason
+    code = main(["rollout", "--env", "SparkDoor-v0", "--asset", str(tmp_path / "flat"), "--episodes", "1", "--json"])
+    out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert code == 0 and out["success_rate"] == 1.0 and "reason" not in out
+
+
 def test_rollout_cli_rejects_a_missing_joint(capsys):
     code = main(["rollout", "--env", "SparkDoor-v0", "--asset", "procedural:0", "--joint", "joint_9"])
     assert code == 2

@@ -87,6 +87,21 @@ def test_blocked_drawer_fails_sweep_and_names_the_geom(isolated_home):
     assert report.checks["rest_stability"].passed  # only the sweep fails
 
 
+@pytest.mark.parametrize(("travel", "passes"), [(0.001, True), (0.003, False)])
+def test_joint_blocked_within_the_clearance_of_its_end_passes(isolated_home, travel, passes):
+    """The blocked drawer gets ~0.6 mm into the carcass (soft contacts). With 1 mm of travel it stops
+    0.4 mm short: less than 0.1 % of the object's size (1.2 mm), below what the hulls resolve, so it
+    passes; with 3 mm it stops 2.4 mm short and fails. The shortfall is reported either way."""
+    asset = _blocked_cabinet()
+    asset.joints["joint_drawer"].upper = travel
+    sweep = run_checks(asset).checks["joint_sweep"]
+    drawer = sweep.details["joints"]["joint_drawer"]
+    assert drawer["reached"] < 0.9
+    assert drawer["shortfall"] == pytest.approx((1 - min(drawer["reached"], drawer["returned"])) * travel, abs=1e-6)
+    assert 0.001 < sweep.details["floor"] < 0.0013  # 0.1 % of the cabinet's 1.08 m diagonal
+    assert sweep.passed is passes
+
+
 def test_zero_range_joint_is_not_swept(isolated_home):
     asset = tiny_cabinet()
     asset.joints["joint_drawer"].upper = 0.0

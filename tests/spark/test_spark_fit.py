@@ -11,10 +11,11 @@ from spark_bench.metrics.articulation import line_distance
 from spark_bench.spark.assemble import assemble_asset, joint_summary
 from spark_bench.spark.config import SparkFitConfig
 from spark_bench.spark.geometry import annotation_geometry
-from spark_bench.spark.optimize import OpenStateScene
+from spark_bench.spark.open_state import RENDER_TOLERANCE
+from spark_bench.spark.optimize import OpenStateScene, child_box
 from spark_bench.spark.prior import ground_truth_structure
 from spark_bench.spark.render import rasterize_mask
-from spark_bench.spark.spark_fit import child_box, edge_map, frame_scales, spark_fit, spark_mask, spark_terms
+from spark_bench.spark.spark_fit import edge_map, frame_scales, spark_fit, spark_mask, spark_terms
 from spark_bench.spark.toy import toy_cabinet, toy_camera
 
 
@@ -80,6 +81,12 @@ def test_spark_mask_thresholds_white_backgrounds_and_falls_back_on_grey_ones():
     grey = np.where(mask[..., None] > 0, 0.3, 0.7) * np.ones(3)  # a grey backdrop, darker than 0.9
     fallback, rule = spark_mask(grey)
     assert rule == "unlike-border" and np.array_equal(fallback, mask)
+    # a light part 5/255 off the benchmark's flat backdrop: object at the renders' tolerance, lost at the
+    # generated images' one
+    light = np.full((8, 8, 3), 198 / 255)
+    light[2:5, 3:6] = 203 / 255
+    assert spark_mask(light, tolerance=RENDER_TOLERANCE)[0].sum() == 9
+    assert spark_mask(light)[0].sum() == 0
 
 
 @pytest.fixture(scope="module")

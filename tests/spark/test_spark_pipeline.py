@@ -13,7 +13,7 @@ from spark_bench.errors import InputError
 from spark_bench.methods.base import CaseInput
 from spark_bench.methods.ours import ours_case
 from spark_bench.spark import SparkConfig, run_ours
-from spark_bench.spark.open_state import dataset_open_state, mask_from_image
+from spark_bench.spark.open_state import RENDER_TOLERANCE, dataset_open_state, mask_from_image
 from spark_bench.spark.toy import write_toy_case
 
 
@@ -114,7 +114,7 @@ def test_dataset_open_state_without_the_part_masks_input_never_reads_them(toy_ca
     case.open_seg.write_bytes(b"not an image")
     state = dataset_open_state(CaseInput(case, frozenset({"open_image"})), part_masks=False)
     with Image.open(case.open_image) as image:
-        assert np.array_equal(state.mask, mask_from_image(image))
+        assert np.array_equal(state.mask, mask_from_image(image, RENDER_TOLERANCE))
     assert state.part_masks == {} and state.source == str(case.open_image)
     # the toy's open image is its label image drawn grey on white: the same object pixels
     labels = np.asarray(Image.open(toy_case.open_seg))

@@ -1,0 +1,343 @@
+"""The scripted opener on real objects: every drawer, door and lid of the PartNet-Mobility objects in a
+folder (default ``../shared/partnet_dev``), opened with the ground-truth joint.
+
+What is measured, per joint whose part is labelled a drawer, door or lid (``semantics.txt``; other joints,
+buttons, knobs, a bucket's bail, are not drawers or doors):
+
+- whether the planner declines it (its ``reason``: no handle, a flush lid...) and why;
+- otherwise the success rate over ``--episodes`` episodes of ``--max-steps`` steps (the environments'
+  registered time limit by default), the task's success fraction (75 % of the joint's range), the
+  largest opening reached, the grasp the planner chose, and the time taken (model build and episodes).
+
+Also the issue's per-object number: ``spark-bench rollout --env SparkDrawer-v0|SparkDoor-v0 --policy
+scripted`` on each object's *default* joint (drawer for tables, door or lid otherwise).
+
+Failures are written as small MP4 videos (first episode, a close view of the grasp) into ``--videos``
+(default ``benchmarks/results/opener_failures``) with a PNG contact sheet of their frames, and the report
+as ``opener_real.md`` (``--results``). A per-joint JSON goes to ``--out``.
+
+Run: ``nice -n 10 python benchmarks/measure_opener_real.py [--ids 24644,7304] [--episodes 2]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+
+import spark_bench  # noqa: F401  (registers the environments)
+from spark_bench.envs import make_env
+from spark_bench.envs.assets import load_asset
+from spark_bench.errors import InputError
+
+ROOT = Path(__file__).resolve().parents[1].parent / "shared" / "partnet_dev"
+RESULTS = Path(__file__).resolve().parent / "results"
+#: Part labels (PartNet-Mobility ``semantics.txt``) that make a joint a drawer, door or lid.
+OPENABLE = {"drawer": "drawer", "door": "door", "rotation_door": "door", "translation_door": "door",
+            "lid": "lid", "rotation_lid": "lid", "translation_lid": "lid", "rotation_window": "window",
+            "translation_window": "window", "board": "board"}
+FPS = 12
+console = Console()
+
+
+def openable_joints(asset) -> list[dict]:
+    """``[{"joint", "type", "label", "category", "env"}]``: the drawers, doors and lids of an object."""
+    out = []
+    for joint in asset.movable_joints():
+        kind = OPENABLE.get(asset.links[joint.child].label)
+        if kind is None or joint.type not in ("prismatic", "revolute", "continuous"):
+            continue
+        out.append({"joint": joint.name, "type": joint.type, "label": kind, "category": asset.category,
+                    "env": "SparkDrawer-v0" if joint.type == "prismatic" else "SparkDoor-v0"})
+    return out
+
+
+def _close_camera(env, distance: float = 0.6):
+    """Point the environment's renderer at the grasp point from the front-left, above."""
+    unwrapped = env.unwrapped
+    unwrapped.render()  # makes the renderer and its camera
+    camera = unwrapped._camera
+    camera.lookat[:] = unwrapped.scene.grasp.point
+    camera.distance = distance
+    camera.azimuth, camera.elevation = 35.0, -25.0
+
+
+def run_joint(asset, object_id: str, row: dict, episodes: int, max_steps: int, video_dir: Path | None) -> dict:
+    """One joint of ``asset`` (loaded once per object: its joints' environments share its prepared
+    collision shapes): the planner's verdict, then ``episodes`` scripted episodes (frames of the first
+    kept when ``video_dir`` is given and it fails)."""
+    from spark_bench.rl.policies import ScriptedPolicy
+    from spark_bench.rl.rollout import run_episodes
+
+    start = time.perf_counter()
+    try:
+        env = make_env(row["env"], asset=asset, joint=row["joint"], max_episode_steps=max_steps,
+                       render_mode="rgb_array" if video_dir else None, width=320, height=240)
+    except InputError as exc:
+        return {**row, "error": " ".join(str(exc).split()), "success_rate": 0.0, "build_s": time.perf_counter() - start}
+    build = time.perf_counter() - start
+    grasp = env.unwrapped.scene.grasp
+    out = {**row, "grasp": grasp.source, "build_s": build}
+    if grasp.reason is not None:
+        env.close()
+        return {**out, "reason": grasp.reason, "success_rate": None}
+    frames: list = []
+    if video_dir:
+        _close_camera(env, 0.25 + 0.5 * float(np.linalg.norm(np.ptp(env.unwrapped.scene.workspace, axis=0))) / 3)
+    stats = run_episodes(env, ScriptedPolicy(), 1, seed=0, frames=frames if video_dir else None)
+    if episodes > 1:
+        more = run_episodes(env, ScriptedPolicy(), episodes - 1, seed=1)
+        stats.successes += more.successes
+    env.close()
+    out.update(success_rate=float(np.mean(stats.successes)), max_fraction=stats.mean_max_fraction,
+               episodes=episodes, run_s=time.perf_counter() - start - build)
+    if video_dir and out["success_rate"] < 1.0 and frames:
+        out["video"] = str(_write_failure(frames, video_dir, object_id, row["joint"]))
+    return out
+
+
+def _write_failure(frames: list, video_dir: Path, object_id: str, joint: str) -> Path:
+    from spark_bench.rl.rollout import write_video
+
+    video_dir.mkdir(parents=True, exist_ok=True)
+    path = video_dir / f"{object_id}_{joint}.mp4"
+    write_video(frames[::2], path, fps=FPS)
+    return path
+
+
+def contact_sheet(rows: list[dict], path: Path, per_row: int = 6) -> Path | None:
+    """A PNG: one line per failed joint, ``per_row`` frames of its video, half size."""
+    import imageio.v3 as iio
+
+    lines = []
+    for row in rows:
+        if "video" not in row:
+            continue
+        frames = iio.imread(row["video"])
+        picks = frames[np.linspace(0, len(frames) - 1, per_row).astype(int)]
+        lines.append(np.concatenate(list(picks), axis=1)[::2, ::2])
+    if not lines:
+        return None
+    width = max(line.shape[1] for line in lines)
+    sheet = np.concatenate([np.pad(line, ((0, 4), (0, width - line.shape[1]), (0, 0))) for line in lines])
+    path.parent.mkdir(parents=True, exist_ok=True)
+    iio.imwrite(path, sheet)
+    return path
+
+
+def default_rows(asset, object_id: str, rows: list[dict], episodes: int, max_steps: int) -> dict | None:
+    """The issue's per-object number: the environment's *default* joint (no ``--joint``), drawer for an
+    object with drawers, door or lid otherwise; reuses the joint's row when it was measured."""
+    from spark_bench.envs.scene import choose_joint
+
+    own = [r for r in rows if r["object"] == object_id]
+    if not own:
+        return None
+    kind = "prismatic" if any(r["type"] == "prismatic" for r in own) else "revolute"
+    joint = choose_joint(asset, kind, None).name
+    for r in own:
+        if r["joint"] == joint:
+            return {**r, "default": True}
+    row = {"joint": joint, "type": asset.joints[joint].type, "label": asset.links[asset.joints[joint].child].label,
+           "category": asset.category, "env": "SparkDrawer-v0" if kind == "prismatic" else "SparkDoor-v0"}
+    return {**run_joint(asset, object_id, row, episodes, max_steps, None), "object": object_id, "default": True}
+
+
+def summarize(rows: list[dict]) -> list[dict]:
+    """One line per category (and ``all``): joints, declined by the planner, attempted, opened (every
+    episode), opened / attempted, opened / all."""
+    out = []
+    categories = sorted({r["category"] for r in rows})
+    for category in categories + ["all"]:
+        sel = [r for r in rows if category in ("all", r["category"])]
+        declined = [r for r in sel if r.get("reason")]
+        attempted = [r for r in sel if not r.get("reason")]
+        opened = [r for r in attempted if r.get("success_rate", 0.0) >= 1.0]
+        out.append({"category": category, "joints": len(sel), "declined": len(declined), "attempted": len(attempted),
+                    "opened": len(opened), "rate_attempted": len(opened) / len(attempted) if attempted else None,
+                    "rate_all": len(opened) / len(sel) if sel else None})
+    return out
+
+
+def _pct(value) -> str:
+    return "-" if value is None else f"{100 * value:.0f} %"
+
+
+def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, path: Path,
+                 sheet: Path | None) -> Path:
+    """``opener_real.md``: rates per category, the issue's per-object number, every failure and every
+    declined part with its reason, and the time taken."""
+    lines = ["# The scripted opener on real objects", "",
+             f"Produced by `python benchmarks/measure_opener_real.py` on {os.cpu_count()} CPU cores shared with "
+             f"other jobs: every drawer, door and lid (by the part's `semantics.txt` label) of the "
+             f"PartNet-Mobility objects in `{args.root.name}/`, opened by the scripted opener with the "
+             f"ground-truth joint, {args.episodes} episodes of at most {args.max_steps} steps each (seeds 0..), "
+             "success = the joint passes 75 % of its range. A joint counts as opened when every episode opens it. "
+             "*Declined*: the planner says, before any episode, why a parallel gripper cannot pull the part "
+             f"(that line is the rollout's `reason`). Total time {seconds:.0f} s.", "",
+             "| category | joints | declined | attempted | opened | opened / attempted | opened / all |",
+             "|---|---|---|---|---|---|---|"]
+    for s in summarize(rows):
+        lines.append(f"| {s['category']} | {s['joints']} | {s['declined']} | {s['attempted']} | {s['opened']} | "
+                     f"{_pct(s['rate_attempted'])} | {_pct(s['rate_all'])} |")
+    if defaults:
+        lines += ["", "## Per object, default joint (`spark-bench rollout --env SparkDrawer-v0|SparkDoor-v0 "
+                  f"--policy scripted --episodes {args.episodes}`)", "",
+                  "| category | objects | opened | declined |", "|---|---|---|---|"]
+        for category in sorted({r["category"] for r in defaults}):
+            sel = [r for r in defaults if r["category"] == category]
+            ok = sum(1 for r in sel if not r.get("reason") and r.get("success_rate", 0.0) >= 1.0)
+            lines.append(f"| {category} | {len(sel)} | {ok} | {sum(1 for r in sel if r.get('reason'))} |")
+    failed = [r for r in rows if not r.get("reason") and r.get("success_rate", 0.0) < 1.0]
+    lines += ["", "## Not opened", ""]
+    lines += [f"- {r['object']} {r['joint']} ({r['category']} {r['label']}, grasp {r.get('grasp')}): success "
+              f"{r.get('success_rate', 0.0):.2f}, largest opening {r.get('max_fraction', 0.0):.2f} of the range"
+              + (f"; {r['error']}" if r.get("error") else "")
+              + (f" — [video]({os.path.relpath(r['video'], path.parent)})" if r.get("video") else "")
+              for r in failed] or ["- none"]
+    if sheet is not None:
+        lines += ["", f"![failures, one per line]({os.path.relpath(sheet, path.parent)})"]
+    lines += ["", "## Declined by the planner", ""]
+    lines += [f"- {r['object']} {r['joint']} ({r['category']} {r['label']}): {r['reason']}"
+              for r in rows if r.get("reason")] or ["- none"]
+    builds = [r["build_s"] for r in rows if "build_s" in r]
+    runs = [r["run_s"] for r in rows if "run_s" in r]
+    if builds:
+        lines += ["", f"Time per joint: model build median {np.median(builds):.1f} s (max {max(builds):.1f} s), "
+                  f"episodes median {np.median(runs) if runs else 0.0:.1f} s (max {max(runs) if runs else 0.0:.1f} s); "
+                  "builds reuse the collision-hull cache of `$SPARK_BENCH_HOME`."]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def score_speed(bench: Path, cases: list[str], seed: int = 0) -> list[dict]:
+    """The opening score (:func:`spark_bench.evaluation.opening.open_with_predicted_joints`) of the oracle
+    on each case of a prepared benchmark: the ground truth predicted by itself, every joint matched with
+    itself (what the oracle's metrics give). Wall time per case, and the verdicts."""
+    from spark_bench.data import load_object
+    from spark_bench.data.case import BenchmarkCase
+    from spark_bench.evaluation.opening import open_with_predicted_joints
+
+    out = []
+    for case_id in cases:
+        gt_dir = BenchmarkCase(bench / "cases" / case_id).gt_dir
+        gt = load_object(gt_dir, load_meshes=False)
+        matching = {"matching": [{"gt_joint": j.name, "pred_joint": j.name} for j in gt.movable_joints()]}
+        start = time.perf_counter()
+        result = open_with_predicted_joints(gt_dir, gt_dir, matching, seed=seed)
+        seconds = time.perf_counter() - start
+        verdicts = {name: j.get("success") for name, j in result["joints"].items()}
+        out.append({"case": case_id, "category": gt.category, "seconds": seconds, "success_rate": result["success_rate"],
+                    "verdicts": verdicts, "joints": result["joints"]})
+        console.print(f"{case_id} ({gt.category}): {seconds:.1f} s, success rate {result['success_rate']}, {verdicts}")
+    return out
+
+
+def write_score_speed(rows: list[dict], before: list[dict] | None, path: Path, note: str) -> Path:
+    """``opener_score_speed.md``: the oracle's opening score per case, seconds (and those of ``before``, an
+    earlier code's run on the same cases, with whether the verdicts changed)."""
+    old = {r["case"]: r for r in before or []}
+    lines = ["# The opening score's time per real case (oracle)", "",
+             f"Produced by `python benchmarks/measure_opener_real.py --score BENCH --cases ...` on "
+             f"{os.cpu_count()} CPU cores shared with other jobs. {note}", "",
+             "| case | category | joints (scored / left out) | seconds" + (" | before (s) | verdicts" if old else "")
+             + " |", "|---|---|---|---" + ("|---|---" if old else "") + "|"]
+    for r in rows:
+        scored = sum(1 for v in r["verdicts"].values() if v is not None)
+        cells = [r["case"], r["category"], f"{scored} / {len(r['verdicts']) - scored}", f"{r['seconds']:.1f}"]
+        if old:
+            b = old.get(r["case"])
+            if b is None:
+                cells += ["-", "-"]
+            else:
+                same = {k: v for k, v in r["verdicts"].items() if v is not None} == {
+                    k: v for k, v in b["verdicts"].items() if v is not None}
+                cells += [f"{b['seconds']:.1f}", "same" if same else f"before {b['verdicts']}, now {r['verdicts']}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    seconds = [r["seconds"] for r in rows]
+    lines += ["", f"Median {np.median(seconds):.1f} s, max {max(seconds):.1f} s per case"
+              + (f" (before: median {np.median([b['seconds'] for b in before]):.1f} s, max "
+                 f"{max(b['seconds'] for b in before):.1f} s)." if before else ".")]
+    lines += ["", "Left out, with the reason the score records:", ""]
+    for r in rows:
+        for name, j in r["joints"].items():
+            if j.get("success") is None:
+                lines.append(f"- {r['case']} {name}: {j.get('reason') or j.get('why')}")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--root", type=Path, default=ROOT, help="folder of PartNet-Mobility objects")
+    parser.add_argument("--ids", default=None, help="comma-separated object ids (default: every object)")
+    parser.add_argument("--episodes", type=int, default=2)
+    parser.add_argument("--max-steps", type=int, default=None,
+                        help="steps per episode (default: the environments' registered time limit)")
+    parser.add_argument("--videos", type=Path, default=RESULTS / "opener_failures",
+                        help="folder for the failures' MP4s and contact sheet ('' for none)")
+    parser.add_argument("--results", type=Path, default=RESULTS, help="folder for opener_real.md")
+    parser.add_argument("--out", type=Path, default=None, help="per-joint JSON (default: none)")
+    parser.add_argument("--no-defaults", action="store_true", help="skip the per-object default-joint number")
+    parser.add_argument("--score", type=Path, default=None,
+                        help="instead: time the oracle's opening score on the cases of this prepared benchmark")
+    parser.add_argument("--cases", default=None, help="with --score: comma-separated case ids")
+    parser.add_argument("--before", type=Path, default=None,
+                        help="with --score: an earlier run's --out JSON, compared in opener_score_speed.md")
+    parser.add_argument("--note", default="", help="with --score: a line for the report (what was run how)")
+    args = parser.parse_args()
+    if args.score is not None:
+        cases = args.cases.split(",") if args.cases else sorted(p.name for p in (args.score / "cases").iterdir())
+        rows = score_speed(args.score, cases)
+        if args.out is not None:
+            args.out.write_text(json.dumps(rows, indent=1, default=float))
+        before = json.loads(args.before.read_text()) if args.before else None
+        console.print(f"wrote {write_score_speed(rows, before, args.results / 'opener_score_speed.md', args.note)}")
+        return
+    if args.max_steps is None:
+        from spark_bench.envs.registration import MAX_EPISODE_STEPS
+
+        args.max_steps = MAX_EPISODE_STEPS
+    if not args.root.is_dir():
+        raise SystemExit(f"{args.root}: no such folder")
+    ids = args.ids.split(",") if args.ids else sorted(p.name for p in args.root.iterdir() if (p / "mobility.urdf").is_file())
+    videos = args.videos if str(args.videos) else None
+    from tqdm import tqdm
+
+    start = time.perf_counter()
+    rows, defaults = [], []
+    for object_id in tqdm(ids, desc="objects", unit="obj"):
+        try:
+            asset = load_asset(str(args.root / object_id))[0]
+            joints = openable_joints(asset)
+        except InputError as exc:  # one bad object does not stop the run
+            console.print(f"[red]{object_id}[/]: {exc}")
+            continue
+        for row in joints:
+            result = {**run_joint(asset, object_id, row, args.episodes, args.max_steps, videos), "object": object_id}
+            rows.append(result)
+            verdict = result.get("reason") or f"success {result.get('success_rate', 0.0):.2f}"
+            console.print(f"{object_id} {row['joint']} ({row['category']} {row['label']}): {verdict}")
+        if joints and not args.no_defaults:
+            found = default_rows(asset, object_id, rows, args.episodes, args.max_steps)
+            if found is not None:
+                defaults.append(found)
+    seconds = time.perf_counter() - start
+    for s in summarize(rows):
+        console.print(f"{s['category']}: {s['opened']}/{s['attempted']} attempted opened, {s['declined']} declined, "
+                      f"{s['joints']} joints")
+    if args.out is not None:
+        args.out.write_text(json.dumps({"rows": rows, "defaults": defaults}, indent=1, default=float))
+    sheet = contact_sheet(rows, videos / "contact_sheet.png") if videos else None
+    console.print(f"wrote {write_report(rows, defaults, args, seconds, args.results / 'opener_real.md', sheet)}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,228 @@
+"""Which handle candidates a parallel gripper can pinch, and where on them (:mod:`spark_bench.envs.grasp`
+finds the candidates).
+
+A candidate is a cluster of surface points standing out of a part's front. It is pinchable whole when
+its extent across the fingers' closing direction (perpendicular to its own long direction) leaves
+:data:`PINCH_MARGIN` to each open pad. A wider one (a rosette knob, a safe's wheel) may still hold a
+pinchable piece:
+
+- a *raised* piece standing out of the rest of it (a rosette's central boss): the candidate's points above
+  successively higher levels, clustered again (:func:`raised_piece`); the pads then reach down to that
+  level, not to the front;
+- a *local* piece: the points within a radius of a seed point (a stretch of a wheel's rim), seeds tried
+  from the best placed (:func:`local_patch`); the radius is more than half the open fingers' span, so a
+  flat panel never counts.
+
+A handle on a hinge of its own (a safe's lever, a spinning wheel) is held as close to that hinge's axis as
+it can be: a pull there does not turn it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from spark_bench.envs.features import MIN_CLUSTER, Front, clusters, long_axis
+from spark_bench.envs.gripper import GripperConfig
+
+#: Room (m) kept between the fingertips and the level the pads reach down to (the front's level is known
+#: to a histogram bin, 2 mm).
+TIP_CLEARANCE = 0.0
+#: Room (m) kept between a handle and each open pad across the closing direction: a feature wider than
+#: the open fingers less twice this cannot be pinched.
+PINCH_MARGIN = 0.004
+#: Seed points tried when looking for a pinchable piece of a wide feature (:func:`local_patch`).
+MAX_PATCH_SEEDS = 12
+#: Level step (m) of the search for a raised piece of a wide feature, and how far (m) the piece must stand
+#: out of the level it is cut at for the pads to hold it.
+RAISED_STEP = 0.004
+RAISED_MIN = 0.008
+
+
+@dataclass
+class Candidate:
+    """A pinchable handle piece.
+
+    :param points: its surface points (world)
+    :param center: the 2-D point (front plane) to centre the pads on along the handle; None: its middle
+    :param base: the level (along the outward direction) the fingertips may reach down to; None: the
+        feature stands free (nothing of the part around it)
+    :param along: its long direction (world, in the front plane), when it is not that of its points (a
+        piece cut out of a wider feature across its own long direction); None: from its points
+    """
+
+    points: np.ndarray
+    center: np.ndarray | None
+    base: float | None
+    along: np.ndarray | None = None
+
+    def long_axis(self, front: Front) -> np.ndarray:
+        """The long direction the fingers close across."""
+        return self.along if self.along is not None else long_axis(self.points, front.basis)
+
+
+def pinch_width(points: np.ndarray, outward: np.ndarray, along: np.ndarray) -> float:
+    """A feature's extent (m) across the fingers' closing direction (perpendicular to ``outward`` and to its
+    long direction ``along``): what the open fingers must span."""
+    closing = np.cross(outward, along)
+    return float(np.ptp(points @ (closing / np.linalg.norm(closing))))
+
+
+def fits(points: np.ndarray, front: Front, span: float) -> bool:
+    """Whether the open fingers (``span`` m apart, margins taken) close around ``points``."""
+    return pinch_width(points, front.outward, long_axis(points, front.basis)) <= span
+
+
+def reach_depth(base: float | None, top: float, bottom: float, gripper: GripperConfig) -> float:
+    """The TCP's level along the outward direction for a pinch on a feature spanning levels ``bottom`` to
+    ``top``: the fingertips :data:`TIP_CLEARANCE` above the surface it stands on (level ``base``), or just
+    below its bottom when it stands free (``base`` None: a bucket's bail); or, for a feature standing out
+    further than the pads are long, the pads' back at its top."""
+    floor = bottom - TIP_CLEARANCE if base is None else base + TIP_CLEARANCE
+    tips = max(floor, top - gripper.finger_length + TIP_CLEARANCE)
+    return tips + gripper.tip_beyond_tcp
+
+
+def local_patch(points: np.ndarray, order: np.ndarray, front: Front, span: float, radius: float,
+                gripper: GripperConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """A pinchable piece of a feature too wide to pinch whole (a safe's wheel: a stretch of a spoke): around
+    a seed point, tried in ``order`` (seeds at least ``radius`` apart, at most :data:`MAX_PATCH_SEEDS`), the
+    feature's points within ``radius`` (in the front plane) give the piece's long direction; the piece is
+    then everything of the feature inside the open pads' sweep there (the pads' height along it, their
+    reach across it), and it fits when that is narrower than ``span``: no other stretch of the feature
+    stands where a pad comes down. ``radius`` is larger than half the span, so a flat panel never fits.
+    Returns ``(piece, seed, long direction)`` or None."""
+    uv = points @ front.basis.T
+    reach = gripper.max_opening + gripper.pad_thickness + PINCH_MARGIN
+    half_height = 0.5 * gripper.pad_height + PINCH_MARGIN
+    seeds: list[np.ndarray] = []
+    for i in order:
+        if any(np.linalg.norm(uv[i] - s) < radius for s in seeds):
+            continue
+        seeds.append(uv[i])
+        near = np.linalg.norm(uv - uv[i], axis=1) < radius
+        if near.sum() >= MIN_CLUSTER:
+            along = long_axis(points[near], front.basis) @ front.basis.T
+            across = np.array([-along[1], along[0]])
+            rel = uv - uv[i]
+            sweep = (np.abs(rel @ along) <= half_height) & (np.abs(rel @ across) <= reach)
+            if sweep.sum() >= MIN_CLUSTER and np.ptp(rel[sweep] @ across) <= span:
+                return points[sweep], points[i], along @ front.basis
+        if len(seeds) >= MAX_PATCH_SEEDS:
+            break
+    return None
+
+
+def raised_piece(points: np.ndarray, front: Front, span: float) -> list[Candidate]:
+    """Pieces of a feature too wide to pinch whole that stand out of the rest of it (a rosette's boss):
+    at the lowest level (in :data:`RAISED_STEP` steps) where the points above it split into clusters that
+    fit and stand :data:`RAISED_MIN` above the level, those clusters, gripped down to that level."""
+    depth = points @ front.outward
+    top = float(depth.max())
+    level = float(depth.min()) + RAISED_STEP
+    while level <= top - RAISED_MIN:
+        above = np.flatnonzero(depth > level)
+        found = [Candidate(points[above[g]], None, level) for g in clusters(points[above])
+                 if len(g) >= MIN_CLUSTER and float(depth[above[g]].max()) - level >= RAISED_MIN
+                 and fits(points[above[g]], front, span)]
+        if found:
+            return found
+        level += RAISED_STEP
+    return []
+
+
+def candidates(points: np.ndarray, groups: list[tuple], front: Front, gripper: GripperConfig, on_handle
+               ) -> tuple[list[Candidate], float | None]:
+    """Pinchable candidates among ``groups`` (``(indices into points, anchor, base)``: anchor the ``(origin,
+    axis)`` of the handle's own hinge or None, base the level the pads may reach down to), and the width of
+    the widest feature with no pinchable piece (or None).
+
+    :param on_handle: maps a group's points to those to grasp (a bail's far end)
+    """
+    span = 2 * gripper.max_opening - 2 * PINCH_MARGIN
+    radius = 0.5 * span + gripper.pad_thickness
+    out, widest = [], None
+    for g, anchor, base in groups:
+        whole = on_handle(points[g])
+        if anchor is None and fits(whole, front, span):
+            out.append(Candidate(whole, None, base))
+            continue
+        if anchor is not None:  # held near its own hinge's axis, where the pull does not turn it
+            o, a = anchor
+            r = points[g] - o
+            order = np.argsort(np.linalg.norm(r - np.outer(r @ a, a), axis=1))
+        else:
+            raised = raised_piece(points[g], front, span)
+            if raised:
+                out.extend(raised)
+                continue
+            order = np.argsort(front.point_scores(points[g]))
+        patch = local_patch(points[g], order, front, span, radius, gripper)
+        if patch is not None:
+            out.append(Candidate(patch[0], patch[1] @ front.basis.T, base, patch[2]))
+        else:
+            widest = max(widest or 0.0, pinch_width(whole, front.outward, long_axis(whole, front.basis)))
+    return out, widest
+
+
+def pad_center(candidate: Candidate, front: Front, gripper: GripperConfig) -> np.ndarray:
+    """The 2-D point (front plane) the pads are centred on: the middle of the candidate across its long
+    direction; along it, its middle or its seed, moved in so that the pads lie on the handle."""
+    axis2 = candidate.long_axis(front) @ front.basis.T
+    uv = candidate.points @ front.basis.T
+    middle = 0.5 * (uv.min(0) + uv.max(0))
+    if candidate.center is None:
+        return middle
+    along = uv @ axis2 - float(middle @ axis2)
+    half = 0.5 * float(along.max() - along.min())
+    mid = 0.5 * float(along.max() + along.min())
+    room = max(half - 0.5 * gripper.pad_height - PINCH_MARGIN, 0.0)
+    return middle + axis2 * (mid + float(np.clip((candidate.center - middle) @ axis2 - mid, -room, room)))
+
+
+#: Edge pinch: how far (m) behind the front face the fingertips go to hold the front's edges, deepest
+#: first, and the room (m) kept between the pads' sweep and any other part.
+EDGE_GRIP_DEPTHS = (0.015, 0.01, 0.006)
+EDGE_CLEARANCE = 0.002
+
+
+def edge_pinch(front: Front, others, gripper: GripperConfig) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """A pinch across the whole front, by its two edges (a table's shallow drawer front standing out of
+    its apron): when the front face is narrower one way than the open fingers (margins taken) and nothing
+    of the other parts stands in the pads' sweep beside those edges down to a grip depth of
+    :data:`EDGE_GRIP_DEPTHS`. Returns ``(point, long_axis, depth)`` (the TCP, the direction along the
+    edges, the grip depth) or None.
+
+    :param front: the part's front
+    :param others: the rest of the object's mesh (world, at rest), or None
+    """
+    from spark_bench.envs.features import LEVEL_BIN
+    from spark_bench.envs.pads import clipped_vertices
+
+    n, basis = front.outward, front.basis
+    face_points = front.points[np.abs(front.points @ n - front.face) < 2 * LEVEL_BIN]
+    if len(face_points) < MIN_CLUSTER:
+        return None
+    uv = face_points @ basis.T
+    _, vectors = np.linalg.eigh(np.cov((uv - uv.mean(0)).T))
+    span = 2 * gripper.max_opening - 2 * PINCH_MARGIN
+    for across in (vectors[:, 0], vectors[:, 1]):  # the narrow way first
+        extent = uv @ across
+        if np.ptp(extent) > span:
+            continue
+        along = np.array([-across[1], across[0]])
+        closing, long3 = across @ basis, along @ basis
+        middle = 0.5 * (extent.min() + extent.max()) * across + 0.5 * ((uv @ along).min() + (uv @ along).max()) * along
+        half, reach = 0.5 * float(np.ptp(extent)), gripper.max_opening + gripper.pad_thickness + EDGE_CLEARANCE
+        height = 0.5 * gripper.pad_height + EDGE_CLEARANCE
+        frame = np.stack([closing, long3, n])
+        for depth in EDGE_GRIP_DEPTHS:
+            center = middle @ basis + (front.face - depth + gripper.tip_beyond_tcp) * n
+            low = -gripper.tip_beyond_tcp - EDGE_CLEARANCE
+            blocked = any(len(clipped_vertices(others, center, frame, lo, hi)) for lo, hi in (
+                ([half + EDGE_CLEARANCE, -height, low], [reach, height, np.inf]),
+                ([-reach, -height, low], [-half - EDGE_CLEARANCE, height, np.inf])))
+            if not blocked:
+                return center, long3, depth
+    return None

@@ -1,0 +1,195 @@
+"""The grasp planner on handles real objects have: a small knob on a large front, a knob's boss on a wide
+rosette, a lever on its own hinge, a shallow front with no handle (pinched by its edges), a front with
+nothing to hold (declined, with a reason); the default joint; the fingers' closing speed. Then one real
+PartNet-Mobility drawer whose round knob the fingers used to close through."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import trimesh
+
+import spark_bench  # noqa: F401  (registers the environments)
+from spark_bench.asset.model import Collision, Joint, Link, Visual
+from spark_bench.envs.cabinet import METAL, procedural_cabinet
+from spark_bench.envs.grasp import find_grasp
+
+PARTNET_DEV = Path(__file__).resolve().parents[2].parent / "shared" / "partnet_dev"
+
+
+def _box(center, size) -> tuple[Visual, Collision]:
+    origin = np.eye(4)
+    origin[:3, 3] = center
+    return (Visual(mesh=trimesh.creation.box(extents=size, transform=origin), rgba=METAL),
+            Collision(kind="box", origin=origin, size=np.asarray(size, float)))
+
+
+def _cylinder(center, radius, length) -> tuple[Visual, Collision]:
+    """A cylinder along -X (out of a -X-facing front), its base at ``center``."""
+    origin = np.eye(4)
+    origin[:3, :3] = trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0])[:3, :3]
+    origin[:3, 3] = np.asarray(center) + [-length / 2, 0, 0]
+    mesh = trimesh.creation.cylinder(radius=radius, height=length, sections=24, transform=origin)
+    return Visual(mesh=mesh, rgba=METAL), Collision(kind="cylinder", origin=origin, size=np.array([radius, length]))
+
+
+def _drawer_with(parts) -> object:
+    """The procedural cabinet with the drawer's bar handle replaced by ``parts`` (link frame: the front
+    face at x = 0, facing -X)."""
+    asset = procedural_cabinet(0)
+    drawer = asset.links["link_0"]
+    drawer.visuals, drawer.collisions = drawer.visuals[:5], drawer.collisions[:5]
+    for visual, collision in parts:
+        drawer.visuals.append(visual)
+        drawer.collisions.append(collision)
+    return asset
+
+
+def _drawer_world(asset, local) -> np.ndarray:
+    pose = asset.link_poses()["link_0"]
+    return pose[:3, :3] @ np.asarray(local, float) + pose[:3, 3]
+
+
+def test_a_small_knob_on_a_large_front_is_found():
+    """A 16 mm knob is a few dozen of the part's 20 000 surface samples: the surface standing out of the
+    front is sampled on its own, densely."""
+    asset = _drawer_with([_cylinder((0.0, 0.12, 0.04), 0.008, 0.02)])
+    grasp = find_grasp(asset, "joint_0")
+    assert grasp.source == "geometry" and grasp.reason is None
+    knob = _drawer_world(asset, (-0.01, 0.12, 0.04))
+    lateral = (grasp.point - knob) - ((grasp.point - knob) @ grasp.outward) * grasp.outward
+    assert np.linalg.norm(lateral) < 0.004
+
+
+def test_a_boss_on_a_wide_rosette_is_pinched_down_to_the_rosette():
+    """A 120 mm rosette is wider than the open fingers (82 mm with margins); its 24 mm boss is held, the
+    fingertips stopping just above the rosette, not at the front."""
+    from spark_bench.envs.handles import TIP_CLEARANCE
+
+    asset = _drawer_with([_cylinder((0.0, 0.0, 0.0), 0.06, 0.012), _cylinder((-0.012, 0.0, 0.0), 0.012, 0.03)])
+    grasp = find_grasp(asset, "joint_0")
+    boss = _drawer_world(asset, (-0.027, 0.0, 0.0))
+    lateral = (grasp.point - boss) - ((grasp.point - boss) @ grasp.outward) * grasp.outward
+    assert grasp.source == "geometry" and np.linalg.norm(lateral) < 0.004
+    tips = grasp.point - 0.012 * grasp.outward  # the fingertips, 12 mm ahead of the TCP
+    rosette_top = _drawer_world(asset, (-0.012, 0.0, 0.0))
+    height = (tips - rosette_top) @ grasp.outward
+    assert TIP_CLEARANCE - 0.001 < height < TIP_CLEARANCE + 0.0045  # the level search steps 4 mm
+
+
+def test_a_flat_front_is_declined_with_a_reason():
+    asset = _drawer_with([])
+    grasp = find_grasp(asset, "joint_0")
+    assert grasp.source == "face" and not grasp.has_handle
+    assert grasp.reason is not None and "no handle" in grasp.reason and "\n" not in grasp.reason
+
+
+def test_a_shallow_front_with_no_handle_is_pinched_by_its_edges():
+    """A 60 mm drawer front standing clear of the carcass around it: the fingers close across its height."""
+    asset = procedural_cabinet(0)
+    drawer = asset.links["link_0"]
+    front = drawer.collisions[0]
+    size = front.size.copy()
+    size[2] = 0.06
+    drawer.visuals, drawer.collisions = [], []
+    visual, collision = _box(front.origin[:3, 3], size)
+    drawer.visuals.append(visual)
+    drawer.collisions.append(collision)
+    grasp = find_grasp(asset, "joint_0")
+    assert grasp.source == "edge" and grasp.reason is None
+    assert abs(grasp.closing[2]) > 0.99  # across the front's height
+    center = _drawer_world(asset, front.origin[:3, 3])
+    assert abs(grasp.point[2] - center[2]) < 0.004
+
+
+def _door_with_lever(continuous: bool = True):
+    """The procedural cabinet whose door has no bar but a 120 mm lever on a hinge of its own (its axis
+    out of the door), hanging down from its pivot near the free edge."""
+    asset = procedural_cabinet(0)
+    door = asset.links["link_1"]
+    door.visuals, door.collisions = door.visuals[:1], door.collisions[:1]
+    panel = door.collisions[0]
+    width = panel.size[1]
+    lever = [_box((-0.02, 0.0, -0.05), (0.015, 0.02, 0.12)), _box((-0.01, 0.0, 0.0), (0.02, 0.025, 0.025))]
+    asset.links["lever"] = Link(name="lever", visuals=[v for v, _ in lever], collisions=[c for _, c in lever],
+                                label="handle", semantic_joint="hinge")
+    origin = np.eye(4)
+    origin[:3, 3] = (-0.02, width - 0.08, 0.05)  # on the door's front, near its free edge
+    kind = "continuous" if continuous else "revolute"
+    asset.joints["lever_joint"] = Joint("lever_joint", kind, "link_1", "lever", origin=origin,
+                                        axis=np.array([-1.0, 0.0, 0.0]), lower=0.0, upper=1.0 if not continuous else 0.0)
+    return asset
+
+
+def test_a_hinged_lever_is_the_doors_handle_held_near_its_pivot():
+    """The lever is a part of its own (its own joint): it is the door's handle, and it is held near its
+    pivot, where pulling does not turn it."""
+    asset = _door_with_lever()
+    grasp = find_grasp(asset, "joint_1")
+    assert grasp.source == "label"
+    pivot, axis = asset.joint_frames()["lever_joint"]
+    r = grasp.point - pivot
+    off_axis = np.linalg.norm(r - (r @ axis) * axis)
+    assert off_axis < 0.03  # the lever's free end is 110 mm from the pivot
+
+
+def test_default_joint_is_the_door_not_a_knob_or_a_lever():
+    """With no joint named, the door task opens the door: not a continuous knob, nor a small part on a
+    revolute joint listed before it."""
+    from spark_bench.envs.scene import choose_joint
+
+    asset = _door_with_lever(continuous=False)
+    # put the lever's joint first, as PartNet-Mobility files often do
+    asset.joints = {"lever_joint": asset.joints.pop("lever_joint"), **asset.joints}
+    assert choose_joint(asset, "revolute", None).name == "joint_1"
+    asset.joints["lever_joint"].type = "continuous"
+    assert choose_joint(asset, "revolute", None).name == "joint_1"
+
+
+def test_fingers_close_at_a_bounded_speed():
+    """Slamming shut at 20 m/s, a 12 mm pad crossed 18 mm in one 4 ms step and landed inside a real
+    drawer's knob; the finger damping caps the closing speed near grip_force / damping."""
+    from spark_bench.envs.gripper import finger_target
+    from spark_bench.mujoco_gl import mujoco_module
+
+    mujoco = mujoco_module()
+    env = gym.make("SparkDrawer-v0", asset="procedural:0")
+    unwrapped = env.unwrapped
+    config = unwrapped.scene.gripper.config
+    env.reset(seed=0)
+    model, data = unwrapped.model, unwrapped.data
+    dofs = [model.jnt_dofadr[model.joint(n).id] for n in unwrapped.scene.gripper.finger_joints]
+    data.ctrl[unwrapped._act_fingers] = finger_target(config, 1.0)  # close, in the air
+    top = 0.0
+    for _ in range(60):  # physics steps (4 ms)
+        mujoco.mj_step(model, data)
+        top = max(top, float(np.max(np.abs(data.qvel[dofs]))))
+    cap = config.grip_force / config.finger_damping
+    assert 0.6 * cap < top < 1.1 * cap
+    assert top * model.opt.timestep < 0.01  # under 10 mm per step (18 mm at the old 2 N s/m)
+    env.close()
+
+
+def test_a_real_drawer_with_a_round_knob_opens():
+    """PartNet-Mobility table 24644: a 70 mm mushroom knob. The fingers closed through its hull and the
+    drawer stayed shut; it must open in both episodes within the registered 100 steps."""
+    from spark_bench.rl.rollout import rollout
+
+    folder = PARTNET_DEV / "24644"
+    if not folder.is_dir():
+        pytest.skip(f"partnet_dev objects not available ({folder} is absent)")
+    stats = rollout("SparkDrawer-v0", asset=str(folder), policy="scripted", episodes=2)
+    assert stats.success_rate == 1.0 and stats.reason is None
+
+
+def test_a_joint_that_opens_into_the_object_is_declined():
+    """A drawer whose axis is reversed (annotation errors do this) 'opens' into the cabinet: its grasp
+    would be inside the carcass, and the planner says the way in is blocked."""
+    asset = procedural_cabinet(0)
+    asset.joints["joint_0"].axis = -np.asarray(asset.joints["joint_0"].axis)
+    grasp = find_grasp(asset, "joint_0")
+    assert grasp.reason is not None and "runs into the object" in grasp.reason
+    assert find_grasp(procedural_cabinet(0), "joint_0").reason is None
