@@ -4,6 +4,12 @@ workers, and report the 2-worker speed-up against the 1-worker run measured here
 Each configuration starts from an empty results store and an empty generation cache, so nothing is
 reused between them. Run: ``python benchmarks/measure_eval.py [--bench synth-v1] [--methods oracle,geometry]``
 (``--cases 10`` for a quick look; ``--no-sim`` to time the metrics alone).
+
+``--rl N`` instead times the RL transfer score of ``eval --rl`` (the ``rl`` stage: the shipped generalist
+policies fine-tuned on the prediction, then run on the ground truth, with the case's episode video) on the
+first N cases, once per ``--finetune-steps`` (0 is the zero-shot score alone), with the oracle's
+prediction: its score is the policy's ceiling. Budget (issue 15): <= 20 s per case fine-tuned, <= 3 s
+zero-shot, on 2 cores. Writes ``benchmarks/results/generalist_transfer.md``.
 """
 
 from __future__ import annotations
@@ -55,9 +61,15 @@ def main(argv=None) -> int:
     parser.add_argument("--n-samples", type=int, default=100_000)
     parser.add_argument("--no-sim", action="store_true")
     parser.add_argument("--json", help="also write the results here")
+    parser.add_argument("--rl", type=int, default=0, metavar="N", help="time eval --rl's stage on N cases")
+    parser.add_argument("--rl-cases", help="with --rl: these case ids too (comma-separated)")
+    parser.add_argument("--finetune-steps", type=int, nargs="+", default=None,
+                        help="with --rl: fine-tuning steps to time (default: 0 and eval's default)")
     args = parser.parse_args(argv)
 
     cores = _pin_to_cores(2)
+    if args.rl:
+        return measure_rl(args, cores)
     from spark_bench.data.case import Benchmark
     from spark_bench.evaluation.runner import resolve_bench
 
@@ -86,6 +98,90 @@ def main(argv=None) -> int:
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=1))
     return 0
+
+
+def measure_rl(args, cores: list[int]) -> int:
+    """Time the ``rl`` stage of ``eval --rl`` with the oracle (see the module docstring)."""
+    import numpy as np
+
+    from spark_bench.data.case import Benchmark
+    from spark_bench.evaluation.runner import RL_FINETUNE_STEPS, EvalOptions, resolve_bench, run_eval
+    from spark_bench.evaluation.store import ResultsStore
+    from spark_bench.methods.base import MethodSpec
+
+    name, folder = resolve_bench(args.bench)
+    from spark_bench.data import load_object
+
+    bench = Benchmark(folder)
+    every = [c for c in bench.case_ids()  # cases with a drawer or door, spread over the categories
+             if any(j.type in ("prismatic", "revolute")
+                    for j in load_object(bench.case(c).gt_dir, load_meshes=False).movable_joints())]
+    cases = every[:: max(1, len(every) // args.rl)][: args.rl]
+    cases += [c for c in args.rl_cases.split(",") if c and c not in cases] if args.rl_cases else []
+    settings = args.finetune_steps if args.finetune_steps else [0, RL_FINETUNE_STEPS]
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="bench_rl_") as tmp:
+        for steps in settings:
+            db = Path(tmp) / f"rl-{steps}.sqlite"
+            options = EvalOptions(sim=False, rl=True, rl_finetune_steps=steps, n_samples=5_000)
+            cpu = time.process_time()
+            summary = run_eval(MethodSpec.create("oracle"), str(folder), options, db=db, workers=0,
+                               runs_root=Path(tmp) / "runs", progress=False, cases=cases)
+            cpu = time.process_time() - cpu
+            with ResultsStore(db) as store:
+                for row in store.rows(label=summary.run.label):
+                    rl = row["checks"].get("rl", {})
+                    rows.append({"case": row["case_id"], "finetune_steps": steps, "rl_stage_s": row["timings"].get("rl"),
+                                 "rl_cpu_s": rl.get("cpu_s"),
+                                 "joints": len(rl.get("joints", {})), "zero_shot": rl.get("zero_shot_success_rate"),
+                                 "finetuned": rl.get("success_rate"), "holdable": rl.get("holdable_joints"),
+                                 "holdable_finetuned": rl.get("holdable_success_rate"),
+                                 "error": rl.get("error")})
+                    print(json.dumps(rows[-1]), flush=True)
+            print(f"finetune {steps}: process CPU {cpu:.1f} s for {len(cases)} cases (metrics stage included)",
+                  flush=True)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    lines = ["# eval --rl: seconds per case and the oracle's ceiling", "",
+             f"Produced by `python benchmarks/measure_eval.py --rl {args.rl} --finetune-steps "
+             f"{' '.join(map(str, settings))}"
+             f"{' --rl-cases ' + args.rl_cases if args.rl_cases else ''}` on {name} ({len(cases)} cases with a drawer or door, spread over its categories: "
+             f"{', '.join(cases)}), cores {cores}, one "
+             f"process; the machine was shared with other jobs (load average {load:.1f} at the end), so the "
+             "times are upper bounds of an idle 2-core machine. The prediction is the ground truth itself (the "
+             "oracle): its RL score is the policy's ceiling. The time is the `rl` stage of each case (the "
+             "fine-tuning, both columns' episodes on every ground-truth drawer and door, and the case's "
+             "episode video); the first case also pays for imports and loading the weights. CPU s: this process's CPU "
+             "time in the stage (all its threads), what an idle machine's wall time would be on one core.", "",
+             "| fine-tuning steps | cases | joints | zero-shot success | fine-tuned success | holdable joints: "
+             "fine-tuned | rl stage wall s per case (mean / max) | its CPU s per case (mean / max) |",
+             "|---|---|---|---|---|---|---|---|"]
+    for steps in settings:
+        sel = [r for r in rows if r["finetune_steps"] == steps]
+        scored = [r for r in sel if r["zero_shot"] is not None]
+        weights = [r["joints"] for r in scored]
+        zero = np.average([r["zero_shot"] for r in scored], weights=weights) if sum(weights) else None
+        tuned = np.average([r["finetuned"] for r in scored], weights=weights) if sum(weights) else None
+        held = [r for r in scored if r["holdable_finetuned"] is not None]
+        hold = (np.average([r["holdable_finetuned"] for r in held], weights=[r["holdable"] for r in held])
+                if held else None)
+        secs = [r["rl_stage_s"] for r in sel if r["rl_stage_s"] is not None]
+        cpus = [r["rl_cpu_s"] for r in sel if r["rl_cpu_s"] is not None] or [float("nan")]
+        lines.append(f"| {steps} | {len(sel)} | {sum(weights)} | {_pct(zero)} | {_pct(tuned)} | "
+                     f"{_pct(hold)} of {sum(r['holdable'] for r in held)} | "
+                     f"{np.mean(secs):.1f} / {max(secs):.1f} | {np.mean(cpus):.1f} / {max(cpus):.1f} |"
+                     if secs else f"| {steps} | {len(sel)} | - |")
+    lines += ["", "Rates are over ground-truth drawers and doors (joints), each joint one episode per column (eval "
+              "--rl's default); "
+              "holdable joints: a grasp on a handle, a notch, a lid's tab or the front's edges that the grasp planner "
+              "gives no reason against (spark_bench.rl.tasks.holdable).", ""]
+    out = Path(__file__).resolve().parent / "results" / "generalist_transfer.md"
+    out.write_text("\n".join(lines))
+    print(f"wrote {out}", flush=True)
+    return 0
+
+
+def _pct(x) -> str:
+    return "-" if x is None else f"{100 * x:.1f}%"
 
 
 if __name__ == "__main__":

@@ -21,6 +21,8 @@ from spark_bench.metrics.names import (
 
 #: Regimes listed but not ranked: they see the answer.
 REFERENCE_REGIMES = ("ground truth",)
+#: The RL transfer columns (``eval --rl``), shown after the scripted opener's when any entry has them.
+RL_KEYS = ("rl_success_rate", "rl_zero_shot_success_rate")
 #: Table headers by metric key: the label and an arrow saying which way is better.
 HEADERS = {key: header(key) for key in HEADLINE_KEYS}
 LATEX_HEADERS = {key: header(key, r"$\uparrow$", r"$\downarrow$") for key in HEADLINE_KEYS}
@@ -118,11 +120,16 @@ class Leaderboard:
     def tables(self, entries: list[Entry] | None = None) -> list[Table]:
         entries = self.entries if entries is None else entries
         sim_keys = list(RATE_KEYS)
-        if any(e.metrics.get("rl_success_rate") is not None for e in entries):
-            sim_keys.append("rl_success_rate")
+        if self.has_rl(entries):
+            sim_keys += list(RL_KEYS)
         return [Table("shape", "Shape reconstruction", SHAPE_KEYS, entries),
                 Table("articulation", "URDF parameter estimation", ARTICULATION_KEYS, entries),
                 Table("sim", "Sim-readiness", tuple(sim_keys), entries)]
+
+    def has_rl(self, entries: list[Entry] | None = None) -> bool:
+        """Whether any entry has an RL transfer score (``eval --rl``)."""
+        return any(e.metrics.get(k) is not None for e in (self.entries if entries is None else entries)
+                   for k in RL_KEYS)
 
     def part_class_tables(self) -> list[Table]:
         """One articulation table per GAPartNet part class found in the rows (``hinge_door``,
@@ -141,7 +148,8 @@ class Leaderboard:
     def notes(self) -> list[str]:
         """What every rendering says under its tables: how the articulation errors are averaged, what the
         open-success column measures, the metric convention and the rows of other conventions left out."""
-        notes = [ARTICULATION_NOTE, OPEN_SUCCESS_NOTE, f"Metric convention: {self.convention}."]
+        notes = [ARTICULATION_NOTE, OPEN_SUCCESS_NOTE, *([RL_NOTE] if self.has_rl() else []),
+                 f"Metric convention: {self.convention}."]
         if self.left_out:
             scored = ", ".join(f"{n} under {c or 'no convention'}" for c, n in sorted(self.left_out.items()))
             notes.append(f"Not shown: {sum(self.left_out.values())} result rows scored under older metric "
@@ -182,3 +190,9 @@ PART_CLASS_NOTE = ("Per GAPartNet part class: AxisErr, PivotErr and TypeErr aver
 OPEN_SUCCESS_NOTE = ("Open success: the scripted opener, planned from the predicted joints, opening each "
                      "ground-truth drawer and door at its real size; cases whose joints it cannot open even "
                      "with the ground truth's own are left out.")
+#: What the RL columns measure, under every rendering of tables that show them.
+RL_NOTE = ("RL success: the shipped generalist opening policy (spark_bench.rl.generalist), fine-tuned for a few "
+           "thousand steps on the predicted object and told the predicted joint, opening every ground-truth drawer "
+           "and door at its real size (none left out: one no parallel gripper can hold counts as not opened); "
+           "RL zero-shot: the same without fine-tuning. The oracle's row (the ground truth as the prediction) is "
+           "the policy's ceiling.")

@@ -27,8 +27,11 @@ def add_commands(subparsers) -> None:
     p.add_argument("--regime", help="input regime of external predictions (default: image)")
     p.add_argument("--sim", action=argparse.BooleanOptionalAction, default=True,
                    help="run sim-readiness checks and the scripted opener (default: on)")
-    p.add_argument("--rl", action="store_true", help="also train a short opening policy per case")
-    p.add_argument("--rl-timesteps", type=int, default=20_000, help="policy training steps with --rl")
+    p.add_argument("--rl", action="store_true",
+                   help="also the RL transfer score: the shipped opening policy fine-tuned on the prediction, "
+                        "run on the ground truth (zero-shot and fine-tuned)")
+    p.add_argument("--rl-finetune-steps", type=int, default=None, metavar="N",
+                   help="fine-tuning steps per policy kind with --rl (default: 1024; 0: zero-shot only)")
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes (0: in this process; default: one per usable core)")
     p.add_argument("--executor", choices=("local", "ray"), default="local")
@@ -84,7 +87,7 @@ def run_eval_command(args) -> int:
                              config=absolute(args.config), label=args.label, regime=args.regime,
                              gallery=absolute(args.gallery))
     options = EvalOptions(sim=args.sim, rl=args.rl, n_samples=args.n_samples, seed=args.seed, align=args.align,
-                          rl_timesteps=args.rl_timesteps)
+                          **({} if args.rl_finetune_steps is None else {"rl_finetune_steps": args.rl_finetune_steps}))
     cases = [c for c in args.cases.split(",") if c] if args.cases else None
     workers = usable_cores() if args.workers is None else args.workers
     summary = run_eval(spec, args.bench, options, db=_db(args), workers=workers, executor=args.executor,

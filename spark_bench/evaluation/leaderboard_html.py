@@ -1,6 +1,7 @@
 """The HTML leaderboard page: tables with the paper's colours, bar charts, and a per-case gallery.
 
-The page is one file; its images (PNG) go into a folder beside it (``<name>_files/``) and are linked
+The page is one file; its images (PNG, and for runs with ``eval --rl`` one GIF episode of the RL policy per
+case) go into a folder beside it (``<name>_files/``) and are linked
 with relative paths, so the page and its folder can be copied anywhere together.
 """
 
@@ -33,6 +34,7 @@ _CSS = "\n".join([
     f"td.second {{ background: rgb{PALETTE['Palette4']}; }}",
     ".gallery td { text-align: center; vertical-align: top; font-size: 12px; }",
     f".gallery img {{ width: {RENDER_SIZE}px; height: {RENDER_SIZE}px; border: 1px solid #ddd; }}",
+    ".gallery img.episode { width: 240px; height: auto; }",
     ".charts img { max-width: 100%; }",
     ".na { color: #888; }",
 ])
@@ -126,6 +128,34 @@ def _render_cells(folder: str | Path | None, camera: dict, stem: Path) -> list[s
     return cells
 
 
+def _rl_of(row: dict) -> dict:
+    return (row.get("checks") or {}).get("rl") or {}
+
+
+def _rl_video_cell(row: dict, stem: Path) -> str:
+    """The case's RL episode (``eval --rl`` keeps one per case: the fine-tuned policy on the first
+    ground-truth drawer or door it was run on), copied beside the page, with the joint's outcome."""
+    rl = _rl_of(row)
+    for name, joint in (rl.get("joints") or {}).items():
+        video = joint.get("video")
+        if not video:
+            continue
+        target = stem.with_name(f"{stem.name}{Path(video).suffix}")
+        if not copy_file(Path(video), target):
+            return f"<td class='na'>episode video missing: {html_escape(video)}</td>"
+        outcome = "opened" if joint.get("success") else "not opened"
+        if joint.get("success") not in (None, 0.0, 1.0):
+            outcome = f"opened in {100 * joint['success']:.0f}% of episodes"
+        return (f"<td><img src='{html_escape(target.parent.name + '/' + target.name)}' alt='RL episode' class='episode'>"
+                f"<br>{html_escape(name)}: {html_escape(outcome)}</td>")
+    if rl.get("error"):
+        return f"<td class='na'>RL stage failed: {html_escape(rl['error'][:120])}</td>"
+    if rl and rl.get("success_rate") is None:
+        return "<td class='na'>no drawer or door</td>"
+    why = next((j.get("why") for j in (rl.get("joints") or {}).values() if j.get("why")), None)
+    return f"<td class='na'>{html_escape(why or 'no RL episode')}</td>"
+
+
 def _gallery(board: Leaderboard, assets: Path, max_cases: int) -> str:
     from spark_bench.evaluation.render import read_camera
 
@@ -135,6 +165,7 @@ def _gallery(board: Leaderboard, assets: Path, max_cases: int) -> str:
         for row in entry.rows:
             by_case.setdefault(row["case_id"], {})[k] = row
             case_dirs.setdefault(row["case_id"], row["case_dir"])
+    rl_entries = {k for k, entry in enumerate(board.entries) if any(_rl_of(r) for r in entry.rows)}
     lines = ["<table class='gallery'>"]
     for n, case_id in enumerate(sorted(by_case)[:max_cases]):
         case = BenchmarkCase(Path(case_dirs[case_id]))
@@ -149,12 +180,16 @@ def _gallery(board: Leaderboard, assets: Path, max_cases: int) -> str:
         cells += _render_cells(case.gt_dir, camera, assets / f"{stem}_gt")
         for k, entry in enumerate(board.entries):
             header += [f"<th>{html_escape(entry.name)}<br>{s}</th>" for s in STATES]
+            if k in rl_entries:
+                header.append(f"<th>{html_escape(entry.name)}<br>RL episode</th>")
             row = by_case[case_id].get(k)
             if row is None or row["status"] != "ok":
                 why = "not run" if row is None else f"failed: {row['stage']}"
-                cells += [f"<td class='na'>{html_escape(why)}</td>"] * len(STATES)
+                cells += [f"<td class='na'>{html_escape(why)}</td>"] * (len(STATES) + (k in rl_entries))
                 continue
             cells += _render_cells(row["prediction_dir"], camera, assets / f"{stem}_m{k}")
+            if k in rl_entries:
+                cells.append(_rl_video_cell(row, assets / f"{stem}_m{k}_rl"))
         if n == 0:
             lines.append("<tr>" + "".join(header) + "</tr>")
         lines.append("<tr>" + "".join(cells) + "</tr>")

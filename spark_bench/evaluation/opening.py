@@ -16,8 +16,9 @@ left out.
 
 What it uses of other packages is their public face: :class:`~spark_bench.data.case.BenchmarkCase` and
 :func:`~spark_bench.data.case.benchmark_frame` for the case and its frames, :func:`spark_bench.envs.make_env`
-and :mod:`spark_bench.rl` (``open_with_joint``, ``open_with_ground_truth``, ``run_episodes``,
-:func:`spark_bench.rl.train.train`).
+and :mod:`spark_bench.rl` (``open_with_joint``, ``open_with_ground_truth``). The RL transfer score
+(``eval --rl``) is :func:`spark_bench.rl.transfer.rl_transfer_score`; :func:`rl_rates` averages it over a
+run.
 """
 
 from __future__ import annotations
@@ -147,48 +148,29 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     return {"success_rate": rate, "joints": joints}
 
 
-def rl_transfer(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, out_dir: str | Path,
-                timesteps: int = 20_000, seed: int = 0, episodes: int = 10) -> dict:
-    """Train a short opening policy on the prediction, evaluate it on the ground truth.
+#: The RL transfer columns of ``eval --rl`` (:func:`spark_bench.rl.transfer.rl_transfer_score`): the summary key
+#: and the key of the per-case result it averages.
+RL_RATES = {"rl_success_rate": "success_rate", "rl_zero_shot_success_rate": "zero_shot_success_rate"}
 
-    The first ground-truth drawer or door with a matched predicted joint of an openable type is used:
-    the policy is trained on the predicted object opening the predicted joint, then run on the ground
-    truth opening the ground-truth joint.
 
-    :param pred_folder: the predicted object folder
-    :param gt_folder: the ground-truth object folder
-    :param metrics: the prediction's metrics (their ``matching``)
-    :param out_dir: where the model and its learning curve go
-    :param timesteps: training steps
-    :param seed: training seed
-    :param episodes: evaluation episodes on the ground truth
-    :returns: ``{"success_rate": ..., "train_success_rate": ..., "gt_joint": ..., "pred_joint": ...}``
+def rl_rates(rows) -> dict:
+    """The RL transfer rates of one run's rows (``eval --rl``): the fine-tuned and the zero-shot success,
+    each the mean over the cases where the stage scored a ground-truth drawer or door, a failed case
+    counting as not opened; None when no case was scored so (no ``--rl``, or no drawer or door anywhere).
+
+    :param rows: result rows of one run and variant (``checks["rl"]`` holds each case's transfer result)
+    :returns: ``{"rl_success_rate": ..., "rl_zero_shot_success_rate": ...}``
     """
-    from spark_bench.asset.ops import similarity_asset
-    from spark_bench.data import load_object
-    from spark_bench.envs import make_env
-    from spark_bench.rl import ModelPolicy, load_model, run_episodes
-    from spark_bench.rl.train import train
+    out = {}
+    for key, field_name in RL_RATES.items():
+        def scored(row, field_name=field_name):
+            rl = (row.get("checks") or {}).get("rl") or {}
+            return rl.get(field_name) is not None
 
-    gt_files, gt, to_source = ground_truth_in_metres(gt_folder)
-    pred_files = load_object(pred_folder)
-    # the prediction where (and as large as) the metrics matched it with the real object
-    pred = similarity_asset(pred_files, to_source @ prediction_to_gt_world(pred_files, gt_files,
-                                                                          metrics.get("alignment")))
-    for match in metrics.get("matching", []):
-        env_id = ENV_OF_TYPE.get(match["gt_type"])
-        pred_type = pred.joints[match["pred_joint"]].type
-        if env_id is None or ENV_OF_TYPE.get("revolute" if pred_type == "continuous" else pred_type) != env_id:
+        counted = [r for r in rows if r["status"] == "failed" or scored(r)]
+        if not any(scored(r) for r in rows):
+            out[key] = None
             continue
-        result = train(env_id, steps=timesteps, out=Path(out_dir), asset=pred, joint=match["pred_joint"], n_envs=2,
-                       seed=seed, eval_every=timesteps, eval_episodes=episodes, progress_bar=False)
-        env = make_env(env_id, asset=gt, joint=match["gt_joint"])
-        try:
-            stats = run_episodes(env, ModelPolicy(load_model(Path(out_dir) / "model.zip")), episodes, seed=20_000)
-        finally:
-            env.close()
-        return {"success_rate": float(stats.to_dict().get("success_rate", 0.0)),
-                "train_success_rate": result.final.get("success_rate"), "gt_joint": match["gt_joint"],
-                "pred_joint": match["pred_joint"], "env": env_id, "timesteps": timesteps}
-    return {"success_rate": 0.0 if metrics.get("matching") else None,
-            "why": "no matched drawer or door of the same kind to train on"}
+        total = sum(float(r["checks"]["rl"][field_name]) for r in counted if r["status"] == "ok" and scored(r))
+        out[key] = total / len(counted)
+    return out

@@ -3,7 +3,8 @@
 Per case (:func:`evaluate_case`, plain data in and out, so it runs in a process pool or as a Ray task):
 generate (cached under ``runs/<bench>/<label>-<hash>/<case>/``), load, shape and articulation metrics,
 sim-readiness checks, the scripted opener with the predicted joints against the ground-truth object,
-and, with ``rl``, a short policy training on the prediction evaluated on the ground truth. A failing
+and, with ``rl``, the RL transfer score (the shipped generalist opening policy fine-tuned on the
+prediction, run on the ground truth, :func:`spark_bench.rl.transfer.rl_transfer_score`). A failing
 stage fails the case with a one-line reason; the run goes on.
 
 The driver (:func:`run_eval`) skips cases whose result is already stored (resume), writes each result
@@ -31,9 +32,13 @@ from spark_bench.evaluation.store import ResultsStore, config_hash, now
 from spark_bench.jsonio import plain, to_json_text
 from spark_bench.methods.base import GENERATION_MARKER, CaseInput, Generation, MethodSpec
 from spark_bench.methods.registry import make_method
-from spark_bench.metrics.names import METRIC_COLUMNS
+from spark_bench.metrics.names import JOINT_MEAN, METRIC_COLUMNS
 
 DEFAULT_BENCH = "synth-v1"
+#: Fine-tuning steps of the RL transfer score per policy kind (``eval --rl``; measured by
+#: ``benchmarks/measure_eval.py``) and the episode video kept beside each case's fine-tuned policies.
+RL_FINETUNE_STEPS = 1024
+RL_VIDEO = "episode.gif"
 
 
 @dataclass(frozen=True)
@@ -41,11 +46,12 @@ class EvalOptions:
     """What is measured per case (part of the run's identity: changing it starts a new run).
 
     :param sim: run the sim-readiness checks and the scripted opener
-    :param rl: train a short opening policy on the prediction, evaluate it on the ground truth
+    :param rl: the RL transfer score: the shipped opening policy fine-tuned on the prediction, zero-shot and
+        fine-tuned on the ground truth
     :param n_samples: surface samples per shape for the metrics
     :param seed: sampling seed
     :param align: ``none`` or ``icp``
-    :param rl_timesteps: training steps of the policy with ``rl``
+    :param rl_finetune_steps: fine-tuning steps per policy kind with ``rl`` (0: zero-shot only)
     """
 
     sim: bool = True
@@ -53,12 +59,12 @@ class EvalOptions:
     n_samples: int = 100_000
     seed: int = 0
     align: str = "none"
-    rl_timesteps: int = 20_000
+    rl_finetune_steps: int = RL_FINETUNE_STEPS
 
     def identity(self) -> dict:
         out = asdict(self)
         if not self.rl:
-            out.pop("rl_timesteps")
+            out.pop("rl_finetune_steps")
         return out
 
 
@@ -243,9 +249,10 @@ def _scripted_open(pred_folder: Path, gt_folder: Path, metrics: dict, seed: int)
 
 
 def _rl_transfer(pred_folder: Path, gt_folder: Path, metrics: dict, out_dir: Path, options: EvalOptions) -> dict:
-    from spark_bench.evaluation.opening import rl_transfer
+    from spark_bench.rl.transfer import rl_transfer_score
 
-    return rl_transfer(pred_folder, gt_folder, metrics, out_dir, timesteps=options.rl_timesteps, seed=options.seed)
+    return rl_transfer_score(pred_folder, gt_folder, metrics, out_dir=out_dir, finetune_steps=options.rl_finetune_steps,
+                             seed=options.seed, video=out_dir / RL_VIDEO)
 
 
 def _success_rate(result: dict) -> float | None:
@@ -445,8 +452,15 @@ def run_eval(spec: MethodSpec, bench: str | None = None, options: EvalOptions | 
     from spark_bench.evaluation.aggregate import summarize
 
     main_rows = [r for r in rows if r["variant"] == ""]
+    metrics = summarize(main_rows, sim=options.sim)
+    if options.rl:  # always both keys with --rl (None: no case had a drawer or door)
+        from spark_bench.evaluation.opening import rl_rates
+
+        joint_mean = metrics.pop(JOINT_MEAN)
+        metrics.update(rl_rates(main_rows))
+        metrics[JOINT_MEAN] = joint_mean
     return EvalSummary(run=run, n_cases=len(all_ids), n_failed=sum(r["status"] == "failed" for r in main_rows),
-                       n_skipped=len(all_ids) - len(tasks), metrics=summarize(main_rows, sim=options.sim),
+                       n_skipped=len(all_ids) - len(tasks), metrics=metrics,
                        failures={r["case_id"]: f"{r['stage']}: {r['reason']}" for r in main_rows
                                  if r["status"] == "failed"},
                        seconds=time.perf_counter() - start)

@@ -40,7 +40,8 @@ class Headline:
     :param higher_is_better: which way is better (the header's arrow, the best / second-best marks)
     :param table: the leaderboard table it belongs to: ``shape``, ``articulation`` or ``sim``
     :param column: its column in the results store (None: a rate, aggregated from the check columns)
-    :param summary: part of every run's summary (False: ``cd_open`` and ``rl_success_rate``, added on request)
+    :param summary: part of every run's summary (False: ``cd_open`` and the RL transfer
+        rates, added on request)
     """
 
     key: str
@@ -63,6 +64,7 @@ HEADLINE = (
     Headline("sim_pass_rate", "Sim pass", True, "sim"),
     Headline("open_success_rate", "Open success", True, "sim"),
     Headline("rl_success_rate", "RL success", True, "sim", summary=False),
+    Headline("rl_zero_shot_success_rate", "RL zero-shot", True, "sim", summary=False),
 )
 BY_KEY = {h.key: h for h in HEADLINE}
 #: Every headline key, in :data:`HEADLINE` order.

@@ -224,3 +224,53 @@ def test_per_part_class_without_annotations_is_a_clear_error(store, tmp_path):
     for fmt in ("md", "csv", "latex", "html"):
         with pytest.raises(SparkBenchError, match="no GAPartNet part classes"):
             render(board, fmt, out=tmp_path / "x.html", per_part_class=True)
+
+
+def test_rl_scores_beside_the_scripted_opener_and_one_episode_video_per_case(tmp_path):
+    """Runs with ``eval --rl``: both RL columns after the scripted opener's, averaged over the cases with a
+    drawer or door (a failed case counting as not opened), the note saying the oracle is the ceiling, and
+    one episode video per case in the HTML gallery."""
+    import numpy as np
+    from PIL import Image
+
+    bench = make_tiny_bench(tmp_path, n=2)
+    cases = {c: str(Benchmark(bench).case_dir(c)) for c in ("cab0", "cab1")}
+    video = tmp_path / "episode.gif"
+    frames = [Image.fromarray(np.full((18, 24, 3), 40 * k, np.uint8)) for k in range(3)]
+    frames[0].save(video, save_all=True, append_images=frames[1:], duration=80)
+
+    def rl(success: float, zero: float, with_video: bool) -> dict:
+        joint = {"type": "prismatic", "pred_joint": "joint_2", "success": success, "zero_shot": zero}
+        return {"rl": {"success_rate": success, "zero_shot_success_rate": zero,
+                       "joints": {"joint_2": {**joint, **({"video": str(video)} if with_video else {})}}}}
+
+    def row(label, case_id, regime="image", **extra):
+        out = {**_row(label, case_id, regime=regime), "case_dir": cases[case_id],
+               "prediction_dir": str(Path(cases[case_id]) / "gt")}
+        out.update(extra)
+        return out
+
+    with ResultsStore(tmp_path / "r.sqlite") as store:
+        store.put([row("oracle", c, "ground truth", rl_success=1.0, checks=rl(1.0, 1.0, True)) for c in cases])
+        store.put([row("A", "cab0", rl_success=1.0, checks=rl(1.0, 0.5, True)),
+                   {**row("A", "cab1"), "status": "failed", "stage": "generate", "reason": "boom"}])
+        store.put([row("B", c) for c in cases])  # no --rl
+        board = build_leaderboard(store, bench="b")
+    by_name = {e.name: e for e in board.entries}
+    assert by_name["A"].metrics["rl_success_rate"] == 0.5  # the failed case counts as not opened
+    assert by_name["A"].metrics["rl_zero_shot_success_rate"] == 0.25
+    assert by_name["oracle"].metrics["rl_success_rate"] == 1.0
+    assert by_name["B"].metrics["rl_success_rate"] is None and by_name["B"].metrics["open_success_rate"] == 1.0
+    sim = board.tables()[2]
+    assert sim.metrics[-3:] == ("open_success_rate", "rl_success_rate", "rl_zero_shot_success_rate")
+    md = to_markdown(board)
+    assert "RL success↑ | RL zero-shot↑" in md and "ceiling" in md
+    assert "| A | image | _0.5000_ | _0.5000_ | **0.5000** | **0.2500** | 2 | 1 |" in md
+    assert "| B | image | **1.0000** | **1.0000** | n/a | n/a | 2 | 0 |" in md
+    out = tmp_path / "board" / "index.html"
+    page = render(board, "html", out=out, max_cases=2)
+    files = sorted(p.name for p in (tmp_path / "board" / "index_files").iterdir())
+    # oracle (entry 0) and A (entry 1) have an RL column; A's failed case says so, B has none
+    assert "case000_m0_rl.gif" in files and "case000_m1_rl.gif" in files and "case001_m1_rl.gif" not in files
+    assert page.count("class='episode'") == 3 and page.count("RL episode</th>") == 2
+    assert "failed: generate" in page

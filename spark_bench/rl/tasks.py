@@ -1,0 +1,213 @@
+"""Opening tasks for the generalist policies: every drawer and door of synth objects (by category and
+seed) or of object folders, their environments, and a policy's (or the scripted opener's) success on them.
+
+A task is one joint of one object: ``drawer`` for a prismatic joint, ``door`` for a revolute one
+(continuous joints, knobs and caps, are not opening tasks). Synth objects are generated once into
+``$SPARK_BENCH_HOME/rl/synth_v<generator version>/<category>_<seed>`` and reused.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+from spark_bench.errors import InputError
+from spark_bench.rl.generalist import EPISODE_STEPS, GraspFrameWrapper, make_task_env
+
+#: The policy kind of each openable joint type.
+TASK_KIND = {"prismatic": "drawer", "revolute": "door"}
+
+
+@dataclass
+class Task:
+    """One joint to open.
+
+    :param folder: the object folder
+    :param joint: the joint's name
+    :param kind: ``drawer`` or ``door``
+    :param category: the object's category
+    :param seed: the synth seed (None for a real object)
+    """
+
+    folder: Path
+    joint: str
+    kind: str
+    category: str = ""
+    seed: int | None = None
+
+    @property
+    def name(self) -> str:
+        return f"{Path(self.folder).name}/{self.joint}"
+
+
+@dataclass
+class BuiltTask:
+    """A task with its environment (:class:`GraspFrameWrapper` over the ``frame`` environment).
+
+    :param grasp: the grasp's source (``label``, ``geometry``, ``notch``, ``tab``, ``edge``, ``face``)
+    :param reason: the planner's reason why a parallel gripper cannot pull the part open, or None
+    """
+
+    task: Task
+    env: gym.Env
+    grasp: str = ""
+    info: dict = field(default_factory=dict)
+    reason: str | None = None
+
+    @property
+    def raw(self) -> gym.Env:
+        """The environment under the wrapper (``frame`` observations, world-frame actions)."""
+        return self.env.env
+
+
+def synth_root() -> Path:
+    """Where the synth objects of the tasks are generated (per generator version)."""
+    from spark_bench.data.synth import GENERATOR_VERSION
+    from spark_bench.paths import cache_dir
+
+    return cache_dir("rl") / f"synth_v{GENERATOR_VERSION}"
+
+
+def benchmark_object_seeds() -> set[int]:
+    """The synth seeds of every named synth benchmark's objects (training must not see them)."""
+    from spark_bench.data.benchmarks import BENCHMARKS
+    from spark_bench.data.synth.generate import object_seed
+
+    return {object_seed(b.seed, i) for b in BENCHMARKS.values() if not getattr(b, "ids", ())
+            for i in range(b.n_objects)}
+
+
+def object_tasks(folder: str | Path, category: str = "", seed: int | None = None) -> list[Task]:
+    """Every drawer and door of the object in ``folder``."""
+    from spark_bench.data import load_object
+
+    asset = load_object(folder, load_meshes=False)
+    return [Task(Path(folder), j.name, TASK_KIND[j.type], category or asset.category, seed)
+            for j in asset.movable_joints() if j.type in TASK_KIND]
+
+
+def synth_tasks(seeds, categories=None, root: str | Path | None = None) -> list[Task]:
+    """Every drawer and door of the synth objects of ``categories`` (default: all) x ``seeds``.
+
+    :raises InputError: a seed that a named benchmark's object also has
+    """
+    from spark_bench.data.synth import CATEGORIES, generate_object
+
+    seeds = [int(s) for s in seeds]
+    shared = sorted(set(seeds) & benchmark_object_seeds())
+    if shared:
+        raise InputError(None, f"synth seed {shared[0]} is a named benchmark object's seed: pick other seeds")
+    root = Path(root) if root is not None else synth_root()
+    tasks = []
+    for seed in seeds:
+        for category in categories or CATEGORIES:
+            folder = root / f"{category}_{seed}"
+            if not (folder / "mobility.urdf").is_file():
+                folder = Path(generate_object(category, seed, root, folder.name))
+            tasks.extend(object_tasks(folder, category, seed))
+    return tasks
+
+
+def build_tasks(tasks: list[Task], max_episode_steps: int = EPISODE_STEPS, progress: bool = False
+                ) -> tuple[list[BuiltTask], list[tuple[Task, str]]]:
+    """The environments of ``tasks``; a task whose environment cannot be made (no grasp on the part, an
+    MJCF that does not compile) is skipped with the reason.
+
+    :returns: ``(built, skipped)``
+    """
+    from tqdm import tqdm
+
+    built, skipped = [], []
+    for task in tqdm(tasks, desc="building tasks", unit="task", disable=not progress):
+        try:
+            env = make_task_env(task.kind, task.folder, task.joint, max_episode_steps=max_episode_steps)
+        except InputError as exc:
+            skipped.append((task, " ".join(str(exc).split())[:200]))
+            continue
+        grasp = env.unwrapped.scene.grasp
+        built.append(BuiltTask(task, GraspFrameWrapper(env), grasp.source, reason=getattr(grasp, "reason", None)))
+    return built, skipped
+
+
+def run_episode(env: gym.Env, policy, seed: int, max_steps: int = EPISODE_STEPS, stop_on_success: bool = True,
+                frames: list | None = None, frame_every: int = 1) -> dict:
+    """One episode of ``policy`` (``reset(env)``, ``__call__(obs)``) in ``env``.
+
+    :param stop_on_success: end as soon as the joint passes the target
+    :param frames: if given, rendered frames are appended (before steps 0, ``frame_every``, ...)
+    :param frame_every: render one step in this many
+    :returns: ``{"success", "max_fraction", "steps", "return"}``
+    """
+    obs, _ = env.reset(seed=int(seed))
+    policy.reset(env)
+    best, success, total, steps = env.unwrapped.joint_fraction, False, 0.0, 0
+    for steps in range(1, max_steps + 1):  # noqa: B007  (steps is reported)
+        if frames is not None and (steps - 1) % max(1, int(frame_every)) == 0:
+            frames.append(env.render())
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        total += float(reward)
+        best = max(best, env.unwrapped.joint_fraction)
+        success = success or bool(info.get("is_success", False))
+        if terminated or truncated or (success and stop_on_success):
+            break
+    return {"success": bool(success), "max_fraction": float(best), "steps": int(steps), "return": total}
+
+
+class ModelActor:
+    """A model trained on :func:`~spark_bench.rl.generalist.features`, acting in a wrapped task
+    environment (:class:`GraspFrameWrapper`), deterministic."""
+
+    def __init__(self, model):
+        self.model = model
+
+    def reset(self, env) -> None:
+        pass
+
+    def __call__(self, obs):
+        return self.model.predict(obs, deterministic=True)[0]
+
+
+def evaluate(model, built: list[BuiltTask], episodes: int = 1, seed: int = 0, progress: bool = False) -> list[dict]:
+    """The model's episodes on every task (seeds ``seed + k``), one row per task.
+
+    :returns: rows ``{"task", "kind", "category", "grasp", "reason", "success_rate", "max_fraction"}``
+    """
+    return _score(built, lambda bt: (bt.env, ModelActor(model)), episodes, seed, progress, "policy")
+
+
+def evaluate_teacher(built: list[BuiltTask], episodes: int = 1, seed: int = 0, progress: bool = False) -> list[dict]:
+    """The scripted opener with the ground-truth joint on every task, as :func:`evaluate` scores a model."""
+    from spark_bench.rl.policies import ScriptedPolicy
+
+    return _score(built, lambda bt: (bt.raw, ScriptedPolicy()), episodes, seed, progress, "scripted opener")
+
+
+def _score(built, actor_of, episodes, seed, progress, what) -> list[dict]:
+    from tqdm import tqdm
+
+    rows = []
+    for bt in tqdm(built, desc=f"evaluating {what}", unit="task", disable=not progress):
+        env, actor = actor_of(bt)
+        runs = [run_episode(env, actor, seed + k) for k in range(episodes)]
+        rows.append({"task": bt.task.name, "kind": bt.task.kind, "category": bt.task.category, "grasp": bt.grasp,
+                     "reason": bt.reason,
+                     "success_rate": float(np.mean([r["success"] for r in runs])),
+                     "max_fraction": float(np.mean([r["max_fraction"] for r in runs]))})
+    return rows
+
+
+def holdable(row: dict) -> bool:
+    """Whether a task (a row with ``grasp`` and ``reason``) offers a parallel gripper something to hold: a
+    grasp on a handle, a notch, a lid's tab or the front's edges (not a bare ``face``) that the planner
+    gives no ``reason`` against. The rest no parallel gripper can pull open; scores report them apart."""
+    return bool(row.get("grasp")) and row["grasp"] != "face" and not row.get("reason")
+
+
+def success_rate(rows: list[dict], kind: str | None = None) -> float | None:
+    """Mean success of ``rows`` (of one ``kind`` if given); None for none."""
+    picked = [r["success_rate"] for r in rows if kind is None or r["kind"] == kind]
+    return float(np.mean(picked)) if picked else None
+

@@ -1,0 +1,282 @@
+"""The RL transfer score of a prediction: the shipped generalist policy, fine-tuned on the *predicted*
+object, acting on the *ground-truth* object (``eval --rl``).
+
+For every ground-truth drawer (prismatic joint) and door (revolute joint), nothing left out:
+
+1. the predicted joint matched with it by the metrics (``metrics["matching"]``) picks the policy (the
+   drawer policy for a predicted prismatic joint, the door policy for a revolute or continuous one) and is
+   what the policy is told about the joint: its axis and pivot, carried from the prediction's frame into
+   the ground truth's (prediction world -> its benchmark frame -> the metrics' alignment -> ground-truth
+   world -> metres), reported by the environment as ``joint_estimate``;
+2. **zero-shot**: the shipped policy opens the ground-truth joint in its environment (``SparkDrawer-v0``
+   / ``SparkDoor-v0``), told the predicted joint;
+3. **fine-tuned**: a copy of the shipped policy trained with PPO for ``finetune_steps`` environment steps
+   on the predicted object's matched joints of its kind (the prediction placed and scaled where the
+   metrics matched it with the real object; the grasp frame turned at random each episode, as in
+   training), then run as in 2.
+
+The policy takes the direction to pull from the joint it is told (it was trained so, see
+:mod:`spark_bench.rl.generalist`): a predicted drawer axis 90 degrees off, or a door hinge moved next to
+the handle, fails on the real object, as the scripted opener does (:mod:`spark_bench.evaluation.opening`).
+
+A ground-truth joint counts as not opened when no predicted joint was matched with it, when the matched
+one is not a drawer or a door, when the ground truth offers no opening task for it (no graspable surface:
+every method fails it alike; the oracle's score shows that ceiling) and, for the fine-tuned score, when the
+prediction offers no task to fine-tune on. Continuous ground-truth joints (knobs, caps) are not drawers or
+doors and are left out. Joints no parallel gripper can pull open (a bare front, ``face``, or a planner
+``reason``) count like the others; the ``holdable_*`` rates beside the score leave them out.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from spark_bench.errors import InputError
+from spark_bench.rl.generalist import (
+    FRAME_NOISE,
+    KIND_OF_TYPE,
+    GeneralistPolicy,
+    GraspFrameWrapper,
+    TaskMixture,
+    load_generalist,
+    make_task_env,
+    weights_record,
+)
+from spark_bench.rl.tasks import TASK_KIND, holdable, run_episode
+
+#: Default fine-tuning budget (environment steps per policy kind) and episodes per ground-truth joint.
+FINETUNE_STEPS = 1024
+EPISODES = 1
+#: Episode videos (``video``): frame size (width, height) and one control step kept in this many.
+VIDEO_SIZE = (240, 180)
+VIDEO_EVERY = 3
+#: PPO settings of the fine-tuning (the shipped policy's own settings are those of its training run).
+FINETUNE_PPO = {"n_steps": 256, "batch_size": 128, "n_epochs": 4, "learning_rate": 5e-5, "clip_range": 0.1,
+                "target_kl": 0.03}
+
+
+def prediction_to_gt_metres(pred, gt_stored, alignment=None, to_metres=None) -> np.ndarray:
+    """The 4x4 similarity from the prediction's world frame into the ground truth's, in metres: prediction
+    world -> its benchmark frame (-> the metrics' ICP alignment) -> ground-truth world (-> metres).
+
+    :param pred: the predicted asset as stored
+    :param gt_stored: the ground truth as stored
+    :param alignment: 4x4 similarity the metrics applied to the prediction's benchmark frame, or None
+    :param to_metres: 4x4 from the stored ground truth to metres (a benchmark case's), or None
+    """
+    from spark_bench.data.case import benchmark_frame
+
+    align = np.asarray(alignment if alignment is not None else np.eye(4), dtype=np.float64)
+    frame = np.linalg.inv(benchmark_frame(gt_stored)) @ align @ benchmark_frame(pred)
+    return (np.asarray(to_metres, dtype=np.float64) if to_metres is not None else np.eye(4)) @ frame
+
+
+def _ground_truth(gt_folder: Path):
+    """``(stored ground truth, ground truth in metres, 4x4 stored -> metres)``."""
+    from spark_bench.data import load_object
+    from spark_bench.data.case import BenchmarkCase
+
+    stored = load_object(gt_folder)
+    case = BenchmarkCase.of_gt_folder(gt_folder)
+    if case is None:
+        return stored, stored, np.eye(4)
+    gt, to_metres = case.gt_at_source_size(stored)
+    return stored, gt, to_metres
+
+
+def _why(exc: Exception) -> str:
+    return " ".join(str(exc).split())[:200]
+
+
+def _episodes(env, policy, episodes: int, seed: int, frames: list | None = None) -> dict:
+    runs = [run_episode(env, policy, seed + k, frames=frames if k == 0 else None) for k in range(episodes)]
+    return {"success": float(np.mean([r["success"] for r in runs])),
+            "max_fraction": float(np.mean([r["max_fraction"] for r in runs]))}
+
+
+def finetune(kind: str, pred, joints: list[str], steps: int, seed: int = 0, weights=None):
+    """A copy of the shipped ``kind`` policy trained with PPO for ``steps`` steps on ``joints`` of ``pred``.
+
+    :returns: ``(model, info)``; the model is None when no joint gives a task (info says why)
+    """
+    from stable_baselines3.common.monitor import Monitor
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    envs, skipped = [], {}
+    for joint in joints:
+        try:
+            envs.append(GraspFrameWrapper(make_task_env(kind, pred, joint), FRAME_NOISE))
+        except Exception as exc:  # noqa: BLE001  (a prediction's geometry may break the conversion anywhere)
+            skipped[joint] = f"{type(exc).__name__}: {_why(exc)}"
+    info = {"joints": [j for j in joints if j not in skipped], "skipped": skipped, "steps": 0}
+    if not envs:
+        return None, info
+    t0 = time.perf_counter()
+    mixture = TaskMixture(envs)
+    vec = DummyVecEnv([lambda: Monitor(mixture)])
+    vec.seed(seed)
+    n_steps = int(min(FINETUNE_PPO["n_steps"], max(steps, 16)))
+    settings = {**FINETUNE_PPO, "n_steps": n_steps, "batch_size": int(min(FINETUNE_PPO["batch_size"], n_steps))}
+    model = load_generalist(kind, weights, env=vec, custom_objects=settings)
+    model.set_random_seed(seed)
+    if steps > 0:
+        model.learn(total_timesteps=int(steps), reset_num_timesteps=True)
+    info.update(steps=int(model.num_timesteps), wall_s=round(time.perf_counter() - t0, 2))
+    return model, info
+
+
+def _score_joint(row: dict, name: str, gt_folder: Path, zero, tuned, skipped: dict, episodes: int,
+                 seed: int) -> None:
+    """Fill ``row`` with the zero-shot and fine-tuned episodes on ground-truth joint ``name``."""
+    try:
+        env = make_task_env(TASK_KIND[row["type"]], gt_folder, name, joint_estimate=row["estimate"])
+    except InputError as exc:
+        row["why"] = f"no opening task on the ground truth: {_why(exc)}"
+        return
+    grasp = env.unwrapped.scene.grasp
+    row["grasp"] = grasp.source
+    if getattr(grasp, "reason", None):
+        row["reason"] = grasp.reason
+    try:
+        first = _episodes(env, zero, episodes, seed)
+        row.update(zero_shot=first["success"], zero_shot_max_fraction=first["max_fraction"])
+        if tuned is None:
+            row["why"] = "the prediction gives no opening task to fine-tune on"
+            return
+        if row["pred_joint"] in skipped:
+            row["note"] = f"fine-tuned without this joint: {skipped[row['pred_joint']]}"
+        second = first if tuned is zero else _episodes(env, tuned, episodes, seed)
+        row.update(success=second["success"], max_fraction=second["max_fraction"])
+    finally:
+        env.close()
+
+
+def record_episode(kind: str, asset, joint: str, policy, path: str | Path, joint_estimate: tuple | None = None,
+                   seed: int = 0, size: tuple[int, int] = VIDEO_SIZE, every: int = VIDEO_EVERY) -> Path:
+    """Write one episode of ``policy`` opening ``joint`` of ``asset`` as a video (``.gif`` / ``.mp4``).
+
+    :param kind: the environment's kind (``drawer`` / ``door``, the joint's own type)
+    :param joint_estimate: the joint the policy is told (default: the simulated one)
+    :param size: ``(width, height)`` of the frames
+    :param every: keep one control step in ``every`` (the video plays at the episode's speed)
+    """
+    from spark_bench.rl.rollout import write_video
+
+    env = make_task_env(kind, asset, joint, joint_estimate=joint_estimate, render_mode="rgb_array",
+                        width=int(size[0]), height=int(size[1]))
+    try:
+        frames: list = []
+        every = max(1, int(every))
+        run_episode(env, policy, seed, frames=frames, frame_every=every)
+        frames.append(env.render())  # the end
+        return write_video(frames, path, fps=max(1, round(env.metadata.get("render_fps", 25) / every)))
+    finally:
+        env.close()
+
+
+def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: dict,
+                      out_dir: str | Path | None = None, finetune_steps: int = FINETUNE_STEPS, seed: int = 0,
+                      episodes: int = EPISODES, weights: str | Path | None = None,
+                      video: str | Path | None = None) -> dict:
+    """Score a prediction by the generalist policy's success on the ground truth (see the module docstring).
+
+    :param pred_folder: the predicted object folder
+    :param gt_folder: the ground-truth object folder (a benchmark case's ``gt/`` is brought to metres)
+    :param metrics: the prediction's metrics (``matching``: gt_joint / pred_joint pairs; ``alignment``)
+    :param out_dir: where the fine-tuned models are saved (None: not saved)
+    :param finetune_steps: PPO steps per policy kind on the prediction (0: no fine-tuning, the fine-tuned
+        column is the zero-shot one)
+    :param seed: fine-tuning and episode seed
+    :param episodes: episodes per ground-truth joint and column (reset seeds ``seed ..``)
+    :param weights: a folder of generalist weights (default: the shipped ones)
+    :param video: write the fine-tuned policy's episode on the first ground-truth joint it was run on there
+        (``.gif`` / ``.mp4``)
+    :returns: ``{"success_rate", "zero_shot_success_rate", "holdable_success_rate", "joints", "finetune",
+        "policy", "assets", ...}``; the rates are None when the ground truth has no drawer or door; the
+        holdable rates are over the joints a parallel gripper can hold
+        (:func:`spark_bench.rl.tasks.holdable`); ``assets``
+        names the prediction and the ground truth by path and content hash
+    """
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)  # small MLPs: one thread is faster than several contending for the cores
+    try:
+        return _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, seed, episodes, weights,
+                               video)
+    finally:
+        torch.set_num_threads(threads)
+
+
+def _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, seed, episodes, weights, video) -> dict:
+    from spark_bench.asset.ops import similarity_asset
+    from spark_bench.data import load_object
+    from spark_bench.rl.records import asset_content_hash
+
+    t0, cpu0 = time.perf_counter(), time.process_time()
+    record = weights_record(weights)
+    gt_folder, pred_folder = Path(gt_folder), Path(pred_folder)
+    gt_stored, gt, to_metres = _ground_truth(gt_folder)
+    pred_stored = load_object(pred_folder)
+    pred = similarity_asset(pred_stored, prediction_to_gt_metres(pred_stored, gt_stored, metrics.get("alignment"),
+                                                                 to_metres))
+    frames = pred.joint_frames()
+    matched = {m["gt_joint"]: m["pred_joint"] for m in metrics.get("matching", []) if m.get("pred_joint")}
+    joints: dict[str, dict] = {}
+    plan: dict[str, list[str]] = {}  # policy kind -> the ground-truth joints it opens
+    for joint in gt.movable_joints():
+        if joint.type not in TASK_KIND:
+            continue
+        pred_name = matched.get(joint.name)
+        row = joints[joint.name] = {"type": joint.type, "pred_joint": pred_name, "zero_shot": 0.0, "success": 0.0}
+        if pred_name is None or pred_name not in pred.joints:
+            row["why"] = "no matched predicted joint"
+            continue
+        pred_type = row["pred_type"] = pred.joints[pred_name].type
+        if pred_type not in KIND_OF_TYPE:
+            row["why"] = f"the matched predicted joint is {pred_type}"
+            continue
+        row["kind"] = KIND_OF_TYPE[pred_type]
+        point, axis = frames[pred_name]
+        row["estimate"] = (np.asarray(axis, float), np.asarray(point, float), pred_type)
+        plan.setdefault(row["kind"], []).append(joint.name)
+    tuned: dict[str, dict] = {}
+    recorded = video is None
+    for kind, gt_joints in plan.items():
+        zero = GeneralistPolicy(load_generalist(kind, weights))
+        pred_joints = list(dict.fromkeys(joints[j]["pred_joint"] for j in gt_joints))
+        if finetune_steps > 0:
+            model, info = finetune(kind, pred, pred_joints, finetune_steps, seed, weights)
+        else:
+            model, info = zero.model, {"joints": pred_joints, "skipped": {}, "steps": 0}
+        tuned[kind] = info
+        if model is not None and out_dir is not None and finetune_steps > 0:
+            Path(out_dir).mkdir(parents=True, exist_ok=True)
+            model.save(Path(out_dir) / f"{kind}_finetuned.zip")
+        policy = zero if finetune_steps <= 0 else GeneralistPolicy(model) if model is not None else None
+        for name in gt_joints:
+            row = joints[name]
+            _score_joint(row, name, gt_folder, zero, policy, info["skipped"], episodes, seed)
+            if not recorded and policy is not None and "max_fraction" in row:
+                row["video"] = str(record_episode(TASK_KIND[row["type"]], gt_folder, name, policy, video,
+                                                  row["estimate"], seed))
+                recorded = True
+    for row in joints.values():
+        row.pop("estimate", None)
+    rates = [r["success"] for r in joints.values()]
+    zero_rates = [r["zero_shot"] for r in joints.values()]
+    held = [r for r in joints.values() if holdable(r)]
+    return {"success_rate": float(np.mean(rates)) if rates else None,
+            "zero_shot_success_rate": float(np.mean(zero_rates)) if zero_rates else None,
+            "holdable_joints": len(held),
+            "holdable_success_rate": float(np.mean([r["success"] for r in held])) if held else None,
+            "holdable_zero_shot_success_rate": float(np.mean([r["zero_shot"] for r in held])) if held else None,
+            "assets": {"prediction": {"path": str(pred_folder), "sha256": asset_content_hash(pred_stored)},
+                       "ground_truth": {"path": str(gt_folder), "sha256": asset_content_hash(gt_stored)}},
+            "joints": joints, "finetune": tuned, "finetune_steps": int(finetune_steps), "episodes": int(episodes),
+            "policy": {"version": record.get("version"), "feature_version": record.get("feature_version"),
+                       "weights": str(weights) if weights is not None else "shipped"},
+            "wall_s": round(time.perf_counter() - t0, 2), "cpu_s": round(time.process_time() - cpu0, 2)}
