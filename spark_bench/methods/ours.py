@@ -10,6 +10,11 @@ and with ``[optimize] method = "native"``, ``part_masks = true`` (label ``opt=na
 
     image + gt camera + gt open image + gt open part masks + gt structure (simulated prior) + gt geometry
 
+and with no ground truth at all, the ``retrieval`` prior and geometry (label
+``prior=retrieval,geometry=retrieval,open=dataset,opt=native`` with ``[optimize] method = "native"``)::
+
+    image + gt camera + gt open image
+
 SPARK itself (torch and the stage modules) is imported only when a case is generated.
 """
 
@@ -68,7 +73,21 @@ class OursMethod:
         return f"ours ({self.spark_config.label()})"
 
     def config(self) -> dict:
-        return self.spark_config.to_dict()
+        """The configuration; with a ``retrieval`` backend also the gallery's name and content hash (so
+        results are keyed by what the gallery holds). The runner asks for it once, before any case: the
+        default gallery is generated and its index built here on first use, in spawned processes, as
+        ``--method retrieval`` does (:meth:`spark_bench.methods.retrieval.RetrievalMethod.config`)."""
+        out = self.spark_config.to_dict()
+        if self.spark_config.uses_retrieval():
+            from spark_bench.methods.retrieval import BUILD_WORKERS
+            from spark_bench.retrieval.index import gallery_index
+            from spark_bench.retrieval.search import SearchOptions
+            from spark_bench.spark.retrieved import open_case_gallery
+
+            gallery = open_case_gallery(self.spark_config.retrieval.gallery)
+            gallery_index(gallery, SearchOptions().index, workers=BUILD_WORKERS, isolate=True)
+            out["retrieval_gallery"] = {"name": gallery.name, "hash": gallery.content_hash}
+        return out
 
     def generate(self, case: CaseInput, out_dir: Path) -> Generation:
         """Run the pipeline; the refined object is ``out_dir``, the prior's ``out_dir/prior`` a variant."""
@@ -78,7 +97,8 @@ class OursMethod:
         variants = {}
         if self.spark_config.optimize.enabled and (Path(out_dir) / "prior" / "mobility.urdf").is_file():
             variants["w/o joint opt."] = Path(out_dir) / "prior"
-        info = {k: report[k] for k in ("label", "backends", "timings", "movable_joints") if k in report}
+        info = {k: report[k] for k in ("label", "backends", "timings", "movable_joints", "retrieval")
+                if k in report}
         return Generation(Path(out_dir), info, variants,
                           shape_metrics_valid=not report.get("geometry_is_ground_truth", False))
 

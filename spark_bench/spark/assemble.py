@@ -133,7 +133,11 @@ class PartPairing:
 def prior_names_the_parts(prior: PriorStructure, geometry: PartGeometry) -> bool:
     """Whether the prior's link names are the geometry's part names by construction: the ground truth's
     own parts (:attr:`PartGeometry.asset` is None), or a prediction's parts whose names the pipeline
-    handed to a ``vlm`` or ``file`` prior (:attr:`PartGeometry.offered_to_prior`)."""
+    handed to a ``vlm`` or ``file`` prior (:attr:`PartGeometry.offered_to_prior`), or a retrieved object's
+    parts under the prior of the same retrieval (:mod:`spark_bench.spark.retrieved`: both name the
+    object's parts alike)."""
+    if prior.source == "retrieval":
+        return geometry.asset is not None and geometry.source.startswith("retrieval:")
     if geometry.asset is None:
         return True
     return geometry.offered_to_prior and prior.source in ("vlm", "file")

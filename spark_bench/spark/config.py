@@ -3,13 +3,15 @@
 Example (TOML)::
 
     [prior]
-    backend = "vlm"          # vlm | annotation | file
+    backend = "vlm"          # vlm | annotation | file | retrieval
     [vlm]
     base_url = "https://api.openai.com/v1"
     model = "gpt-4o"
     api_key_env = "OPENAI_API_KEY"
     [geometry]
-    backend = "annotation"   # annotation | predictions | spark
+    backend = "annotation"   # annotation | predictions | spark | retrieval
+    [retrieval]
+    gallery = ""             # retrieval backends: a gallery folder ("": synth-gallery-v1)
     [open_state]
     backend = "dataset"      # dataset | http
     [optimize]
@@ -34,11 +36,12 @@ from pathlib import Path
 
 from spark_bench.errors import InputError
 from spark_bench.methods.base import INPUT_KINDS
+from spark_bench.spark.config_parse import build_dataclass
 from spark_bench.spark.geometry import command_fields
 from spark_bench.spark.prior import NoiseModel
 
-PRIOR_BACKENDS = ("annotation", "vlm", "file")
-GEOMETRY_BACKENDS = ("annotation", "predictions", "spark")
+PRIOR_BACKENDS = ("annotation", "vlm", "file", "retrieval")
+GEOMETRY_BACKENDS = ("annotation", "predictions", "spark", "retrieval")
 OPEN_STATE_BACKENDS = ("dataset", "http")
 REFINE_BACKENDS = ("render", "vlm", "none")
 OPTIMIZE_METHODS = ("spark", "native")
@@ -73,8 +76,9 @@ class VLMConfig:
 
 @dataclass
 class PriorConfig:
-    """Stage 1. :param backend: ``annotation`` | ``vlm`` | ``file``; :param file_dir: folder of
-    ``<case id>.json`` answers for ``file``; :param noise: the ``annotation`` noise model."""
+    """Stage 1. :param backend: ``annotation`` | ``vlm`` | ``file`` | ``retrieval`` (the retrieved gallery
+    object's parts, types, axes, pivots and limits, :mod:`spark_bench.spark.retrieved`); :param file_dir:
+    folder of ``<case id>.json`` answers for ``file``; :param noise: the ``annotation`` noise model."""
 
     backend: str = "annotation"
     file_dir: str = ""
@@ -83,7 +87,8 @@ class PriorConfig:
 
 @dataclass
 class GeometryConfig:
-    """Stage 2. :param backend: ``annotation`` | ``predictions`` | ``spark``; :param predictions_dir:
+    """Stage 2. :param backend: ``annotation`` | ``predictions`` | ``spark`` | ``retrieval`` (the retrieved
+    gallery object's part meshes, :mod:`spark_bench.spark.retrieved`); :param predictions_dir:
     folder of ``<case id>/`` object folders; :param spark_command: command template (see
     :func:`spark_bench.spark.geometry.spark_geometry`); :param timeout_s: its time limit."""
 
@@ -91,6 +96,32 @@ class GeometryConfig:
     predictions_dir: str = ""
     spark_command: str = ""
     timeout_s: float = 3600.0
+
+
+@dataclass
+class RetrievalConfig:
+    """The gallery of the ``retrieval`` prior and geometry backends (one retrieval per case serves both;
+    the search is :func:`spark_bench.retrieval.search.retrieve`, as ``--method retrieval``).
+
+    :param gallery: a folder of PartNet-Mobility-format objects, or ``""`` (or ``synth-gallery-v1``) for
+        the default procedural gallery, built on first use
+    """
+
+    gallery: str = ""
+
+    @property
+    def is_default(self) -> bool:
+        """Whether this is the default gallery (``""`` or its name)."""
+        from spark_bench.retrieval.gallery import DEFAULT_GALLERY
+
+        return self.gallery in ("", DEFAULT_GALLERY.name)
+
+    @property
+    def gallery_name(self) -> str:
+        """The gallery's name: ``synth-gallery-v1`` for the default, else the folder's name."""
+        from spark_bench.retrieval.gallery import DEFAULT_GALLERY
+
+        return DEFAULT_GALLERY.name if self.is_default else Path(self.gallery).expanduser().name
 
 
 @dataclass
@@ -250,6 +281,7 @@ class SparkConfig:
     :param open_state: stage 3, open-state image
     :param optimize: stage 4, joint optimization
     :param vlm: the VLM endpoint (prior ``vlm`` and refine ``vlm``)
+    :param retrieval: the gallery of the ``retrieval`` backends
     :param write_prior: also write the prior-only asset to ``<out>/prior/`` (the "w/o joint
         optimization" row of the ablation)
     """
@@ -259,13 +291,15 @@ class SparkConfig:
     open_state: OpenStateConfig = field(default_factory=OpenStateConfig)
     optimize: OptimizeConfig = field(default_factory=OptimizeConfig)
     vlm: VLMConfig = field(default_factory=VLMConfig)
+    retrieval: RetrievalConfig = field(default_factory=RetrievalConfig)
     write_prior: bool = True
 
     def label(self) -> str:
         """What a results row made with this config says, e.g. ``prior=annotation,geometry=annotation,
         open=dataset,opt=spark``.
 
-        A remote model is named (``prior=vlm:gpt-4o``, ``open=http:<model>``); ``opt`` is ``spark``
+        A remote model is named (``prior=vlm:gpt-4o``, ``open=http:<model>``), and a retrieval gallery other
+        than the default (``gallery=<folder name>``, after ``opt``); ``opt`` is ``spark``
         (SPARK's own recipe), ``native`` (continuous fit with the offline type/axis search),
         ``native+vlm`` (the VLM re-predicts type and axis), ``fit-only`` (no type/axis search) or
         ``none``; ``sup=part-masks`` follows when the fit reads the ground truth's per-part masks. When a
@@ -279,6 +313,8 @@ class SparkConfig:
         if open_state == "http" and self.open_state.model:
             open_state = f"http:{self.open_state.model}"
         label = f"prior={prior},geometry={self.geometry.backend},open={open_state},opt={self.opt_name()}"
+        if self.uses_retrieval() and not self.retrieval.is_default:
+            label += f",gallery={self.retrieval.gallery_name}"
         if self.uses_part_masks():
             label += ",sup=part-masks"
         changed = self.changed_settings()
@@ -310,6 +346,8 @@ class SparkConfig:
             sections.append(("vlm", self.vlm, default.vlm, ("base_url", "model", "api_key_env", "timeout_s",
                                                              "max_retries", "backoff_s")))
         sections.append(("geometry", self.geometry, default.geometry, ("backend", "timeout_s")))
+        if self.uses_retrieval() and not self.retrieval.is_default:
+            sections.append(("retrieval", self.retrieval, default.retrieval, ()))
         if native:  # the label names the method, the refinement and the part masks
             sections.append(("optimize", self.optimize, default.optimize,
                              ("enabled", "method", "spark", "refine", "part_masks", "threads")))
@@ -323,6 +361,10 @@ class SparkConfig:
                     out[f"{prefix}.{f.name}"] = asdict(value) if is_dataclass(value) else value
         return out
 
+    def uses_retrieval(self) -> bool:
+        """Whether a stage retrieves the case's object from the gallery (a ``retrieval`` backend)."""
+        return "retrieval" in (self.prior.backend, self.geometry.backend)
+
     def uses_part_masks(self) -> bool:
         """Whether the joint optimization reads the open state's per-part masks: the ``native`` method
         with ``optimize.part_masks``, ``annotation`` geometry (whose parts are the case's own links) and
@@ -332,12 +374,13 @@ class SparkConfig:
 
     def case_inputs(self) -> tuple[str, ...]:
         """The input kinds (:data:`spark_bench.methods.base.INPUT_KINDS`) the pipeline reads of a case with
-        this configuration: the input image always; the camera when optimizing and for the ``annotation``
-        prior (whose axes are snapped in the camera's frame), the open image with the ``dataset`` open
+        this configuration: the input image always; the camera when optimizing, for the ``annotation``
+        prior (whose axes are snapped in the camera's frame) and for the ``retrieval`` backends (the search
+        renders the gallery from it), the open image with the ``dataset`` open
         state, the open state's part masks when :meth:`uses_part_masks`; the ground truth for an
         ``annotation`` backend, and for a ``spark`` command that is handed the case folder (``{case}``)."""
         inputs = {"image"}
-        if self.prior.backend == "annotation":
+        if self.prior.backend == "annotation" or self.uses_retrieval():
             inputs.add("camera")
         if self.optimize.enabled:
             inputs.add("camera")
@@ -360,7 +403,7 @@ class SparkConfig:
     @classmethod
     def from_dict(cls, data: dict, source=None) -> SparkConfig:
         """Build from nested dicts; unknown keys and bad backend names are errors naming ``source``."""
-        config = _build(cls, data, source, "")
+        config = build_dataclass(cls, data, source)
         config.validate(source)
         return config
 
@@ -414,6 +457,10 @@ class SparkConfig:
             raise InputError(source, "geometry.backend = 'predictions' needs geometry.predictions_dir")
         if self.geometry.backend == "spark" and not self.geometry.spark_command:
             raise InputError(source, "geometry.backend = 'spark' needs geometry.spark_command")
+        if self.prior.backend == "retrieval" and self.geometry.backend == "annotation":
+            raise InputError(source, "prior.backend = 'retrieval' names the retrieved object's parts, not the "
+                                     "ground truth's: use it with geometry.backend 'retrieval' (or "
+                                     "'predictions', 'spark')")
         if self.open_state.backend == "http" and not self.open_state.url:
             raise InputError(source, "open_state.backend = 'http' needs open_state.url")
         opt = self.optimize
@@ -429,44 +476,3 @@ class SparkConfig:
         if opt.spark.iters < 0 or opt.spark.size < 8 or opt.spark.tau <= 0:
             raise InputError(source, "optimize.spark needs iters >= 0, size >= 8 and tau > 0")
 
-
-def _build(cls, data, source, prefix):
-    if not isinstance(data, dict):
-        raise InputError(source, f"section {prefix or 'root'} must be a table/object")
-    known = {f.name: f for f in fields(cls)}
-    unknown = set(data) - set(known)
-    if unknown:
-        raise InputError(source, f"unknown setting(s) {sorted(prefix + k for k in unknown)}")
-    kwargs = {}
-    defaults = cls()
-    for name, value in data.items():
-        default = getattr(defaults, name)
-        if is_dataclass(default):
-            kwargs[name] = _build(type(default), value, source, f"{prefix}{name}.")
-        else:
-            kwargs[name] = _coerce(value, default, source, prefix + name)
-    return cls(**kwargs)
-
-
-def _coerce(value, default, source, key):
-    if isinstance(default, bool):
-        if not isinstance(value, bool):
-            raise InputError(source, f"{key} must be true or false")
-        return value
-    if isinstance(default, int | float):
-        try:
-            if isinstance(value, bool):  # int(True) is 1: a switch is no number
-                raise TypeError
-            return type(default)(value)
-        except (TypeError, ValueError):
-            raise InputError(source, f"{key} must be a number, got {value!r}") from None
-    if isinstance(default, str):
-        return str(value)
-    if isinstance(default, list):
-        if not isinstance(value, list):
-            raise InputError(source, f"{key} must be a list")
-        if not default:
-            return list(value)
-        # every list setting holds numbers of one kind: check each like a single setting of that kind
-        return [_coerce(item, default[0], source, f"{key}[{k}]") for k, item in enumerate(value)]
-    return value

@@ -8,6 +8,8 @@
   --output {out}``, which runs SPARK's own stage scripts); the command leaves a SPARK run folder in
   ``{out}`` as SPARK writes it, read by :func:`spark_bench.spark_output.reader.read_spark_run` (SPARK's
   names, its meshes under ``inference/<tag>/``, its frame, its own joints).
+- ``retrieval``: the part meshes of the gallery object retrieved from the input image and camera
+  (:mod:`spark_bench.spark.retrieved`; one retrieval per case also serves a ``retrieval`` prior).
 
 Every backend returns :class:`PartGeometry`: meshes by part name, in the benchmark frame, at rest.
 Predicted objects are first normalized to the benchmark frame (rest-pose box centered, fit to [-1, 1]).

@@ -5,6 +5,8 @@
 - the refined asset as a PartNet-Mobility object folder (``mobility.urdf``, ``textured_objs/``...);
 - ``prior/``: the same object with the prior's joints, before any optimization (the "w/o joint
   optimization" variant of the ablation; with ``optimize.enabled = False`` both are the prior);
+- ``retrieval.json``: with a ``retrieval`` backend, what the one retrieval of the case found (gallery,
+  object, category, hashes, pose, score, the gallery check);
 - ``prior.json``: the coarse URDF answer (reusable by the ``file`` prior backend; for the ``annotation``
   prior with its ``axis_frame``, the camera frame its axes are named in);
 - ``spark_report.json``: config label, backends, prior and refined joints (world frame), the loss
@@ -52,6 +54,7 @@ from spark_bench.spark.prior import (
     prior_document,
 )
 from spark_bench.spark.refine import RefineSettings, refine
+from spark_bench.spark.retrieved import retrieval_geometry, retrieval_prior, retrieval_summary, retrieve_case
 from spark_bench.spark.spark_fit import spark_fit, spark_mask
 from spark_bench.spark.structure import PriorStructure
 from spark_bench.spark.vlm import request_structure
@@ -71,19 +74,26 @@ def torch_threads(n: int):
         torch.set_num_threads(before)
 
 
-def _geometry(config: SparkConfig, case: CaseInput, gt, prior_json: Path | None, work: Path) -> PartGeometry:
+def _geometry(config: SparkConfig, case: CaseInput, gt, prior_json: Path | None, work: Path,
+              found=None) -> PartGeometry:
     backend = config.geometry.backend
     if backend == "annotation":
         return annotation_geometry(gt)
+    if backend == "retrieval":
+        return retrieval_geometry(found)
     if backend == "predictions":
         return predictions_geometry(config.geometry.predictions_dir, case.case_id)
     return spark_geometry(config.geometry.spark_command, case, prior_json, work, config.geometry.timeout_s)
 
 
-def _prior(config: SparkConfig, case: CaseInput, gt, geometry: PartGeometry | None):
+def _prior(config: SparkConfig, case: CaseInput, gt, geometry: PartGeometry | None, found=None):
     """``(prior, raw answer or None, axis frame or None)``: the axis frame is the one the prior's axis
-    names mean (the camera's for ``annotation``, see :mod:`spark_bench.spark.prior`; None: the object's)."""
+    names mean (the camera's for ``annotation``, see :mod:`spark_bench.spark.prior`; the retrieved
+    object's own for ``retrieval``; None: the object's)."""
     backend = config.prior.backend
+    if backend == "retrieval":
+        prior, frame = retrieval_prior(found)
+        return prior, None, frame
     known = geometry.names if geometry is not None else None
     if backend == "annotation":
         frame = camera_axis_frame(load_camera_pose(case.path("camera")))
@@ -136,12 +146,18 @@ def run_ours(case: CaseInput, out_dir: Path, config: SparkConfig | None = None) 
     needs_gt = "annotation" in (config.prior.backend, config.geometry.backend)
     gt = case.load_gt() if needs_gt else None
     timings["load"] = time.perf_counter() - tick
+    found = None
+    if config.uses_retrieval():  # one retrieval serves both stages
+        tick = time.perf_counter()
+        found = retrieve_case(case, config.retrieval.gallery)
+        (out_dir / "retrieval.json").write_text(to_json_text(found.record, indent=1) + "\n")
+        timings["retrieval"] = time.perf_counter() - tick
 
     tick = time.perf_counter()
     geometry = None
     if config.geometry.backend != "spark":  # these know the parts before the prior
-        geometry = _geometry(config, case, gt, None, out_dir)
-    prior, raw_answer, axis_frame = _prior(config, case, gt, geometry)
+        geometry = _geometry(config, case, gt, None, out_dir, found)
+    prior, raw_answer, axis_frame = _prior(config, case, gt, geometry, found)
     prior_json = out_dir / "prior.json"
     document = raw_answer if raw_answer is not None else prior_document(prior, axis_frame)
     prior_json.write_text(json.dumps(document, indent=1) + "\n")
@@ -159,6 +175,7 @@ def run_ours(case: CaseInput, out_dir: Path, config: SparkConfig | None = None) 
                      "open_state": config.open_state.backend,
                      "optimize": config.opt_name()},
         "geometry_is_ground_truth": config.geometry.backend == "annotation",
+        **({"retrieval": retrieval_summary(found)} if found is not None else {}),
         "prior_joints": joint_summary(prior_asset, [j.name for j in prior.joints]),
     }
     if config.write_prior:

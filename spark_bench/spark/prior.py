@@ -2,7 +2,8 @@
 
 ``annotation`` stands in for the VLM when none is configured: it reads the case's ground truth, keeps
 only what a VLM could answer (part list, canonical axis, coarse origin, type, large/small range), then
-corrupts it with :class:`NoiseModel`. Rows made with it say ``prior=annotation``.
+corrupts it with :class:`NoiseModel`. Rows made with it say ``prior=annotation``. (The ``retrieval``
+prior, the structure of a gallery object retrieved from the image, is :mod:`spark_bench.spark.retrieved`.)
 
 A VLM reading an image names the axes of the image: SPARK's URDF has +x to the image's right, +y up and
 +z towards the camera. So the ``annotation`` prior snaps each ground-truth axis to the nearest of the
