@@ -6,6 +6,7 @@ toy cabinets' timing; the render-size study of ``opt=spark``.
     python benchmarks/measure_joint_opt.py --bench synth-v1 --seeds 5        # Table 4, 4 rows x 5 seeds
     python benchmarks/measure_joint_opt.py --bench synth-v1 --calibrate      # fit the prior's noise first
     python benchmarks/measure_joint_opt.py --bench synth-v1 --spark-sizes 64,128,256 --limit 20
+    python benchmarks/measure_joint_opt.py --bench synth-v1 --seeds 5 --ids A B ... --cached   # report only
 
 Benchmark mode runs ``run_ours`` (annotation prior and geometry, dataset open state: the default
 config, with ``prior.noise.seed`` = each seed and each variant's method) on every case, scores its
@@ -14,7 +15,8 @@ and writes ``benchmarks/results/table4_<bench>.md``: each row's AxisErr / PivotE
 mean over objects (the paper's and the leaderboard's average) and over joints, each mean +- std over
 the seeds, beside the paper's rows; the per-category means; the seconds per object. One prior seed is
 one ``eval``; the rows differ only in the optimizer (the same prior draw per seed). Per-case results
-are cached under ``--work`` (resumable; stale when the SPARK sources change).
+are cached under ``--work`` (resumable; stale when the SPARK sources change; ``--cached`` reports the
+cached runs of the same configuration whatever sources made them, and names those sources).
 """
 
 from __future__ import annotations
@@ -140,6 +142,28 @@ def run_tasks(tasks: list[tuple], jobs: int, console: Console) -> dict[tuple, di
     return results
 
 
+def cached_results(tasks: list[tuple], console: Console) -> dict[tuple, dict]:
+    """``--cached``: the rows of ``tasks`` already under ``--work`` with the task's configuration and
+    scores, whatever SPARK sources made them (each row names its ``code``; the report lists them), so
+    that a long run can be reported after another edit of the sources; nothing runs."""
+    from spark_bench.spark import SparkConfig
+
+    results = {}
+    for key, _, out, overrides, n_samples, score_prior in tasks:
+        path = Path(out) / "table4.json"
+        if not path.is_file():
+            continue
+        row = json.loads(path.read_text())
+        if row.get("config") != SparkConfig().with_overrides(overrides).to_dict():
+            console.print(f"{key}: cached with another configuration, left out")
+            continue
+        if (score_prior and "prior" not in row["scores"]) or (n_samples and "refined" not in row["scores"]):
+            continue
+        results[key] = row
+    console.print(f"{len(results)} of {len(tasks)} runs cached")
+    return results
+
+
 # ----- aggregation ---------------------------------------------------------------------------------
 def _mean(values) -> float | None:
     values = [v for v in values if v is not None]
@@ -191,7 +215,8 @@ def markdown(bench: str, n_cases: int, table: dict, results: dict, variants: lis
              f"open=dataset), prior seeds {seeds[0]}-{seeds[-1]} ({len(seeds)}): each cell is the mean ± std "
              f"over the seeds of the benchmark's mean; metrics `{CONVENTION_VERSION}` "
              "(`spark_bench.metrics.compute_metrics`, Hungarian part matching; PivotErr as FreeArt3D: every "
-             "ground-truth revolute joint's line distance, whatever the predicted type).", "", *notes, "",
+             "ground-truth revolute joint's line distance, whatever the predicted type).", "",
+             *[x for note in notes for x in (note, "")],
              "| row | AxisErr | PivotErr | TypeErr | AxisErr per joint | PivotErr per joint | TypeErr per joint |",
              "|---|---|---|---|---|---|---|"]
     for name, values in PAPER_ROWS.items():
@@ -203,8 +228,9 @@ def markdown(bench: str, n_cases: int, table: dict, results: dict, variants: lis
     lines += ["", "Per object: the mean of each object's own mean over its joints, then over objects (the "
               "paper's and the leaderboard's average); per joint: every joint weighs the same.", ""]
     lines += goal_lines(table)
-    lines += ["", "## Per category (mean over objects and seeds): prior / opt=spark / opt=native / "
-              "opt=native,sup=part-masks", "", "| category | objects | AxisErr | PivotErr | TypeErr |", "|---|---|---|---|---|"]
+    lines += ["", "## Per category (mean over objects and seeds): "
+              + " / ".join(ROW_LABELS[name] for name in ["prior", *variants]), "",
+              "| category | objects | AxisErr | PivotErr | TypeErr |", "|---|---|---|---|---|"]
     lines += category_lines(results, variants)
     lines += ["", "## Seconds per object", ""] + time_lines(results, variants)
     return "\n".join(lines) + "\n"
@@ -357,9 +383,13 @@ def bench_main(args, console: Console) -> int:
                 tasks.append(((variant, seed, c.name), str(c), str(work / variant / f"seed{seed}" / c.name),
                               [*VARIANTS[variant], *overrides, f"prior.noise.seed={seed}"], args.n_samples,
                               variant == variants[0]))
-    results = run_tasks(tasks, args.jobs, console)
+    results = cached_results(tasks, console) if args.cached else run_tasks(tasks, args.jobs, console)
+    notes.append(f"SPARK sources (measure_joint_opt.code_version): {', '.join(sorted({r['code'] for r in results.values()}))}"
+                 f"; {len(results)} of {len(tasks)} runs.")
     table = seed_table(results, variants, seeds)
     text = markdown(bench.name, len(cases), table, results, variants, seeds, notes)
+    if args.appendix:  # the reading of these numbers, written by a person
+        text += "\n" + Path(args.appendix).read_text()
     console.print(text)
     out = Path(args.out) if args.out else Path(__file__).parent / "results" / f"table4_{bench.name}.md"
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -430,8 +460,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", default=None, help="benchmark mode: the Markdown file (default results/table4_<bench>.md)")
     parser.add_argument("--set", action="append", default=[], help="config override section.key=value")
     parser.add_argument("--note", action="append", default=[], help="a line added under the table's heading")
+    parser.add_argument("--appendix", default=None, help="benchmark mode: a Markdown file appended to the table")
+    parser.add_argument("--cached", action="store_true",
+                        help="benchmark mode: run nothing, report the runs cached under --work (any sources)")
     parser.add_argument("--calibrate", action="store_true", help="benchmark mode: calibrate the noise model first")
-    parser.add_argument("--calibration-seeds", type=int, default=8)
+    parser.add_argument("--calibration-seeds", type=int, default=64,
+                        help="prior seeds the calibration averages over (64 on synth-v1: about 10 s an "
+                             "iteration; with 8, TypeErr's seed scatter, about 0.02, stays in p_type)")
     parser.add_argument("--spark-sizes", default=None, help="render-size study of opt=spark, e.g. 64,128,256")
     args = parser.parse_args(argv)
     console = Console()

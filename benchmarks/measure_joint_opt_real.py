@@ -4,6 +4,7 @@ cores).
 
     python benchmarks/measure_joint_opt_real.py                      # prepares partnet_dev once, then times
     python benchmarks/measure_joint_opt_real.py --bench /path/to/prepared --limit 10
+    python benchmarks/measure_joint_opt_real.py --ids 102278 7265 ... [--cached]   # a subset; report only
 
 The benchmark is prepared on first use (``spark-bench data prepare --src ../shared/partnet_dev --out
 $SPARK_BENCH_HOME/benchmarks/partnet_dev``: watertight R=200, 512 px renders; about 30 min on 2 busy
@@ -19,6 +20,7 @@ Writes ``benchmarks/results/joint_opt_speed_partnet_dev.md``.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import subprocess
 import sys
@@ -56,28 +58,70 @@ def _stats(values) -> str:
     return f"median {np.median(values):.1f}, mean {values.mean():.1f}, max {values.max():.1f}"
 
 
+def cached_rows(tasks: list[tuple], console: Console) -> dict[tuple, dict]:
+    """The rows already under ``--work`` for ``tasks``, whatever code produced them (``--cached``: a report
+    of a run whose sources have changed since; each row names its ``code`` version)."""
+    out = {}
+    for key, _, folder, *_ in tasks:
+        path = Path(folder) / "table4.json"
+        if path.is_file():
+            out[key] = json.loads(path.read_text())
+        else:
+            console.print(f"{key}: no cached run at {path}")
+    return out
+
+
+def per_object_lines(results: dict, methods: list[str]) -> list[str]:
+    """One row per object: each method's optimizer CPU s and its whole ``run_ours`` (CPU s; the wall
+    seconds of loading the ground truth and of writing the object folders)."""
+    cases = sorted({k[2] for k in results}, key=lambda c: -max(r["timings"]["optimize_cpu"]
+                                                               for (m, _, cc), r in results.items() if cc == c))
+    head = " | ".join(f"opt={m}: optimizer CPU s | opt={m}: run_ours CPU s (load, export wall s)" for m in methods)
+    lines = [f"| object | category | movable joints | {head} |", "|---" * (3 + 2 * len(methods)) + "|"]
+    for case in cases:
+        cells, any_row = [], None
+        for method in methods:
+            row = results.get((method, 0, case))
+            if row is None:
+                cells += ["n/a", "n/a"]
+                continue
+            any_row, t = row, row["timings"]
+            cells += [f"{t['optimize_cpu']:.1f}",
+                      f"{row['cpu_seconds']:.1f} ({t.get('load', 0.0):.1f}, {t.get('export', 0.0):.1f})"]
+        lines.append(f"| {case} | {any_row['category']} | {any_row['n_joints']} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--bench", default=None, help="a prepared benchmark folder (default: partnet_dev, prepared once)")
     parser.add_argument("--limit", type=int, default=None)
+    parser.add_argument("--ids", nargs="*", default=None, help="only these case ids (a documented subset)")
     parser.add_argument("--methods", default="spark,native")
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--work", default="~/.cache/spark-bench/measure_joint_opt_real")
+    parser.add_argument("--cached", action="store_true",
+                        help="run nothing: report the runs cached under --work, whatever code made them")
+    parser.add_argument("--note", action="append", default=[], help="a line added under the heading")
     args = parser.parse_args(argv)
     console = Console()
     bench = prepared(args.bench, console)
-    cases = case_dirs(bench, args.limit)
+    cases = case_dirs(bench, args.limit, args.ids)
     methods = [m for m in args.methods.split(",") if m]
     work = Path(args.work).expanduser() / bench.name
     tasks = [((m, 0, c.name), str(c), str(work / m / c.name), list(VARIANTS[m]), 0, False)
              for m in methods for c in cases]
-    results = run_tasks(tasks, args.jobs, console)
+    results = cached_rows(tasks, console) if args.cached else run_tasks(tasks, args.jobs, console)
+    codes = sorted({r["code"] for r in results.values()})
+    subset = "" if not args.ids else f" (a subset: {' '.join(c.name for c in cases)})"
     lines = [f"# Seconds per real object: SPARK's joint optimization on {bench.name}", "",
-             f"{len(cases)} PartNet-Mobility objects of `../shared/partnet_dev` prepared as a benchmark "
+             f"{len(cases)} PartNet-Mobility objects{subset} of `../shared/partnet_dev` prepared as a benchmark "
              "(`spark-bench data prepare`, watertight R=200, 512 px); `run_ours` with the default config "
              "(annotation prior seed 0, annotation geometry, dataset open state) per method, torch 1 thread, "
-             f"one object at a time; {os.cpu_count()} cores shared with other jobs. Produced by "
-             "`python benchmarks/measure_joint_opt_real.py`.", "",
+             f"one object at a time; {os.cpu_count()} cores shared with other jobs (the load column: the "
+             "1-min load average while they ran; wall seconds grow with it, CPU seconds hardly). Produced by "
+             f"`python benchmarks/measure_joint_opt_real.py`; SPARK sources {', '.join(codes)}.", "",
+             *[x for note in args.note for x in (note, "")],
              "| method | objects | optimizer CPU s | objects <= 10 s | run_ours CPU s | run_ours wall s | load |",
              "|---|---|---|---|---|---|---|"]
     for method in methods:
@@ -88,13 +132,9 @@ def main(argv: list[str] | None = None) -> int:
         lines.append(f"| opt={method} | {len(rows)} | {_stats(opt)} | {sum(v <= TARGET_S for v in opt)} | "
                      f"{_stats([r['cpu_seconds'] for r in rows])} | {_stats([r['seconds'] for r in rows])} | "
                      f"{np.mean([r['load'] for r in rows]):.1f} |")
-    lines += ["", "Slowest objects (optimizer CPU s, movable joints, revolute joints fitted by opt=spark):", ""]
-    for method in methods:
-        rows = sorted((r for (m, _, _), r in results.items() if m == method),
-                      key=lambda r: -r["timings"]["optimize_cpu"])[:5]
-        lines.append(f"- opt={method}: " + ", ".join(
-            f"{r['case']} ({r['category']}) {r['timings']['optimize_cpu']:.1f} s, {r['n_joints']} joints"
-            for r in rows))
+    lines += ["", "Per object, slowest optimizer first (the optimizer: `optimize_cpu`, the whole stage 4; "
+              "`run_ours` adds loading the ground truth's meshes, the prior and writing two object folders):", ""]
+    lines += per_object_lines(results, methods)
     text = "\n".join(lines) + "\n"
     console.print(text)
     out = Path(__file__).parent / "results" / f"joint_opt_speed_{bench.name}.md"

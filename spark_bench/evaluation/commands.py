@@ -63,7 +63,10 @@ def add_commands(subparsers) -> None:
     b.add_argument("--per-category", action="store_true", help="add per-category tables")
     b.add_argument("--per-part-class", action="store_true",
                    help="articulation errors per GAPartNet part class (needs annotated ground truth)")
-    b.add_argument("--methods", help="comma-separated labels to show (default: all)")
+    b.add_argument("--methods", action="append", metavar="LABELS",
+                   help="method labels to show (default: all); repeat the flag for labels that contain commas, "
+                        "e.g. --methods retrieval --methods 'ours (prior=retrieval,...)', or give simple labels "
+                        "comma-separated")
     b.add_argument("--max-cases", type=int, default=24, help="HTML: cases shown with renders")
     b.add_argument("--db", help="results database (default: $SPARK_BENCH_HOME/results.sqlite)")
     b.set_defaults(func=run_leaderboard_command)
@@ -125,7 +128,7 @@ def run_leaderboard_command(args) -> int:
 
     with ResultsStore(_db(args)) as store:
         board = build_leaderboard(store, bench=args.bench,
-                                  labels=[m for m in args.methods.split(",") if m] if args.methods else None)
+                                  labels=args.methods)
     if args.format == "html" and not args.out:
         raise SparkBenchError("--format html needs --out FILE (images are written beside it)")
     text = render(board, args.format, per_category=args.per_category, per_part_class=args.per_part_class,

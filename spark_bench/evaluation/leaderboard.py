@@ -73,13 +73,34 @@ def _entries(rows: list[dict]) -> list[Entry]:
     return out
 
 
+def selected_labels(selectors: list[str], stored: set[str]) -> set[str]:
+    """The labels ``--methods`` names: each selector is a stored label (labels such as ``ours (prior=...,
+    opt=spark)`` contain commas), else a comma-separated list of stored labels.
+
+    :param selectors: the ``--methods`` values
+    :param stored: the labels of the benchmark's rows
+    :raises SparkBenchError: a name that is not a stored label, with the labels there are
+    """
+    out: set[str] = set()
+    for selector in selectors:
+        names = [selector] if selector in stored else [n.strip() for n in selector.split(",") if n.strip()]
+        unknown = [n for n in names if n not in stored]
+        if unknown:
+            raise SparkBenchError(f"no results labelled {unknown[0]!r}; the labels are: "
+                                  + "; ".join(sorted(stored)))
+        out.update(names)
+    return out
+
+
 def build_leaderboard(store: ResultsStore, bench: str | None = None, labels: list[str] | None = None
                       ) -> Leaderboard:
     """The leaderboard of one benchmark from the store.
 
     :param store: the results store
     :param bench: the benchmark (default: the only one in the store, else ``synth-v1``)
-    :param labels: only these method labels
+    :param labels: only these method labels: each entry a stored label, or labels joined by commas (a label
+        that itself contains commas is taken whole)
+    :raises SparkBenchError: a label that no row of the benchmark has
     """
     if bench is None:
         benches = store.benches()
@@ -90,7 +111,8 @@ def build_leaderboard(store: ResultsStore, bench: str | None = None, labels: lis
             raise SparkBenchError(f"results for several benchmarks ({', '.join(benches)}): choose one with --bench")
     rows = store.rows(bench=bench)
     if labels:
-        rows = [r for r in rows if r["label"] in labels]
+        wanted = selected_labels(labels, {r["label"] for r in rows})
+        rows = [r for r in rows if r["label"] in wanted]
     if not rows:
         raise SparkBenchError(f"no results for benchmark {bench!r} in {store.path}")
     left_out: dict[str, int] = {}

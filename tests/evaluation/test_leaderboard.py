@@ -66,6 +66,16 @@ def test_aggregation_and_marks(store):
     assert art[(names.index("ours"), "axis_err")] == 1 and art[(names.index("A"), "axis_err")] == 2
 
 
+def test_methods_select_labels_that_contain_commas(tmp_path):
+    label = "ours (prior=retrieval,geometry=retrieval,opt=native)"
+    with ResultsStore(tmp_path / "r.sqlite") as s:
+        s.put([_row("A", "c1", cd=0.2), _row("B", "c1", cd=0.1), _row(label, "c1", cd=0.3)])
+        assert [e.name for e in build_leaderboard(s, labels=[label, "A"]).entries] == ["A", label]
+        assert [e.name for e in build_leaderboard(s, labels=["A,B"]).entries] == ["A", "B"]  # the old comma list
+        with pytest.raises(SparkBenchError, match="no results labelled 'ours'.*the labels are"):
+            build_leaderboard(s, labels=["ours"])
+
+
 def test_markdown_latex_csv(store):
     board = build_leaderboard(store)
     md = to_markdown(board, per_category=True)
