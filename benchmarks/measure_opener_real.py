@@ -12,11 +12,20 @@ buttons, knobs, a bucket's bail, are not drawers or doors):
 Also the issue's per-object number: ``spark-bench rollout --env SparkDrawer-v0|SparkDoor-v0 --policy
 scripted`` on each object's *default* joint (drawer for tables, door or lid otherwise).
 
+A failed joint is then driven directly (a force on the joint, the gripper parked away,
+:func:`free_motion`): one that does not open so either is *jammed* in the simulation (its collision
+shapes), not the opener's doing, and the report counts it apart.
+
 Failures are written as small MP4 videos (first episode, a close view of the grasp) into ``--videos``
 (default ``benchmarks/results/opener_failures``) with a PNG contact sheet of their frames, and the report
 as ``opener_real.md`` (``--results``). A per-joint JSON goes to ``--out``.
 
 Run: ``nice -n 10 python benchmarks/measure_opener_real.py [--ids 24644,7304] [--episodes 2]``.
+
+Timing mode (issue 12, item 5): ``--score BENCH --cases ...`` times the opening score
+(:func:`spark_bench.evaluation.opening.open_with_predicted_joints`) of the oracle on cases of a prepared
+benchmark, seconds per case, into ``opener_score_speed.md`` (``--before`` an earlier run's ``--out`` JSON
+to compare with, verdicts included).
 """
 
 from __future__ import annotations
@@ -42,6 +51,8 @@ OPENABLE = {"drawer": "drawer", "door": "door", "rotation_door": "door", "transl
             "lid": "lid", "rotation_lid": "lid", "translation_lid": "lid", "rotation_window": "window",
             "translation_window": "window", "board": "board"}
 FPS = 12
+#: The task's success fraction (the environments' default ``target_fraction``).
+TARGET = 0.75
 console = Console()
 
 
@@ -93,12 +104,51 @@ def run_joint(asset, object_id: str, row: dict, episodes: int, max_steps: int, v
     if episodes > 1:
         more = run_episodes(env, ScriptedPolicy(), episodes - 1, seed=1)
         stats.successes += more.successes
-    env.close()
     out.update(success_rate=float(np.mean(stats.successes)), max_fraction=stats.mean_max_fraction,
                episodes=episodes, run_s=time.perf_counter() - start - build)
+    if out["success_rate"] < 1.0:  # the opener's fault, or a part the simulation does not let move?
+        out["free_fraction"] = free_motion(env)
+    env.close()
     if video_dir and out["success_rate"] < 1.0 and frames:
         out["video"] = str(_write_failure(frames, video_dir, object_id, row["joint"]))
     return out
+
+
+#: Direct drive of a failed joint (:func:`free_motion`): the force (N; a torque of this force at the grasp's
+#: lever arm for a door) and the steps it is applied for.
+FREE_FORCE = 200.0
+FREE_STEPS = 100
+
+
+def free_motion(env, force: float = FREE_FORCE, steps: int = FREE_STEPS) -> float:
+    """The largest fraction of its range the environment's joint reaches when driven directly (a
+    generalized force on the joint, the gripper parked at a corner of its workspace), from rest: a part
+    that does not open so is jammed in the simulation (its collision shapes), whatever the opener does."""
+    from spark_bench.mujoco_gl import mujoco_module
+
+    mujoco = mujoco_module()
+    u = env.unwrapped
+    m, d = u.model, u.data
+    scene = u.scene
+    mujoco.mj_resetData(m, d)
+    d.qpos[:] = scene.rest_qpos
+    park = scene.workspace[1] - 0.01
+    d.qpos[u._tcp_q] = park
+    d.ctrl[u._act_tcp] = park
+    lever = 1.0
+    if scene.joint.is_rotational:
+        pivot, axis = scene.asset.joint_frames()[scene.joint.name]
+        r = scene.grasp.point - pivot
+        lever = max(float(np.linalg.norm(r - (r @ axis) * axis)), 0.05)
+    dof = m.jnt_dofadr[m.joint(scene.joint.name).id]
+    best = 0.0
+    for _ in range(steps):
+        d.qfrc_applied[:] = 0.0
+        d.qfrc_applied[dof] = force * lever
+        mujoco.mj_step(m, d, nstep=10)
+        best = max(best, u.joint_fraction)
+    d.qfrc_applied[:] = 0.0
+    return best
 
 
 def _write_failure(frames: list, video_dir: Path, object_id: str, joint: str) -> Path:
@@ -148,6 +198,11 @@ def default_rows(asset, object_id: str, rows: list[dict], episodes: int, max_ste
     return {**run_joint(asset, object_id, row, episodes, max_steps, None), "object": object_id, "default": True}
 
 
+def jammed(row: dict) -> bool:
+    """Whether a failed joint does not open even driven directly (:func:`free_motion`)."""
+    return row.get("free_fraction") is not None and row["free_fraction"] < TARGET
+
+
 def summarize(rows: list[dict]) -> list[dict]:
     """One line per category (and ``all``): joints, declined by the planner, attempted, opened (every
     episode), opened / attempted, opened / all."""
@@ -158,9 +213,12 @@ def summarize(rows: list[dict]) -> list[dict]:
         declined = [r for r in sel if r.get("reason")]
         attempted = [r for r in sel if not r.get("reason")]
         opened = [r for r in attempted if r.get("success_rate", 0.0) >= 1.0]
+        stuck = [r for r in attempted if jammed(r)]
         out.append({"category": category, "joints": len(sel), "declined": len(declined), "attempted": len(attempted),
-                    "opened": len(opened), "rate_attempted": len(opened) / len(attempted) if attempted else None,
-                    "rate_all": len(opened) / len(sel) if sel else None})
+                    "opened": len(opened), "jammed": len(stuck),
+                    "rate_attempted": len(opened) / len(attempted) if attempted else None,
+                    "rate_all": len(opened) / len(sel) if sel else None,
+                    "rate_movable": len(opened) / (len(attempted) - len(stuck)) if len(attempted) > len(stuck) else None})
     return out
 
 
@@ -180,11 +238,17 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
              "success = the joint passes 75 % of its range. A joint counts as opened when every episode opens it. "
              "*Declined*: the planner says, before any episode, why a parallel gripper cannot pull the part "
              f"(that line is the rollout's `reason`). Total time {seconds:.0f} s.", "",
-             "| category | joints | declined | attempted | opened | opened / attempted | opened / all |",
-             "|---|---|---|---|---|---|---|"]
+             "*Jammed*: a failed joint that does not reach the success fraction either when driven directly "
+             f"({FREE_FORCE:.0f} N at the grasp, gripper parked away, {FREE_STEPS} steps): the simulated part "
+             "does not move (its collision shapes), whatever the opener does; *opened / movable* leaves them out.",
+             "",
+             "| category | joints | declined | attempted | opened | jammed | opened / attempted | opened / movable "
+             "| opened / all |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for s in summarize(rows):
         lines.append(f"| {s['category']} | {s['joints']} | {s['declined']} | {s['attempted']} | {s['opened']} | "
-                     f"{_pct(s['rate_attempted'])} | {_pct(s['rate_all'])} |")
+                     f"{s['jammed']} | {_pct(s['rate_attempted'])} | {_pct(s['rate_movable'])} | "
+                     f"{_pct(s['rate_all'])} |")
     if defaults:
         lines += ["", "## Per object, default joint (`spark-bench rollout --env SparkDrawer-v0|SparkDoor-v0 "
                   f"--policy scripted --episodes {args.episodes}`)", "",
@@ -198,6 +262,7 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
     lines += [f"- {r['object']} {r['joint']} ({r['category']} {r['label']}, grasp {r.get('grasp')}): success "
               f"{r.get('success_rate', 0.0):.2f}, largest opening {r.get('max_fraction', 0.0):.2f} of the range"
               + (f"; {r['error']}" if r.get("error") else "")
+              + (f"; **jammed**: driven directly it reaches {r['free_fraction']:.2f}" if jammed(r) else "")
               + (f" — [video]({os.path.relpath(r['video'], path.parent)})" if r.get("video") else "")
               for r in failed] or ["- none"]
     if sheet is not None:
@@ -216,10 +281,11 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
     return path
 
 
-def score_speed(bench: Path, cases: list[str], seed: int = 0) -> list[dict]:
+def score_speed(bench: Path, cases: list[str], seed: int = 0, path: Path | None = None) -> list[dict]:
     """The opening score (:func:`spark_bench.evaluation.opening.open_with_predicted_joints`) of the oracle
     on each case of a prepared benchmark: the ground truth predicted by itself, every joint matched with
-    itself (what the oracle's metrics give). Wall time per case, and the verdicts."""
+    itself (what the oracle's metrics give). Wall time per case, and the verdicts, written to ``path`` (JSON)
+    after each case when given."""
     from spark_bench.data import load_object
     from spark_bench.data.case import BenchmarkCase
     from spark_bench.evaluation.opening import open_with_predicted_joints
@@ -236,6 +302,8 @@ def score_speed(bench: Path, cases: list[str], seed: int = 0) -> list[dict]:
         out.append({"case": case_id, "category": gt.category, "seconds": seconds, "success_rate": result["success_rate"],
                     "verdicts": verdicts, "joints": result["joints"]})
         console.print(f"{case_id} ({gt.category}): {seconds:.1f} s, success rate {result['success_rate']}, {verdicts}")
+        if path is not None:  # as it goes: a long run stopped early keeps its cases
+            path.write_text(json.dumps(out, indent=1, default=float))
     return out
 
 
@@ -295,9 +363,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.score is not None:
         cases = args.cases.split(",") if args.cases else sorted(p.name for p in (args.score / "cases").iterdir())
-        rows = score_speed(args.score, cases)
-        if args.out is not None:
-            args.out.write_text(json.dumps(rows, indent=1, default=float))
+        rows = score_speed(args.score, cases, path=args.out)
         before = json.loads(args.before.read_text()) if args.before else None
         console.print(f"wrote {write_score_speed(rows, before, args.results / 'opener_score_speed.md', args.note)}")
         return
@@ -309,6 +375,10 @@ def main() -> None:
         raise SystemExit(f"{args.root}: no such folder")
     ids = args.ids.split(",") if args.ids else sorted(p.name for p in args.root.iterdir() if (p / "mobility.urdf").is_file())
     videos = args.videos if str(args.videos) else None
+    if videos is not None and videos.is_dir():  # no stale video of an earlier run's failure
+        for old in videos.glob("*.mp4"):
+            if args.ids is None or old.name.split("_")[0] in ids:
+                old.unlink()
     from tqdm import tqdm
 
     start = time.perf_counter()
@@ -331,7 +401,7 @@ def main() -> None:
                 defaults.append(found)
     seconds = time.perf_counter() - start
     for s in summarize(rows):
-        console.print(f"{s['category']}: {s['opened']}/{s['attempted']} attempted opened, {s['declined']} declined, "
+        console.print(f"{s['category']}: {s['opened']}/{s['attempted']} attempted opened, {s['declined']} declined, {s['jammed']} jammed, "
                       f"{s['joints']} joints")
     if args.out is not None:
         args.out.write_text(json.dumps({"rows": rows, "defaults": defaults}, indent=1, default=float))

@@ -16,6 +16,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from spark_bench.asset.mesh import sample_surface
 from spark_bench.asset.transforms import unit
 
 #: Bin width (m) of the front-face level histogram.
@@ -168,6 +169,23 @@ def find_notch(image: np.ndarray, lo: np.ndarray, cell: float = NOTCH_CELL) -> l
     return out
 
 
+def proud_samples(mesh, outward: np.ndarray, level: float, count: int, seed: int) -> np.ndarray:
+    """``count`` surface samples of the triangles of ``mesh`` reaching above ``level`` along ``outward``,
+    those above it kept (an empty array when nothing reaches it)."""
+    from trimesh import Trimesh
+
+    triangles = np.asarray(mesh.triangles)
+    keep = (triangles @ outward).max(1) > level
+    if not keep.any():
+        return np.zeros((0, 3))
+    sub = Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces)[keep], process=False)
+    try:
+        points = sample_surface(sub, count, seed=seed)
+    except ValueError:  # zero-area triangles only
+        return np.zeros((0, 3))
+    return points[points @ outward > level]
+
+
 @dataclass
 class Front:
     """The grasped part at rest (world frame).
@@ -211,20 +229,35 @@ def ray_hits(triangles: np.ndarray, origins: np.ndarray, direction: np.ndarray, 
     :param origins: (R, 3) ray origins
     :param direction: unit direction shared by the rays
     """
+    return first_hit(triangles, origins, direction, near, far) is not None
+
+
+def first_hit(triangles: np.ndarray, origins: np.ndarray, direction: np.ndarray, near: float, far: float
+              ) -> float | None:
+    """The smallest ``t`` (``near < t < far``) at which one of the rays ``origins + t * direction`` crosses a
+    triangle, or None (Moller-Trumbore, all rays against all triangles).
+
+    :param triangles: (F, 3, 3) triangle corners
+    :param origins: (R, 3) ray origins
+    :param direction: unit direction shared by the rays
+    """
     if len(triangles) == 0:
-        return False
+        return None
     a, e1, e2 = triangles[:, 0], triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
     p = np.cross(direction, e2)
     det = np.einsum("ij,ij->i", e1, p)
     ok = np.abs(det) > 1e-12
     a, e1, e2, p, det = a[ok], e1[ok], e2[ok], p[ok], det[ok]
+    best = None
     for origin in np.atleast_2d(origins):
         s = origin - a
         u = np.einsum("ij,ij->i", s, p) / det
         q = np.cross(s, e1)
         v = (q @ direction) / det
         t = np.einsum("ij,ij->i", e2, q) / det
-        if np.any((u >= 0) & (v >= 0) & (u + v <= 1) & (t > near) & (t < far)):
-            return True
-    return False
+        hit = (u >= 0) & (v >= 0) & (u + v <= 1) & (t > near) & (t < far)
+        if np.any(hit):
+            far = float(t[hit].min())
+            best = far
+    return best
 

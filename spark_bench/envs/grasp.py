@@ -47,16 +47,18 @@ from spark_bench.envs.features import (
     clusters,
     face_normal,
     find_notch,
+    first_hit,
     front_level,
     long_axis,
     min_cluster,
     perpendicular_basis,
+    proud_samples,
     rasterise_front,
-    ray_hits,
 )
 from spark_bench.envs.gripper import GripperConfig
 from spark_bench.envs.handles import PINCH_MARGIN, candidates, edge_pinch, pad_center, reach_depth
 from spark_bench.envs.pads import OBSTACLE_MIN_PROUD, plan_pads
+from spark_bench.envs.rest_meshes import RestMeshes
 
 #: A surface point counts as handle when it stands this far (m) in front of the front face (twice
 #: :data:`~spark_bench.envs.pads.OBSTACLE_MIN_PROUD`, what counts as in the fingers' way).
@@ -65,6 +67,8 @@ HANDLE_MIN_PROUD = 2 * OBSTACLE_MIN_PROUD  # 8 mm
 N_SAMPLES = 20000
 #: Surface samples of a labelled handle, or of the parts hinged to the grasped one.
 N_HANDLE_SAMPLES = 4000
+#: Sample spacing (m) on a small part hinged to the grasped one (:func:`_hinged_samples`).
+HINGED_SPACING = 0.0015
 #: A labelled handle's grasp point must lie over the handle itself: within this distance (m), in the
 #: front plane, of a handle point. A bucket's bail is an arc: its bounding box's center is in the air.
 HANDLE_ON_TOLERANCE = 0.006
@@ -87,6 +91,8 @@ NOTCH_DEPTH = 0.004
 #: A handle standing out of its base by this much (m) is held firmly; a lower one (a keyhole plate, an
 #: escutcheon) is taken only when nothing stands out further.
 FIRM_PROUD = 0.02
+#: A prismatic joint travelling at most this far (m) is a push button (a microwave's door release).
+BUTTON_TRAVEL = 0.01
 #: Smallest extent (m), both ways in the front plane, of a feature standing out of the front for it to be
 #: a handle candidate (a screw head is not).
 MIN_FEATURE = 0.002
@@ -289,7 +295,7 @@ def _handle_searches(asset: ArticulatedAsset, joint: str, front: Front, seed: in
         return out
 
     for name in _handle_links(asset, carried):  # a handle hinged to the part (a door's lever) is its handle too
-        pts = sample_surface(asset.mesh(links=[name]), N_HANDLE_SAMPLES, seed=seed)
+        pts = _hinged_samples(asset.mesh(links=[name]), seed)
         yield "label", pts, standing(pts, hinged(name))
     # what stands out of the front, sampled densely (a 15 mm knob on a large drawer is a few of the part's
     # samples): the part's own, and a dial or knob on its own joint, which stands out like any handle
@@ -297,10 +303,18 @@ def _handle_searches(asset: ArticulatedAsset, joint: str, front: Front, seed: in
     groups = [(g, None, front.face) for g in clusters(pts)
               if len(g) >= MIN_CLUSTER and np.ptp(pts[g] @ front.basis.T, axis=0).min() >= MIN_FEATURE]
     for name in carried:
-        extra = sample_surface(asset.mesh(links=[name]), N_HANDLE_SAMPLES, seed=seed)
+        extra = _hinged_samples(asset.mesh(links=[name]), seed)
         groups += [(g + len(pts), anchor, base) for g, anchor, base in standing(extra, hinged(name))]
         pts = np.concatenate([pts, extra])
     yield "geometry", pts, groups
+
+
+def _hinged_samples(mesh, seed: int) -> np.ndarray:
+    """Surface samples of a part hinged to the grasped one: :data:`N_HANDLE_SAMPLES`, or one per
+    :data:`HINGED_SPACING` squared of its area when that is fewer (a safe's door carries a dozen 2 cm
+    buttons: 4000 samples on each put every pair of them within a cluster's reach, 10^7 pairs)."""
+    count = int(np.clip(float(mesh.area) / HINGED_SPACING ** 2, 2 * MIN_CLUSTER, N_HANDLE_SAMPLES))
+    return sample_surface(mesh, count, seed=seed)
 
 
 def _base(surface: np.ndarray | None, feature: np.ndarray, front: Front) -> float | None:
@@ -315,23 +329,6 @@ def _base(surface: np.ndarray | None, feature: np.ndarray, front: Front) -> floa
     if not inside.any():
         return None
     return float(np.max(surface[inside] @ front.outward))
-
-
-def proud_samples(mesh, outward: np.ndarray, level: float, count: int, seed: int) -> np.ndarray:
-    """``count`` surface samples of the triangles of ``mesh`` reaching above ``level`` along ``outward``,
-    those above it kept (an empty array when nothing reaches it)."""
-    from trimesh import Trimesh
-
-    triangles = np.asarray(mesh.triangles)
-    keep = (triangles @ outward).max(1) > level
-    if not keep.any():
-        return np.zeros((0, 3))
-    sub = Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces)[keep], process=False)
-    try:
-        points = sample_surface(sub, count, seed=seed)
-    except ValueError:  # zero-area triangles only
-        return np.zeros((0, 3))
-    return points[points @ outward > level]
 
 
 def _own_joint(asset: ArticulatedAsset, link: str) -> str | None:
@@ -387,28 +384,62 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
                gripper: GripperConfig | None = None) -> GraspTarget:
     """The grasp on the part moved by ``joint``, at the asset's rest configuration.
 
-    :param asset: the object
+    :param asset: the object (or a :class:`RestMeshes` of it, to share its meshes between joints)
     :param joint: a movable joint's name
     :param seed: seed of the surface sampling
     :param gripper: the gripper's dimensions, for fitting the pads beside the handle (default gripper)
     :raises ValueError: the part has no geometry, or its centroid lies on its hinge
     """
     gripper = gripper or GripperConfig()
+    spec = asset.joints[joint]
+    travel = spec.open_value - spec.rest_value
+    if spec.type == "prismatic" and 0.0 < travel <= BUTTON_TRAVEL:  # pressed, not pulled: nothing to plan
+        part = asset.mesh(links=asset.part_of_joint(joint))
+        if len(part.faces) == 0:
+            raise ValueError(f"{asset.name}: the part moved by {joint} has no geometry")
+        axis = unit(asset.joint_frames()[joint][1])
+        return GraspTarget(point=np.asarray(part.vertices).mean(0), outward=-axis, long_axis=perpendicular_basis(axis)[0],
+                           has_handle=False, source="face",
+                           reason=f"{joint}: a push button ({1000 * travel:.1f} mm of travel): pressed, not pulled open")
+    if not isinstance(asset, RestMeshes):
+        asset = RestMeshes(asset)
     grasp = _find(asset, joint, seed, gripper)
-    if _approach_blocked(asset, grasp, gripper):
-        grasp.reason = (f"{joint}: the way the gripper comes in, in front of the {_part_name(asset, joint)}, runs "
-                        "into the object (the joint opens into it: is its axis reversed?)")
+    blocked = _approach_blocked(asset, grasp, gripper)
+    if blocked is not None:
+        link, distance, through = blocked
+        what = (asset.links[link].label or link).replace("_", " ")
+        part = _part_name(asset, joint)
+        if through:  # the object lies across the whole way in, where the part should open to
+            grasp.reason = (f"{joint}: the way the gripper comes in, in front of the {part}, runs into the "
+                            f"{what} {1000 * distance:.0f} mm out (the joint opens into the object: is its axis "
+                            "reversed?)")
+        else:  # a neighbouring feature where the open fingers come down
+            grasp.reason = (f"{joint}: the {what} stands in the open fingers' way to the {part}'s grasp, "
+                            f"{1000 * distance:.0f} mm in front of it")
     return grasp
 
 
-def _approach_blocked(asset: ArticulatedAsset, grasp: GraspTarget, gripper: GripperConfig) -> bool:
-    """Whether the object stands in the hand's way in: rays from the open pads' places along the outward
-    direction, from the palm's level (what stands lower is the pads' business,
-    :func:`~spark_bench.envs.pads.plan_pads`) out to :data:`APPROACH_CLEAR`, cross the object."""
-    across = grasp.closing * gripper.max_opening
+def _approach_blocked(asset: ArticulatedAsset, grasp: GraspTarget, gripper: GripperConfig
+                      ) -> tuple[str, float, bool] | None:
+    """What of the object stands in the hand's way in: rays from the pads' places as they come in (open,
+    or pre-closed to ``grasp.opening``) along the outward direction, from the palm's level (what stands
+    lower is the pads' business, :func:`~spark_bench.envs.pads.plan_pads`) out to :data:`APPROACH_CLEAR`.
+    Returns ``(the first link hit, its distance m, whether the ray from the grasp point itself is blocked
+    too)`` or None. A part whose joint opens into the object has the object across its whole way in; a
+    neighbouring feature (a dial beside a safe's lever) stands beside the grasp, in one pad's way."""
+    opening = gripper.max_opening if grasp.opening is None else grasp.opening
+    across = grasp.closing * opening
     origins = np.stack([grasp.point + across, grasp.point - across])
-    triangles = np.asarray(asset.mesh().triangles)
-    return ray_hits(triangles, origins, grasp.outward, gripper.finger_length - gripper.tip_beyond_tcp, APPROACH_CLEAR)
+    near, best, through = gripper.finger_length - gripper.tip_beyond_tcp, None, False
+    for name, link in asset.links.items():
+        if not link.has_geometry:
+            continue
+        triangles = np.asarray(asset.mesh(links=[name]).triangles)
+        hit = first_hit(triangles, origins, grasp.outward, near, APPROACH_CLEAR if best is None else best[1])
+        if hit is not None:
+            best = (name, hit)
+        through = through or first_hit(triangles, grasp.point, grasp.outward, near, APPROACH_CLEAR) is not None
+    return None if best is None else (*best, through)
 
 
 def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig) -> GraspTarget:
@@ -456,6 +487,10 @@ def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig
     what = _part_name(asset, joint)
     reason = too_wide or (f"no handle, knob, notch or tab on the {what}: nothing stands out of its front for "
                           "a parallel gripper to pull")
+    buttons = [j for j in asset.movable_joints() if j.type == "prismatic" and j.name != joint
+               and 0.0 < j.open_value - j.rest_value <= BUTTON_TRAVEL]
+    if buttons and not too_wide:  # a microwave's door: a button releases it
+        reason += f" (the object has {len(buttons)} push button{'s' * (len(buttons) > 1)}: a button may open it)"
     return GraspTarget(point=lateral @ basis + face * n, outward=n, long_axis=basis[0] if front.rotational else basis[1],
                        has_handle=False, source="face", reason=f"{joint}: {reason}")
 

@@ -198,7 +198,7 @@ def edge_pinch(front: Front, others, gripper: GripperConfig) -> tuple[np.ndarray
     :param others: the rest of the object's mesh (world, at rest), or None
     """
     from spark_bench.envs.features import LEVEL_BIN
-    from spark_bench.envs.pads import clipped_vertices
+    from spark_bench.envs.pads import clipped_vertices, near_box
 
     n, basis = front.outward, front.basis
     face_points = front.points[np.abs(front.points @ n - front.face) < 2 * LEVEL_BIN]
@@ -217,10 +217,14 @@ def edge_pinch(front: Front, others, gripper: GripperConfig) -> tuple[np.ndarray
         half, reach = 0.5 * float(np.ptp(extent)), gripper.max_opening + gripper.pad_thickness + EDGE_CLEARANCE
         height = 0.5 * gripper.pad_height + EDGE_CLEARANCE
         frame = np.stack([closing, long3, n])
+        low = -gripper.tip_beyond_tcp - EDGE_CLEARANCE
+        # what of the other parts may stand in any of the sweeps below, cut out once (a real object's 10^6
+        # triangles): the deepest grip's sweep holds the shallower ones'
+        deepest = middle @ basis + (front.face - max(EDGE_GRIP_DEPTHS) + gripper.tip_beyond_tcp) * n
+        near = near_box(others, deepest, frame, [-reach, -height, low], [reach, height, np.inf])
         for depth in EDGE_GRIP_DEPTHS:
             center = middle @ basis + (front.face - depth + gripper.tip_beyond_tcp) * n
-            low = -gripper.tip_beyond_tcp - EDGE_CLEARANCE
-            blocked = any(len(clipped_vertices(others, center, frame, lo, hi)) for lo, hi in (
+            blocked = any(len(clipped_vertices(near, center, frame, lo, hi)) for lo, hi in (
                 ([half + EDGE_CLEARANCE, -height, low], [reach, height, np.inf]),
                 ([-reach, -height, low], [-half - EDGE_CLEARANCE, height, np.inf])))
             if not blocked:

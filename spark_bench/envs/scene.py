@@ -19,6 +19,7 @@ import numpy as np
 from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.envs.grasp import GraspTarget, find_grasp
 from spark_bench.envs.gripper import GripperConfig, GripperHandles, add_gripper
+from spark_bench.envs.rest_meshes import RestMeshes
 from spark_bench.errors import InputError
 from spark_bench.mujoco_gl import mujoco_module
 
@@ -127,10 +128,36 @@ def _default_rank(asset: ArticulatedAsset, joints: list[Joint]) -> list[tuple]:
             for k, j in enumerate(joints)]
 
 
-def workspace_box(asset: ArticulatedAsset, margin: float = WORKSPACE_MARGIN) -> np.ndarray:
-    """The box holding the object both at rest and fully open, grown by ``margin`` on every side."""
+#: Positions of the opened joint (fractions of its range) whose part's box the workspace holds: a door
+#: swinging 170 degrees sweeps far out of the box of its rest and open positions (a safe's door, at 90
+#: degrees, stands a door's width in front of the safe).
+SWEEP_FRACTIONS = np.linspace(0.0, 1.0, 9)
+
+
+def _rest_and_open_bounds(asset: ArticulatedAsset) -> tuple[np.ndarray, np.ndarray]:
+    """The low and high corners of the box holding the object at rest and fully open."""
     rest, opened = asset.bounds(), asset.bounds(asset.open_configuration())
-    return np.stack([np.minimum(rest[0], opened[0]) - margin, np.maximum(rest[1], opened[1]) + margin])
+    return np.minimum(rest[0], opened[0]), np.maximum(rest[1], opened[1])
+
+
+def workspace_box(asset: ArticulatedAsset, margin: float = WORKSPACE_MARGIN, joint: Joint | None = None
+                  ) -> np.ndarray:
+    """The box holding the object both at rest and fully open, and the part of ``joint`` at every position
+    of :data:`SWEEP_FRACTIONS` of its range, grown by ``margin`` on every side.
+
+    :param joint: the joint the task opens (None: rest and open only)
+    """
+    low, high = _memo("bounds", asset, None, lambda: _rest_and_open_bounds(asset))
+    if joint is not None and joint.is_rotational:
+        links = asset.part_of_joint(joint.name)
+        for fraction in SWEEP_FRACTIONS[1:-1]:
+            value = joint.rest_value + fraction * (joint.open_value - joint.rest_value)
+            meshes = asset.link_meshes({joint.name: value}, links=links)
+            points = [mesh.vertices for mesh in meshes.values() if len(mesh.vertices)]
+            if points:
+                points = np.concatenate(points)
+                low, high = np.minimum(low, points.min(0)), np.maximum(high, points.max(0))
+    return np.stack([low - margin, high + margin])
 
 
 def fitted_gripper(grasp: GraspTarget, gripper: GripperConfig | None = None) -> GripperConfig:
@@ -148,8 +175,9 @@ def fitted_gripper(grasp: GraspTarget, gripper: GripperConfig | None = None) -> 
     return base
 
 
-#: Grasp plans and prepared objects (collision shapes, masses) kept for the last few assets, so that the
-#: environments of one object's joints (the opening score opens each) share them.
+#: Grasp plans, prepared objects (collision shapes, masses), the object's meshes at rest and its bounds,
+#: kept for the last :data:`MEMO_SIZE` assets (every entry of each), so that the environments of one
+#: object's joints (the opening score opens each) share them.
 MEMO_SIZE = 4
 _MEMO: OrderedDict = OrderedDict()
 
@@ -181,7 +209,7 @@ def _memo(what: str, asset: ArticulatedAsset, extra, compute):
         return hit[2]
     value = compute()
     _MEMO[key] = (weakref.ref(asset), fingerprint, value)
-    while len(_MEMO) > MEMO_SIZE:
+    while len({k[1] for k in _MEMO}) > MEMO_SIZE:  # the least recently used asset's entries go
         _MEMO.popitem(last=False)
     return value
 
@@ -193,8 +221,8 @@ def plan_grasp(asset: ArticulatedAsset, joint: str, gripper: GripperConfig | Non
     :raises InputError: the part has no geometry, or no outward direction
     """
     def compute():
-        try:
-            return find_grasp(asset, joint, gripper=gripper)
+        try:  # the object at rest, its link meshes shared by its joints' plans
+            return find_grasp(_memo("rest", asset, None, lambda: RestMeshes(asset)), joint, gripper=gripper)
         except ValueError as exc:
             raise InputError(asset.source or asset.name, str(exc)) from None
 
@@ -230,26 +258,28 @@ def hold_hinged_parts(spec, asset: ArticulatedAsset, joint: str) -> list[str]:
 
 
 def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
-                gripper: GripperConfig | None = None) -> Scene:
+                gripper: GripperConfig | None = None, visuals: bool = True) -> Scene:
     """Compile the object with the gripper, for opening ``joint`` (or the first joint of ``kind``).
 
     :param asset: the object (benchmark frame or metres; Z up, front facing -X)
     :param kind: ``prismatic`` (drawers) or ``revolute`` (doors)
     :param joint: the joint's name, or None for the first of ``kind``
     :param gripper: gripper dimensions and gains
+    :param visuals: compile the object's visual meshes (for rendering); without them the scene simulates the
+        same (visual geoms have no contacts and no mass) and a real object's compiles 10-30x faster
     """
     chosen = choose_joint(asset, kind, joint)
     grasp = plan_grasp(asset, chosen.name, gripper)
     from spark_bench.sim import build_spec
 
-    spec = build_spec(asset, prepared=prepared_object(asset))
+    spec = build_spec(asset, prepared=prepared_object(asset), visuals=visuals)
     spec.option.timestep = TIMESTEP
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     spec.option.impratio = IMPRATIO
     spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, 640)
     spec.visual.global_.offheight = max(spec.visual.global_.offheight, 480)
-    workspace = workspace_box(asset)
+    workspace = workspace_box(asset, joint=chosen)
     spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
     spec.visual.headlight.diffuse = [0.6, 0.6, 0.6]
     spec.worldbody.add_light(pos=[-2.0, -1.0, 3.0], dir=[0.5, 0.25, -0.8], diffuse=[0.5, 0.5, 0.5])

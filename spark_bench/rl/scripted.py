@@ -43,6 +43,17 @@ PRESS_STEPS = 5
 #: line by at most this much (m) per step, and only while it is within the lateral tolerance of that line.
 ALIGNED_STEP = 0.005
 ALIGNED_APPROACH_STEPS = 50
+#: A travel phase (pre-grasp, approach) whose distance to its waypoint shrank by less than
+#: :data:`STALL_PROGRESS` (m) over the last :data:`STALL_STEPS` steps has stalled (a pad or the palm rests on
+#: a lip beside the handle): it moves on rather than spend the episode's steps pushing (a real table's
+#: drawer lost 50 of its 100 steps so).
+STALL_STEPS = 6
+STALL_PROGRESS = 0.002
+#: While opening, a grasp point this far (m) from the TCP has slipped out of the fingers (held, it stays
+#: within about 2.5 cm, the handle turning between the pads): the opener grasps it again, from the
+#: pre-grasp in front of where it now is, at most :data:`MAX_REGRASPS` times an episode.
+REGRASP_DISTANCE = 0.05
+MAX_REGRASPS = 3
 
 
 def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
@@ -53,7 +64,8 @@ def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: 
 
 
 class ScriptedOpener:
-    """A four-phase controller: pre-grasp, approach, close, open along the given joint.
+    """A four-phase controller: pre-grasp, approach, close, open along the given joint (and back to the
+    pre-grasp when the handle slips out of the fingers while opening, :data:`REGRASP_DISTANCE`).
 
     With ``inside_grip`` (a finger-pull notch instead of a handle) the fingers close *before* the
     approach, enter the notch, the hand presses towards the notch's inner wall (``press``) and the
@@ -93,9 +105,17 @@ class ScriptedOpener:
     def reset(self) -> None:
         """Back to the first phase (call at each episode start)."""
         self.phase, self.phase_steps, self.radius, self.rest_grasp = "pregrasp", 0, None, None
+        self._distances: list[float] = []
+        self.regrasps = 0
 
     def _next(self, phase: str) -> None:
-        self.phase, self.phase_steps = phase, 0
+        self.phase, self.phase_steps, self._distances = phase, 0, []
+
+    def _stalled(self, distance: float) -> bool:
+        """Record this step's distance to the phase's waypoint; whether the travel has stalled."""
+        self._distances.append(float(distance))
+        return (len(self._distances) > STALL_STEPS
+                and self._distances[-1 - STALL_STEPS] - self._distances[-1] < STALL_PROGRESS)
 
     def _turned(self, direction: np.ndarray, grasp: np.ndarray) -> np.ndarray:
         """``direction`` (at rest) turned with the part: by the angle the grasp point has swung about the
@@ -147,12 +167,14 @@ class ScriptedOpener:
             if aligned:  # on the approach line, not just near the waypoint
                 error = error - np.dot(error, outward) * outward
             tolerance = self.lateral_tolerance if aligned else WAYPOINT_TOLERANCE
-            if np.linalg.norm(error) < tolerance or self.phase_steps > PREGRASP_STEPS:
+            distance = float(np.linalg.norm(error))
+            if distance < tolerance or self.phase_steps > PREGRASP_STEPS or self._stalled(distance):
                 self._next("approach")
         elif self.phase == "approach":
             target = self._aligned_target(tcp, grasp, self._turned(self.outward, grasp)) if aligned else grasp
             limit = ALIGNED_APPROACH_STEPS if aligned else APPROACH_STEPS
-            if np.linalg.norm(grasp - tcp) < WAYPOINT_TOLERANCE or self.phase_steps > limit:
+            distance = float(np.linalg.norm(grasp - tcp))
+            if distance < WAYPOINT_TOLERANCE or self.phase_steps > limit or self._stalled(distance):
                 self._next("press" if self.inside_grip else "close")
         elif self.phase == "press":
             target = grasp + press
@@ -164,6 +186,12 @@ class ScriptedOpener:
                 grip = grip + (self.approach_grip - grip) * (1.0 - self.phase_steps / CLOSE_STEPS)
             if self.phase_steps >= CLOSE_STEPS:
                 self._next("open")
+        elif np.linalg.norm(grasp - tcp) > REGRASP_DISTANCE and self.regrasps < MAX_REGRASPS:
+            # the handle slipped out of the fingers: open them and go back in front of it
+            self.regrasps += 1
+            self._next("pregrasp")
+            self.radius = None
+            target = grasp + PREGRASP_OFFSET * self._turned(self.outward, grasp)
         else:
             target, grip = self._open_target(tcp, press), hold
         action = np.empty(4, dtype=np.float32)

@@ -51,10 +51,26 @@ def test_reset_and_step_are_deterministic(env_id):
     assert not np.allclose(other[:3], env_b.reset(seed=7)[0][:3])
 
 
+def test_an_environment_that_never_renders_leaves_the_visuals_out_and_moves_the_same():
+    """Visual geoms have no contacts and no mass: without them (no ``render_mode``) the scene compiles
+    faster and the same actions give the same motion (to 1e-6: two compiled models, one code path)."""
+    plain = gym.make("SparkDrawer-v0", asset="procedural:0")
+    rendered = gym.make("SparkDrawer-v0", asset="procedural:0", render_mode="rgb_array")
+    names = [plain.unwrapped.model.geom(i).name for i in range(plain.unwrapped.model.ngeom)]
+    assert "link_0_collision_0" in names and not any(n.endswith("_visual") for n in names)
+    obs_a, _ = plain.reset(seed=3)
+    obs_b, _ = rendered.reset(seed=3)
+    for action in np.random.default_rng(1).uniform(-1, 1, size=(40, 4)).astype(np.float32):
+        obs_a, *_ = plain.step(action)
+        obs_b, *_ = rendered.step(action)
+    np.testing.assert_allclose(obs_a, obs_b, atol=1e-6)
+    assert not np.allclose(obs_a[:3], plain.reset(seed=3)[0][:3])  # the actions moved the gripper
+
+
 def test_object_comes_from_the_sim_conversion():
     """The object's geoms are spark_bench.sim's (named collision hulls in class ``collision``), and the
     gripper's pads collide with them (contype 2 & conaffinity 1) but not with each other."""
-    env = gym.make("SparkDrawer-v0", asset="procedural:0")
+    env = gym.make("SparkDrawer-v0", asset="procedural:0", render_mode="rgb_array")
     model = env.unwrapped.model
     names = [model.geom(i).name for i in range(model.ngeom)]
     assert "link_0_collision_0" in names and "link_0_visual" in names

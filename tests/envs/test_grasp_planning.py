@@ -191,5 +191,41 @@ def test_a_joint_that_opens_into_the_object_is_declined():
     asset = procedural_cabinet(0)
     asset.joints["joint_0"].axis = -np.asarray(asset.joints["joint_0"].axis)
     grasp = find_grasp(asset, "joint_0")
-    assert grasp.reason is not None and "runs into the object" in grasp.reason
+    assert grasp.reason is not None and "opens into the object" in grasp.reason
     assert find_grasp(procedural_cabinet(0), "joint_0").reason is None
+
+
+def test_the_workspace_holds_a_wide_swinging_door():
+    """A door opening 170 degrees (a safe's) stands a door's width in front of the cabinet half-way, out of
+    the box of its rest and open positions: the gripper's workspace must hold its whole sweep, or the hand
+    stops at the workspace's wall with the door a third open."""
+    from spark_bench.envs.scene import WORKSPACE_MARGIN, workspace_box
+
+    asset = procedural_cabinet(0)
+    door = asset.joints["joint_1"]
+    door.upper = np.radians(170.0)
+    box = workspace_box(asset, joint=door)
+    links = asset.part_of_joint("joint_1")
+    # between two of the sampled positions (21 degrees apart) the arc bulges past their chord by at most
+    # r (1 - cos 10.6 deg), under 2 cm for this door: well inside the margin the hand has
+    inner = box + np.array([[WORKSPACE_MARGIN - 0.02], [-WORKSPACE_MARGIN + 0.02]])
+    for angle in np.linspace(0.0, door.upper, 18):
+        points = asset.mesh({"joint_1": angle}, links=links).vertices
+        assert np.all(points >= inner[0]) and np.all(points <= inner[1])
+    # the rest and open boxes alone miss it: at 90 degrees the door reaches further out than either
+    rest, opened = asset.bounds(), asset.bounds(asset.open_configuration())
+    half = asset.mesh({"joint_1": np.pi / 2}, links=links).vertices
+    assert half.min(0)[0] < min(rest[0][0], opened[0][0]) - 0.1
+
+
+
+def test_a_push_button_is_declined_as_one():
+    """A prismatic joint travelling a few millimetres (a microwave's or a safe's keypad button) is pressed,
+    not pulled: the planner says so instead of looking for its handle (or calling its axis reversed)."""
+    asset = procedural_cabinet(0)
+    joint = asset.joints["joint_0"]
+    joint.lower, joint.upper = 0.0, 0.004
+    grasp = find_grasp(asset, "joint_0")
+    assert grasp.reason is not None and "push button (4.0 mm" in grasp.reason and "\n" not in grasp.reason
+    joint.upper = 0.3  # a drawer again
+    assert find_grasp(asset, "joint_0").reason is None

@@ -199,3 +199,49 @@ def test_scripted_opener_opens_synth_v1_objects(tmp_path, category, index, joint
     assert env.unwrapped.scene.grasp.source == source
     result = open_with_ground_truth(env, seed=0, max_steps=200)
     assert result.success and result.fraction >= 0.75, result
+
+
+def _obs(tcp, grasp) -> np.ndarray:
+    """An observation of the environments' layout with only what the opener reads: TCP and grasp point."""
+    obs = np.zeros(19, dtype=np.float32)
+    obs[0:3], obs[8:11] = tcp, grasp
+    return obs
+
+
+def test_the_opener_moves_on_when_its_approach_stalls_and_grasps_again_when_the_handle_slips():
+    """A pad resting on a lip stops the hand short of the handle: after STALL_STEPS steps without progress
+    the opener closes there instead of pushing out the phase's step budget. While opening, a handle
+    REGRASP_DISTANCE away has slipped out of the fingers: the opener opens them and goes back to the
+    pre-grasp in front of where the handle now is, at most MAX_REGRASPS times."""
+    from spark_bench.rl.scripted import (
+        MAX_REGRASPS,
+        PREGRASP_OFFSET,
+        REGRASP_DISTANCE,
+        STALL_STEPS,
+        ScriptedOpener,
+    )
+
+    outward = np.array([-1.0, 0.0, 0.0])
+    opener = ScriptedOpener(axis=outward, pivot=np.zeros(3), joint_type="prismatic", outward=outward)
+    grasp = np.array([0.3, 0.0, 0.4])
+    pregrasp = grasp + PREGRASP_OFFSET * outward
+    opener(_obs(pregrasp, grasp))
+    assert opener.phase == "approach"
+    stuck = grasp + 0.03 * outward  # 3 cm short, and it stays there
+    for _ in range(STALL_STEPS + 1):
+        opener(_obs(stuck, grasp))
+    assert opener.phase == "close"
+    for _ in range(10):
+        action = opener(_obs(stuck, grasp))
+    assert opener.phase == "open" and action[3] > 0  # pulling, fingers closed
+    # held: the grasp point moves with the TCP, no regrasp
+    action = opener(_obs(grasp + 0.01 * outward, grasp))
+    assert opener.phase == "open" and opener.regrasps == 0
+    # slipped: the drawer stays, the hand ran on
+    slipped = grasp + (REGRASP_DISTANCE + 0.01) * outward
+    action = opener(_obs(slipped, grasp))
+    assert opener.phase == "pregrasp" and opener.regrasps == 1 and action[3] < 0  # fingers open
+    for _ in range(MAX_REGRASPS + 2):
+        opener.phase = "open"
+        opener(_obs(slipped, grasp))
+    assert opener.regrasps == MAX_REGRASPS and opener.phase == "open"
