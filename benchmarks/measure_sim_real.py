@@ -11,7 +11,7 @@ For every object folder (default: the 75 of ``../shared/partnet_dev`` and the 7 
 
 then writes ``benchmarks/results/sim_real.md``: the pass rate over all objects, per category and over
 the objects with a drawer, door or lid (their ``semantics.txt``), every failure with its reason and
-the reviewed verdict (:data:`REVIEW`: what a person looking at the check strip decided), and the
+the reviewed verdict (``benchmarks/results/sim_real_review.json``: what a person looking at the check strip decided), and the
 seconds per prepared case.
 
 Each object's result is stored as ``<store>/<label>/<id>.json`` and reused on the next run
@@ -22,8 +22,12 @@ Timing: ``--cold`` gives every object an empty CoACD cache (a temporary ``$SPARK
 benchmark case costs the first time it is checked. Without it, the shared cache of ``--home`` is used
 (fast reruns of the verdict sweep).
 
+``--report-only`` writes the report of the stored results without checking anything (a sweep still
+running in another process); with ``--fill-from LABEL`` the objects not yet checked under ``--label``
+take LABEL's stored result, marked as such in the report.
+
 Run: ``nice -n 10 python benchmarks/measure_sim_real.py [--ids 100247 7310] [--subset] [--cases BENCH]
-[--cold] [--workers 1] [--label after] [--compare before]``.
+[--cold] [--workers 1] [--label after] [--compare before] [--report-only [--fill-from before]]``.
 """
 
 from __future__ import annotations
@@ -50,10 +54,15 @@ NOTES = "<!-- notes: kept when the script rewrites the file -->"
 #: Parts whose presence makes an object a "drawer, door or lid" object (PartNet-Mobility semantics).
 OPENABLE = re.compile(r"(^|_)(drawer|door|lid)$")
 
-#: Reviewed verdicts of the failures that remain: object id -> (verdict, what a person would fix).
-#: Filled by looking at each failing object's check strip (``spark-bench check OBJ --render``) and its
-#: meshes; an object failing for a reason not reviewed here is reported as "not reviewed".
-REVIEW: dict[str, tuple[str, str]] = {}
+#: Reviewed verdicts of the failures: ``{object id: {"reason": the check's reason when reviewed,
+#: "verdict": ..., "fix": what a person would fix}}``, written by the person who looked at each failing
+#: object's check strip (``spark-bench check OBJ --render``), meshes and sweep. Data, not code: no
+#: verdict depends on it. A failure whose reason changed since its review is reported as such.
+REVIEW_FILE = ROOT / "benchmarks" / "results" / "sim_real_review.json"
+
+
+def load_review() -> dict[str, dict]:
+    return json.loads(REVIEW_FILE.read_text()) if REVIEW_FILE.is_file() else {}
 
 
 # ----- one object ---------------------------------------------------------------------------------
@@ -176,6 +185,11 @@ def sweep(folders: dict[str, Path], store: Path, args) -> dict[str, dict]:
             rows[key] = json.loads(path.read_text())
             if not (args.rerun_failed and not rows[key]["passed"]):
                 continue
+        if args.report_only:
+            older = args.store / args.fill_from / path.name if args.fill_from else None
+            if older is not None and older.is_file():
+                rows[key] = dict(json.loads(older.read_text()), from_label=args.fill_from)
+            continue
         bar.set_postfix_str(key)
         render = Path(args.renders) / f"{key.replace(':', '_')}.png" if args.renders else None
         row = run_one(folder, args.workers, None if args.cold else Path(args.home), args.timeout, render)
@@ -231,7 +245,13 @@ def markdown(rows: dict[str, dict], args, baseline: dict[str, dict] | None) -> s
              f"on {os.cpu_count()} cores shared with other work (`nice`).", ""]
     if objects:
         openable = [r for r in objects.values() if r["openable"]]
+        found = getattr(args, "found", len(objects))
         lines += ["## Pass rate", "",
+                  f"- objects checked: {len(objects)} of the {found} found"
+                  + (" (the sweep had not reached the others when this was written)" if len(objects) < found else ""),
+                  *([f"- {sum(1 for r in objects.values() if r.get('from_label'))} of them carry the stored result of "
+                     f"the label `{args.fill_from}` (an earlier version of the checks; marked in the failures)"]
+                    if any(r.get("from_label") for r in objects.values()) else []),
                   f"- all objects: {rate(objects.values())}",
                   f"- objects with a drawer, door or lid (`semantics.txt`): {rate(openable)}", "",
                   "| category | objects | passed | with drawer/door/lid | passed |", "|---|---|---|---|---|"]
@@ -248,11 +268,20 @@ def markdown(rows: dict[str, dict], args, baseline: dict[str, dict] | None) -> s
                                            or "none"), "", "## Failures", "",
                   "| object | category | drawer/door/lid | reason (from the check) | reviewed verdict | "
                   "what a person would fix |", "|---|---|---|---|---|---|"]
+        review = load_review()
         for key, r in sorted(objects.items()):
             if r["passed"]:
                 continue
-            verdict, fix = REVIEW.get(key, ("not reviewed", ""))
-            lines.append(f"| {key} | {r['category']} | {'yes' if r['openable'] else 'no'} | "
+            entry = review.get(key)
+            if entry is None:
+                verdict, fix = "not reviewed", ""
+            else:
+                verdict, fix = entry["verdict"], entry["fix"]
+                if entry.get("checks") and sorted(entry["checks"]) != sorted(
+                        n for n, c in r.get("checks", {}).items() if not c["passed"]):
+                    verdict = f"{verdict} (reviewed when other checks failed: {', '.join(entry['checks'])})"
+            label = f" (result of `{r['from_label']}`)" if r.get("from_label") else ""
+            lines.append(f"| {key}{label} | {r['category']} | {'yes' if r['openable'] else 'no'} | "
                          f"{failure_line(r).replace('|', '/')} | {verdict} | {fix} |")
     if cases:
         lines += ["", "## Seconds per prepared case (gt: watertight R=200 remesh)", ""]
@@ -292,6 +321,10 @@ def main(argv=None) -> int:
     parser.add_argument("--compare", default=None, help="print verdicts that differ from this label")
     parser.add_argument("--fresh", action="store_true", help="rerun objects that have a stored result")
     parser.add_argument("--rerun-failed", action="store_true", help="rerun the objects whose stored result failed")
+    parser.add_argument("--report-only", action="store_true",
+                        help="no checks: the report of the stored results (a sweep still running)")
+    parser.add_argument("--fill-from", default=None,
+                        help="with --report-only: objects this label has no result for take LABEL's, marked")
     parser.add_argument("--renders", type=Path, default=None, help="write each object's check strip here")
     parser.add_argument("--timeout", type=float, default=1800.0, help="seconds one check may take")
     parser.add_argument("--out", type=Path, default=RESULTS, help="Markdown report ('-': none)")
@@ -304,6 +337,7 @@ def main(argv=None) -> int:
     if not folders:
         print("nothing to check (shared objects absent?)")
         return 0
+    args.found = sum(1 for key in folders if not key.startswith("case:"))
     rows = sweep(folders, args.store / args.label, args)
     baseline = None
     if args.compare:

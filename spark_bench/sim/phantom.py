@@ -7,10 +7,13 @@ even a millimetre, although nothing in the object stops it. A real blocking (a d
 backwards into its carcass, a button longer than its hole) has the parent's *surface* in the way.
 
 So for every link whose geometric parent (:func:`~spark_bench.sim.contacts.geometric_parents`) is
-moved against by exactly one joint, that joint is stepped kinematically over its range. Where the
+moved against by exactly one joint, and for every link a joint carries beyond its child (a handle on a
+door) against the link that child hangs on (:func:`phantom_candidates`), that joint is stepped
+kinematically over its range. Where the
 link's hulls meet the parent's hulls deeper than ``tolerance`` at some step while the parent's visual
-surface (its vertices and area samples near the link's path) enters the link's hulls no deeper than
-``tolerance`` at every step, the pair is excluded from collision, as a pair that overlaps at rest is
+surface (its vertices and area samples near the link's path) enters the link no deeper than
+``tolerance`` at every step (inside the link's hulls, and, since a hull bulges out of its part, no
+farther from the link's own surface than that: :func:`surface_depth`), the pair is excluded from collision, as a pair that overlaps at rest is
 (:mod:`spark_bench.sim.contacts`). Every exclusion is recorded (:class:`PhantomBlock`) and reported by
 the checks.
 """
@@ -20,6 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
 from spark_bench.asset.model import ArticulatedAsset, Joint
@@ -31,6 +35,8 @@ STEPS = 12
 STEPS_PER_RADIAN = 16
 #: Most surface points of the parent tested against the link's hulls per pair.
 MAX_POINTS = 60_000
+#: Points whose distance to the moving part's surface is computed at once (:func:`surface_depth`).
+SURFACE_CHUNK = 256
 
 
 @dataclass
@@ -39,7 +45,8 @@ class PhantomBlock:
 
     :param first: fraction of the joint's range where the hulls first meet deeper than the tolerance
     :param depth: deepest hull-hull penetration along the range (m)
-    :param surface_depth: deepest entry of the parent's surface into the child's hulls (m)
+    :param surface_depth: deepest entry of the parent's surface into the child (m; see :func:`surface_depth`),
+        resolved only above the tolerance: a value equal to it means "at most the tolerance"
     """
 
     parent: str
@@ -129,16 +136,45 @@ def surface_points(vertices: np.ndarray, faces: np.ndarray, lo: np.ndarray, hi: 
     return np.concatenate([corners, samples])
 
 
-def surface_depth(points: np.ndarray, hulls: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> float:
-    """How deep the deepest of ``points`` lies inside any of the convex ``hulls`` (planes and box, as
-    :func:`_halfspaces` gives them); 0 when none is inside."""
-    deepest = 0.0
+def surface_depth(points: np.ndarray, hulls: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+                  surface=None, floor: float = 0.0) -> float:
+    """How deep the deepest of ``points`` lies inside the moving part; 0 when none is inside.
+
+    Without ``surface``: the depth inside any of the part's convex ``hulls`` (planes and box, as
+    :func:`_halfspaces` gives them). With ``surface`` (the part's own mesh, a :class:`trimesh.Trimesh` in
+    the same frame): each point counts as deep as the smaller of its hull depth and its distance to that
+    surface. A hull bulges out of the part it wraps (CoACD's by up to about 1 % of the part's size), so
+    a point can lie inside a hull and just outside the part; a point inside the part's solid is inside a
+    hull too, and its distance to the surface is its penetration. The smaller of the two is thus an
+    upper bound of the true penetration, exact for points inside the solid. (Whether a point is inside
+    the solid cannot be told reliably: PartNet-Mobility meshes are triangle soups with faces wound
+    either way, so a winding number says 0 inside a closed plank. A point in a recess the hull fills
+    still counts, as deep as it is far from the surface.)
+
+    :param floor: depths at or below this are not worth resolving (the caller's tolerance): the result
+        is exact above it, and at most ``floor`` otherwise
+    """
+    depth = np.zeros(len(points))
     for planes, lo, hi in hulls:
-        inside_box = points[np.all((points >= lo) & (points <= hi), axis=1)]  # outside the box: outside
-        if len(inside_box):
-            signed = inside_box @ planes[:, :3].T + planes[:, 3]  # <= 0 inside every face
-            deepest = max(deepest, float(np.max(-signed.max(axis=1))))
-    return deepest
+        inside = np.flatnonzero(np.all((points >= lo) & (points <= hi), axis=1))  # outside the box: outside
+        if len(inside):
+            signed = points[inside] @ planes[:, :3].T + planes[:, 3]  # <= 0 inside every face
+            depth[inside] = np.maximum(depth[inside], -signed.max(axis=1))
+    deepest = float(max(depth.max(initial=0.0), 0.0))
+    if surface is None or deepest <= floor:
+        return deepest
+    # the deepest points first; a point's bound is at most its hull depth, so stop once the best
+    # bound found is at least the hull depth of every point left
+    order = np.argsort(-depth)
+    order = order[depth[order] > floor]
+    best = 0.0
+    for start in range(0, len(order), SURFACE_CHUNK):
+        chunk = order[start:start + SURFACE_CHUNK]
+        if depth[chunk[0]] <= best:
+            break
+        _, distance, _ = surface.nearest.on_surface(points[chunk])
+        best = max(best, float(np.max(np.minimum(depth[chunk], distance))))
+    return best if best > floor else min(deepest, floor)
 
 
 @dataclass
@@ -186,6 +222,8 @@ def trace(prepared, model, joint: Joint, moving: str, other: str, tolerance: flo
     hulls = _halfspaces(prepared, moving)
     if surface is None or not hulls or max(depths, default=0.0) <= tolerance:
         return result
+    own = prepared.visual(moving)
+    own = None if own is None else trimesh.Trimesh(own[0], own[1], process=False)
     # the other link's surface near the moving link's path, in the other link's frame
     hull_points = np.concatenate([s.to_trimesh().vertices for s in prepared.shapes[moving]])
     path = np.concatenate([hull_points @ np.linalg.inv(p)[:3, :3].T + np.linalg.inv(p)[:3, 3] for p in poses])
@@ -193,14 +231,52 @@ def trace(prepared, model, joint: Joint, moving: str, other: str, tolerance: flo
     spacing = max(tolerance, 0.25 * min(float(np.min(hi - lo)) for _, lo, hi in hulls))
     points = surface_points(surface[0], surface[1], path.min(0) - tolerance, path.max(0) + tolerance, spacing)
     for pose in poses:
-        result.surface_depth.append(surface_depth(points @ pose[:3, :3].T + pose[:3, 3], hulls))
+        result.surface_depth.append(surface_depth(points @ pose[:3, :3].T + pose[:3, 3], hulls, own, tolerance))
         if stop and result.surface_depth[-1] > tolerance:
             break
     return result
 
 
+def _carried(asset: ArticulatedAsset, joint: Joint) -> list[str]:
+    """The links that ``joint`` moves besides its child: the child's descendants."""
+    out, todo = [], [joint.child]
+    while todo:
+        link = todo.pop()
+        for j in asset.joints.values():
+            if j.parent == link:
+                out.append(j.child)
+                todo.append(j.child)
+    return sorted(out)
+
+
+def phantom_candidates(prepared) -> list[tuple[str, str, Joint]]:
+    """``(parent, link, joint)``: the pairs whose blocking :func:`find_phantom_blocks` examines.
+
+    Each link with its geometric parent, when one movable joint moves it against that parent (a
+    button in its keypad); and each link a joint carries beyond its child with the link the joint's
+    child hangs on (a safe's handle, mounted on the door, against the safe's body as the door swings).
+    """
+    asset = prepared.asset
+    parents = geometric_parents(prepared)
+    out = []
+    for child, parent in sorted(parents.items()):
+        joint = single_joint(asset, parent, child)
+        if joint is not None:
+            out.append((parent, child, joint))
+    seen = {(p, c) for p, c, _ in out}
+    for joint in asset.movable_joints():
+        base = parents.get(joint.child)
+        if base is None:
+            continue
+        for link in _carried(asset, joint):
+            if prepared.shapes.get(link) and (base, link) not in seen:
+                seen.add((base, link))
+                out.append((base, link, joint))
+    return out
+
+
 def find_phantom_blocks(prepared, model, tolerance: float) -> list[PhantomBlock]:
-    """The parent-child pairs blocked by their hulls only (see the module docstring).
+    """The pairs (:func:`phantom_candidates`) blocked by their hulls only (see the module docstring).
 
     :param prepared: a :class:`~spark_bench.sim.prepared.PreparedObject` (its exclusions so far applied
         in ``model``)
@@ -208,9 +284,8 @@ def find_phantom_blocks(prepared, model, tolerance: float) -> list[PhantomBlock]
     :param tolerance: penetration ignored, hull or surface (m)
     """
     found = []
-    for child, parent in sorted(geometric_parents(prepared).items()):
-        joint = single_joint(prepared.asset, parent, child)
-        if joint is None or (parent, child) in prepared.excluded or joint.upper - joint.lower < 1e-9:
+    for parent, child, joint in phantom_candidates(prepared):
+        if (parent, child) in prepared.excluded or joint.upper - joint.lower < 1e-9:
             continue
         path = trace(prepared, model, joint, child, parent, tolerance)
         blocked = path.first(path.hull_depth, tolerance)

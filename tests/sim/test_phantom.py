@@ -15,7 +15,13 @@ from helpers_assets import box_visual  # noqa: E402
 from spark_bench.asset.model import ArticulatedAsset, Collision, Joint, Link, Visual  # noqa: E402
 from spark_bench.asset.transforms import make_transform  # noqa: E402
 from spark_bench.sim import run_checks  # noqa: E402
-from spark_bench.sim.phantom import joint_steps, single_joint, surface_points  # noqa: E402
+from spark_bench.sim.phantom import (  # noqa: E402
+    joint_steps,
+    phantom_candidates,
+    single_joint,
+    surface_depth,
+    surface_points,
+)
 
 
 def _panel_with_button(hole: bool) -> ArticulatedAsset:
@@ -84,3 +90,50 @@ def test_button_into_solid_wood_stays_blocked(isolated_home):
     # the reason says what to fix: the panel's own surface is in the button's way from the start
     assert joint["explanation"].startswith("the surface of panel enters button from")
     assert "the object itself blocks joint_button" in report.checks["joint_sweep"].details["reason"]
+
+
+def _u_part() -> trimesh.Trimesh:
+    """A U of three 10 cm bars (x in [-0.05, 0.05], the slot between the arms x in [-0.03, 0.03], y > 0)."""
+    bars = [((0.10, 0.02, 0.02), (0.0, -0.01, 0.0)), ((0.02, 0.08, 0.02), (-0.04, 0.04, 0.0)),
+            ((0.02, 0.08, 0.02), (0.04, 0.04, 0.0))]
+    return trimesh.util.concatenate([trimesh.creation.box(extents=e, transform=make_transform(translation=c))
+                                     for e, c in bars])
+
+
+def test_surface_depth_is_bounded_by_the_distance_to_the_part():
+    from scipy.spatial import ConvexHull
+
+    part = _u_part()  # its convex hull fills the slot between the arms and spans x, y in [-0.05, 0.05]
+    hulls = [(ConvexHull(part.vertices).equations, part.vertices.min(0), part.vertices.max(0))]
+    in_arm = np.array([[0.04, 0.05, 0.0]])  # the middle of an arm: 1 cm from its surface and the hull's
+    assert surface_depth(in_arm, hulls, part) == pytest.approx(0.01, abs=1e-6)
+    # just outside the arm, inside the hull only because the hull is wider than the part (a bulge)
+    bulge = [(ConvexHull(part.vertices * [1.2, 1.0, 1.0]).equations, part.vertices.min(0) * [1.2, 1, 1],
+              part.vertices.max(0) * [1.2, 1, 1])]
+    beside = np.array([[0.0505, 0.05, 0.0]])
+    assert surface_depth(beside, bulge) > 0.005  # the hull alone: 5+ mm deep
+    assert surface_depth(beside, bulge, part) == pytest.approx(0.0005, abs=1e-6)  # its distance to the arm
+    # in the slot, 3 cm from either arm: the hull depth (1 cm, half the thickness) bounds it
+    assert surface_depth(np.array([[0.0, 0.05, 0.0]]), hulls, part) == pytest.approx(0.01, abs=1e-6)
+    # below ``floor`` the answer is only bounded by it
+    assert surface_depth(np.concatenate([beside, in_arm]), bulge, part, floor=0.015) <= 0.015
+
+
+def test_candidates_include_a_handle_carried_by_a_door():
+    body = Link("body", visuals=[box_visual((0.4, 0.4, 0.4), (0.0, 0.0, 0.2))], label="body")
+    door = Link("door", visuals=[box_visual((0.02, 0.4, 0.4), (0.21, 0.0, 0.2))], label="door")
+    handle = Link("handle", visuals=[box_visual((0.02, 0.02, 0.1), (0.24, 0.15, 0.2))], label="handle")
+    joints = {
+        "root": Joint("root", "fixed", "base", "body"),
+        "hinge": Joint("hinge", "revolute", "body", "door", axis=np.array([0.0, 0.0, 1.0]), lower=0.0, upper=1.5,
+                       origin=make_transform(translation=(0.22, -0.2, 0.0))),
+        "turn": Joint("turn", "revolute", "door", "handle", axis=np.array([1.0, 0.0, 0.0]), lower=0.0, upper=1.0),
+    }
+    asset = ArticulatedAsset("cabinet", {k.name: k for k in (Link("base"), body, door, handle)}, joints)
+
+    class Prepared:  # the two members phantom_candidates reads
+        shapes = {"body": [1], "door": [1], "handle": [1]}
+
+    Prepared.asset = asset
+    found = {(p, c, j.name) for p, c, j in phantom_candidates(Prepared)}
+    assert found == {("body", "door", "hinge"), ("door", "handle", "turn"), ("body", "handle", "hinge")}
