@@ -74,6 +74,25 @@ def to_benchmark_frame(asset):
     return normalize_asset(asset)
 
 
+def ground_truth_in_metres(gt_folder: str | Path):
+    """``(ground truth as stored, ground truth in metres, 4x4 from the first to the second)``.
+
+    A benchmark case's ground truth comes back from the benchmark frame to its source's size and place
+    (:meth:`BenchmarkCase.gt_at_source_size`): robots act on objects at their real size. Any other object
+    folder is used as it is, with the identity.
+
+    :param gt_folder: the ground-truth object folder (a case's ``gt/``, or any object folder)
+    """
+    from spark_bench.data.readers import load_object
+
+    stored = load_object(gt_folder)
+    case = BenchmarkCase.of_gt_folder(gt_folder)
+    if case is None:
+        return stored, stored, np.eye(4)
+    gt, to_metres = case.gt_at_source_size(stored)
+    return stored, gt, to_metres
+
+
 def metres_from_normalization(normalization, where: Path | None = None) -> np.ndarray:
     """The 4x4 similarity from a benchmark frame back to the source frame, from a ``normalization``
     record ``{"center": [x, y, z], "scale": s}``.

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from spark_bench.data.case import ground_truth_in_metres
 from spark_bench.errors import InputError
 from spark_bench.rl.generalist import (
     FRAME_NOISE,
@@ -72,19 +73,6 @@ def prediction_to_gt_metres(pred, gt_stored, alignment=None, to_metres=None) -> 
     align = np.asarray(alignment if alignment is not None else np.eye(4), dtype=np.float64)
     frame = np.linalg.inv(benchmark_frame(gt_stored)) @ align @ benchmark_frame(pred)
     return (np.asarray(to_metres, dtype=np.float64) if to_metres is not None else np.eye(4)) @ frame
-
-
-def _ground_truth(gt_folder: Path):
-    """``(stored ground truth, ground truth in metres, 4x4 stored -> metres)``."""
-    from spark_bench.data import load_object
-    from spark_bench.data.case import BenchmarkCase
-
-    stored = load_object(gt_folder)
-    case = BenchmarkCase.of_gt_folder(gt_folder)
-    if case is None:
-        return stored, stored, np.eye(4)
-    gt, to_metres = case.gt_at_source_size(stored)
-    return stored, gt, to_metres
 
 
 def _why(exc: Exception) -> str:
@@ -219,7 +207,7 @@ def _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, se
     t0, cpu0 = time.perf_counter(), time.process_time()
     record = weights_record(weights)
     gt_folder, pred_folder = Path(gt_folder), Path(pred_folder)
-    gt_stored, gt, to_metres = _ground_truth(gt_folder)
+    gt_stored, gt, to_metres = ground_truth_in_metres(gt_folder)
     pred_stored = load_object(pred_folder)
     pred = similarity_asset(pred_stored, prediction_to_gt_metres(pred_stored, gt_stored, metrics.get("alignment"),
                                                                  to_metres))

@@ -133,6 +133,7 @@ def test_ours_with_retrieval_reads_no_ground_truth(objects, tmp_path, isolated_h
     must retrieve the copy once, assemble it, refine it against the open image and write the object,
     every object it loads coming from the gallery."""
     import spark_bench.data.readers as readers
+    import spark_bench.retrieval.search as search
     import spark_bench.spark.pipeline as pipeline
 
     case_dir = tmp_path / "bench" / "cases" / "case-r"
@@ -152,6 +153,8 @@ def test_ours_with_retrieval_reads_no_ground_truth(objects, tmp_path, isolated_h
     loaded, calls = [], []
     real_load, real_retrieve = readers.load_object, pipeline.retrieve_case
     monkeypatch.setattr(readers, "load_object", lambda folder, *a, **k: loaded.append(folder) or real_load(folder, *a, **k))
+    # an empty in-process cache of gallery objects: earlier tests may have read these same cabinets
+    monkeypatch.setattr(search, "_OBJECTS", search._ObjectCache())
     monkeypatch.setattr(pipeline, "retrieve_case", lambda *a, **k: calls.append(a) or real_retrieve(*a, **k))
 
     config = SparkConfig.from_dict({**RETRIEVAL, "retrieval": {"gallery": str(gallery)}}).with_overrides(
