@@ -11,7 +11,13 @@ truth each wrote (every file under the case's ``gt`` folder) is compared byte fo
 CPU seconds are the number to compare on a shared machine: wall seconds depend on what else runs
 (the script says how loaded the machine was). Writes ``benchmarks/results/prepare_speed.md``.
 
-Run: ``nice -n 10 python benchmarks/measure_prepare_speed.py [--ids 47645 7179] [--baseline REV]``.
+With ``--render-mesh source`` the checkout's run renders from the source meshes
+(:class:`~spark_bench.data.prepare.PrepareOptions`); the script then also measures how its images
+differ from the baseline's (whose renders are of the watertight ground truth): foreground-mask IoU,
+per-pixel part-label agreement and mean absolute RGB difference (0-255) of each rendered state.
+
+Run: ``nice -n 10 python benchmarks/measure_prepare_speed.py [--ids 47645 7179] [--baseline REV]
+[--render-mesh source] [--src FOLDER_OF_OBJECTS]``.
 """
 
 from __future__ import annotations
@@ -25,6 +31,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 REAL_OBJECTS = ROOT.parent / "shared" / "real_objects"
@@ -52,9 +60,10 @@ class Timer:
             self.cpu[stage] = self.cpu.get(stage, 0.0) + time.process_time() - cpu
 
 src, out, resolution, size = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+extra = {"render_mesh": sys.argv[5]} if len(sys.argv) > 5 else {}
 timer = Timer()
 wall, cpu = time.perf_counter(), time.process_time()
-prepare_case(src, out, PrepareOptions(image_size=size, resolution=resolution), "case", timer)
+prepare_case(src, out, PrepareOptions(image_size=size, resolution=resolution, **extra), "case", timer)
 print(json.dumps({"wall": time.perf_counter() - wall, "cpu": time.process_time() - cpu,
                   "stage_cpu": timer.cpu, "stage_wall": timer.seconds}))
 """
@@ -68,9 +77,11 @@ def extract(revision: str, into: Path) -> Path:
     return into
 
 
-def prepare_in_child(package_root: Path, src: Path, out: Path, resolution: int, size: int) -> dict:
+def prepare_in_child(package_root: Path, src: Path, out: Path, resolution: int, size: int,
+                     render_mesh: str | None = None) -> dict:
     env = dict(os.environ, PYTHONPATH=str(package_root))
-    proc = subprocess.run([sys.executable, "-c", CHILD, str(src), str(out), str(resolution), str(size)],
+    extra = [render_mesh] if render_mesh else []
+    proc = subprocess.run([sys.executable, "-c", CHILD, str(src), str(out), str(resolution), str(size), *extra],
                           capture_output=True, text=True, env=env, cwd=str(out.parent))
     if proc.returncode != 0:
         raise RuntimeError(f"prepare of {src.name} with {package_root} failed: {proc.stderr.strip()[-500:]}")
@@ -82,6 +93,27 @@ def tree_digest(folder: Path) -> dict[str, str]:
             for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
+def render_difference(before: Path, now: Path) -> dict[str, dict[str, float]]:
+    """Per rendered state of two case folders: foreground IoU, part-label agreement, mean |RGB| difference."""
+    from PIL import Image
+
+    from spark_bench.data.case import BenchmarkCase
+    from spark_bench.data.prepare import read_segmentation
+
+    out = {}
+    for state in ("input", "open"):
+        (rgb_a, seg_a), (rgb_b, seg_b) = BenchmarkCase(before).state_files(state), BenchmarkCase(now).state_files(state)
+        labels_a, labels_b = read_segmentation(seg_a), read_segmentation(seg_b)
+        fg_a, fg_b = labels_a > 0, labels_b > 0
+        rgb_a = np.asarray(Image.open(rgb_a).convert("RGB"), dtype=np.int16)
+        rgb_b = np.asarray(Image.open(rgb_b).convert("RGB"), dtype=np.int16)
+        out[state] = {"iou": float((fg_a & fg_b).sum() / max(int((fg_a | fg_b).sum()), 1)),
+                      "labels": float((labels_a == labels_b).mean()),
+                      "mad": float(np.abs(rgb_a - rgb_b).mean()),
+                      "identical": bool(np.array_equal(rgb_a, rgb_b) and np.array_equal(labels_a, labels_b))}
+    return out
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--src", type=Path, default=REAL_OBJECTS, help="folder of object folders")
@@ -89,6 +121,8 @@ def main(argv=None) -> int:
     parser.add_argument("--baseline", default=BASELINE, help="git revision to compare with")
     parser.add_argument("--resolution", type=int, default=200)
     parser.add_argument("--image-size", type=int, default=512)
+    parser.add_argument("--render-mesh", default=None, choices=("watertight", "source"),
+                        help="PrepareOptions.render_mesh of the checkout's run (default: the option's default)")
     parser.add_argument("--out", type=Path, default=RESULTS, help="Markdown report ('-': none)")
     args = parser.parse_args(argv)
     if not args.src.is_dir():
@@ -106,13 +140,16 @@ def main(argv=None) -> int:
             for name, package in (("before", baseline), ("now", ROOT)):
                 out = tmp / name / object_id
                 out.parent.mkdir(parents=True, exist_ok=True)
-                row[name] = prepare_in_child(package, args.src / object_id, out, args.resolution, args.image_size)
+                row[name] = prepare_in_child(package, args.src / object_id, out, args.resolution, args.image_size,
+                                             args.render_mesh if name == "now" else None)
                 row[f"{name}_gt"] = tree_digest(out / "gt")
             row["same_gt"] = row["before_gt"] == row["now_gt"]
+            row["renders"] = render_difference(tmp / "before" / object_id, tmp / "now" / object_id)
             rows.append(row)
             print(f"{object_id:>7}: CPU {row['before']['cpu']:6.1f} s -> {row['now']['cpu']:6.1f} s "
                   f"({row['before']['cpu'] / row['now']['cpu']:.2f}x); wall {row['before']['wall']:6.1f} -> "
-                  f"{row['now']['wall']:6.1f} s; ground truth {'identical' if row['same_gt'] else 'DIFFERS'}",
+                  f"{row['now']['wall']:6.1f} s; ground truth {'identical' if row['same_gt'] else 'DIFFERS'}; "
+                  f"render IoU {min(d['iou'] for d in row['renders'].values()):.4f}",
                   flush=True)
     load_after = os.getloadavg()[0]
     stages = sorted({k for r in rows for k in r["now"]["stage_cpu"]})
@@ -124,16 +161,29 @@ def main(argv=None) -> int:
              f"with this checkout's package and with `{args.baseline}`'s (git archive). CPU seconds are "
              f"`time.process_time` of the call (all threads; imports excluded). The machine "
              f"({os.cpu_count()} cores) was shared with other work: load average {load_before:.1f} before, "
-             f"{load_after:.1f} after, so wall seconds are inflated and only the CPU seconds compare.", "",
-             "| object | CPU s before | CPU s now | ratio | wall s before | wall s now | ground truth |",
-             "|---|---|---|---|---|---|---|"]
+             f"{load_after:.1f} after, so wall seconds are inflated and only the CPU seconds compare. "
+             f"Objects: `{args.src}`; the checkout renders from the "
+             f"`{args.render_mesh or 'default (watertight)'}` meshes. Renders: IoU of the foreground masks, "
+             f"share of pixels with the same part label, mean absolute RGB difference (0-255), now against "
+             f"before, input/open state.", "",
+             "| object | CPU s before | CPU s now | ratio | wall s before | wall s now | ground truth "
+             "| mask IoU | same label | RGB MAD |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
+        d = r["renders"]
         lines.append(f"| {r['id']} | {r['before']['cpu']:.2f} | {r['now']['cpu']:.2f} | "
                      f"{r['before']['cpu'] / r['now']['cpu']:.2f}x | {r['before']['wall']:.1f} | "
-                     f"{r['now']['wall']:.1f} | {'identical' if r['same_gt'] else 'differs'} |")
+                     f"{r['now']['wall']:.1f} | {'identical' if r['same_gt'] else 'differs'} | "
+                     + " | ".join("/".join(f"{d[s][k]:.{p}f}" for s in ("input", "open"))
+                                  for k, p in (("iou", 4), ("labels", 4), ("mad", 2))) + " |")
     lines += ["", f"All objects: CPU {total_before:.1f} s before, {total_now:.1f} s now: "
               f"{total_before / max(total_now, 1e-9):.2f}x. Ground truth byte-identical for "
-              f"{sum(r['same_gt'] for r in rows)}/{len(rows)} objects.", "",
+              f"{sum(r['same_gt'] for r in rows)}/{len(rows)} objects. Mask IoU over all images: min "
+              f"{min(d['iou'] for r in rows for d in r['renders'].values()):.4f}, mean "
+              f"{np.mean([d['iou'] for r in rows for d in r['renders'].values()]):.4f}; RGB MAD max "
+              f"{max(d['mad'] for r in rows for d in r['renders'].values()):.2f}; images identical (RGB and "
+              f"labels) for {sum(d['identical'] for r in rows for d in r['renders'].values())}/{2 * len(rows)}.",
+              "",
               "CPU seconds per stage, summed over the objects (before -> now): " + ", ".join(
                   f"{k} {sum(r['before']['stage_cpu'].get(k, 0.0) for r in rows):.1f} -> "
                   f"{sum(r['now']['stage_cpu'].get(k, 0.0) for r in rows):.1f}" for k in stages)]

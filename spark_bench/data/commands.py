@@ -58,6 +58,9 @@ def _add_prepare_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resolution", type=int, default=None,
                         help="watertight remesh voxels along a part's largest axis (default 200, as SPARK)")
     parser.add_argument("--seed", type=int, default=None, help="base seed of the camera views (default 0)")
+    parser.add_argument("--render-mesh", choices=("watertight", "source"), default=None,
+                        help="render the images from the watertight ground truth (default) or from the "
+                             "source meshes (faster scene build, same ground truth, slightly other images)")
     parser.add_argument("--workers", type=int, default=1, help="processes (default 1)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
@@ -78,7 +81,8 @@ def _options(args, base=None):
 
     from spark_bench.data.prepare import PrepareOptions
 
-    given = {k: getattr(args, k) for k in ("image_size", "resolution", "seed") if getattr(args, k) is not None}
+    given = {k: getattr(args, k) for k in ("image_size", "resolution", "seed", "render_mesh")
+             if getattr(args, k) is not None}
     return replace(base or PrepareOptions(), **given)
 
 

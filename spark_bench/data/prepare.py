@@ -31,6 +31,8 @@ from spark_bench.errors import InputError, SparkBenchError
 #: Stages timed by :func:`prepare_case` (``benchmarks/measure_prepare.py`` reports them); the timer also
 #: holds ``render.scene``, the part of ``render`` spent building the MuJoCo scene.
 STAGES = ("load", "merge", "watertight", "normalize_write", "render")
+#: What :class:`PrepareOptions` may render the images from; the first is the default.
+RENDER_MESHES = ("watertight", "source")
 
 
 @dataclass
@@ -46,6 +48,10 @@ class PrepareOptions:
     :param azimuth_deg: a fixed camera azimuth for every case (degrees from +X towards +Y; 180: the
         object's front); None: a seeded view of the front hemisphere per case
     :param elevation_deg: the fixed camera elevation (degrees above the XY plane), given with ``azimuth_deg``
+    :param render_mesh: what the images are rendered from: ``"watertight"`` (the ground-truth remesh,
+        10^5-10^6 faces per link at R=200) or ``"source"`` (each link's merged source mesh with the same
+        colour, in the benchmark frame: the ground truth is unchanged, the scene builds about 10x faster,
+        the masks differ from the remesh's by about 1-2 % IoU; ``benchmarks/results/prepare_speed.md``)
     """
 
     image_size: int = 512
@@ -56,8 +62,11 @@ class PrepareOptions:
     seed: int = 0
     azimuth_deg: float | None = None
     elevation_deg: float | None = None
+    render_mesh: str = "watertight"
 
     def __post_init__(self):
+        if self.render_mesh not in RENDER_MESHES:
+            raise SparkBenchError(f"invalid prepare options {self}: render_mesh is one of {RENDER_MESHES}")
         if self.image_size < 16 or self.resolution < 4 or self.n_min < 1:
             raise SparkBenchError(f"invalid prepare options {self}: image_size >= 16, resolution >= 4, n_min >= 1")
         if (self.azimuth_deg is None) != (self.elevation_deg is None):
@@ -69,6 +78,8 @@ class PrepareOptions:
         out = asdict(self)
         if self.azimuth_deg is None:
             del out["azimuth_deg"], out["elevation_deg"]
+        if self.render_mesh == RENDER_MESHES[0]:
+            del out["render_mesh"]  # the default: options of earlier builds read as they did
         return out
 
     def view(self, case_id: str):
@@ -152,6 +163,20 @@ def ground_truth_asset(asset: ArticulatedAsset, resolution: int = 200, n_min: in
             link.visuals = []
         link.collisions = collisions
     return out, reports
+
+
+def source_render_asset(source: ArticulatedAsset, center: np.ndarray, scale: float) -> ArticulatedAsset:
+    """The source asset as :func:`ground_truth_asset` colours it, one merged mesh per link, not remeshed,
+    moved into the benchmark frame by the ground truth's normalization (``p = (p_world - center) * scale``).
+    """
+    from spark_bench.asset.ops import scale_asset, translate_asset
+
+    out = source.copy()
+    for link in out.links.values():
+        merged = link.merged_mesh() if link.has_geometry else None
+        link.visuals = [Visual(mesh=merged, rgba=link_color(link))] if merged is not None else []
+        link.collisions = []
+    return scale_asset(translate_asset(out, -np.asarray(center, dtype=float)), float(scale))
 
 
 def _joint_label(asset: ArticulatedAsset, joint_name: str) -> str:
@@ -264,7 +289,8 @@ def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions 
         links = list(gt.links)
         with timer("render"):
             with timer("render.scene"):  # a sub-stage: building the MuJoCo model (mesh processing)
-                renderer = AssetRenderer(gt, options.image_size, links=links)
+                shown = source_render_asset(source, center, scale) if options.render_mesh == "source" else gt
+                renderer = AssetRenderer(shown, options.image_size, links=links)
             with renderer:
                 for state, q in (("input", gt.rest_configuration()), ("open", gt.open_configuration())):
                     image = renderer.render(view, q)
@@ -279,6 +305,8 @@ def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions 
             "image_size": options.image_size, "view_seed": seed,
             "watertight": {"resolution": options.resolution, "n_min": options.n_min, "links": reports},
         }
+        if options.render_mesh != RENDER_MESHES[0]:
+            record["render_mesh"] = options.render_mesh
         case.write_record(record)
         if case_dir.exists():
             shutil.rmtree(case_dir)

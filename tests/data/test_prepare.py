@@ -317,3 +317,62 @@ def test_named_benchmark_builds_once(isolated_home, monkeypatch):
 
 def test_link_color_of_a_link_without_visuals():
     assert link_color(Link("empty")) == (0.7, 0.7, 0.7, 1.0)
+
+
+# ----- rendering from the source meshes -------------------------------------------------------
+def _tree_bytes(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_render_from_source_meshes_keeps_ground_truth_and_close_masks(tmp_path):
+    from spark_bench.cli import main
+
+    src = write_tiny_object(tmp_path / "objects" / "tiny").parent
+    common = ["--image-size", "96", "--resolution", "24", "--no-progress"]
+    assert main(["data", "prepare", "--src", str(src), "--out", str(tmp_path / "wt"), *common]) == 0
+    assert main(["data", "prepare", "--src", str(src), "--out", str(tmp_path / "src"), *common,
+                 "--render-mesh", "source"]) == 0
+    default, source = case_of(tmp_path / "wt", "tiny"), case_of(tmp_path / "src", "tiny")
+    assert _tree_bytes(default.gt_dir) == _tree_bytes(source.gt_dir)  # the ground truth is the remesh either way
+    assert "render_mesh" not in default.record and source.record["render_mesh"] == "source"
+    assert "render_mesh" not in read_manifest(tmp_path / "wt")["options"]
+    assert read_manifest(tmp_path / "src")["options"]["render_mesh"] == "source"
+    for state in ("input", "open"):
+        a, b = read_segmentation(default.state_files(state)[1]), read_segmentation(source.state_files(state)[1])
+        assert set(np.unique(a)) == set(np.unique(b))  # every part seen in both
+        iou = ((a > 0) & (b > 0)).sum() / ((a > 0) | (b > 0)).sum()
+        assert iou > 0.85  # the same object seen by the same camera (boxes: the remesh is close to them)
+        for label in np.unique(a[a > 0]):
+            part = ((a == label) & (b == label)).sum() / ((a == label) | (b == label)).sum()
+            assert part > 0.7, (state, label, part)
+
+
+def test_source_render_asset_is_the_source_in_the_benchmark_frame():
+    from spark_bench.asset.ops import normalize_asset
+    from spark_bench.data.prepare import source_render_asset
+
+    source = tiny_cabinet()
+    gt, _ = ground_truth_asset(source, resolution=24)
+    normalized, center, scale = normalize_asset(gt)
+    shown = source_render_asset(source, center, scale)
+    assert list(shown.links) == list(normalized.links)
+    for name, link in shown.links.items():
+        merged = source.links[name].merged_mesh() if source.links[name].has_geometry else None
+        if merged is None:
+            assert link.visuals == []
+            continue
+        (visual,) = link.visuals
+        assert np.array_equal(visual.mesh.faces, merged.faces)
+        pose = source.link_poses()[name]  # link frames keep their orientation: only the offset is scaled
+        assert np.allclose(shown.link_poses()[name][:3, :3], pose[:3, :3])
+        assert np.allclose(visual.mesh.vertices, merged.vertices * scale, atol=1e-9)
+        assert visual.rgba == normalized.links[name].visuals[0].rgba  # the ground truth's colour
+    lo, hi = shown.bounds()
+    assert np.allclose(lo, normalized.bounds()[0], atol=0.1) and np.allclose(hi, normalized.bounds()[1], atol=0.1)
+    assert np.isclose((hi - lo).max(), 2.0, atol=0.1)
+
+
+def test_render_mesh_option_is_checked():
+    with pytest.raises(SparkBenchError, match="render_mesh"):
+        PrepareOptions(render_mesh="decimated")
+    assert "render_mesh" not in PrepareOptions().to_json()
