@@ -106,8 +106,9 @@ def run_joint(asset, object_id: str, row: dict, episodes: int, max_steps: int, v
         stats.successes += more.successes
     out.update(success_rate=float(np.mean(stats.successes)), max_fraction=stats.mean_max_fraction,
                episodes=episodes, run_s=time.perf_counter() - start - build)
-    if out["success_rate"] < 1.0:  # the opener's fault, or a part the simulation does not let move?
+    if out["success_rate"] < 1.0:  # the opener's fault, or a part the simulation does not let move or reach?
         out["free_fraction"] = free_motion(env)
+        out["hull_gap"] = hull_gap(env)
     env.close()
     if video_dir and out["success_rate"] < 1.0 and frames:
         out["video"] = str(_write_failure(frames, video_dir, object_id, row["joint"]))
@@ -149,6 +150,52 @@ def free_motion(env, force: float = FREE_FORCE, steps: int = FREE_STEPS) -> floa
         best = max(best, u.joint_fraction)
     d.qfrc_applied[:] = 0.0
     return best
+
+
+#: Collision shapes standing in the way (:func:`hull_gap`): how far (m) out along the approach the check
+#: looks, and how far (m) in front of the visual surface the collision surface must stand on one of the
+#: approach lines to count (convex pieces approximate a surface to a few mm; 8 mm is a pad's way blocked).
+GAP_REACH = 0.15
+FILLED_GAP = 0.008
+
+
+def hull_gap(env) -> float:
+    """How far (m) the object's collision shapes stand in front of its visual surface on the hand's way to
+    the grasp: along the approach lines through the grasp point and through where each open pad comes down,
+    the first collision surface met from :data:`GAP_REACH` out, less the first visual (planner's) surface
+    met, each counted from the fingertips' level at the grasp. A gap of centimetres is a handle whose gaps
+    (a spoked wheel, a recessed grip) the convex pieces fill: the hand stops on the hull, short of the
+    grasp, whatever the opener does (the simulation's collision shapes, like a jammed part)."""
+    from spark_bench.envs.features import first_hit
+    from spark_bench.mujoco_gl import mujoco_module
+
+    mujoco = mujoco_module()
+    u = env.unwrapped
+    m, d, scene = u.model, u.data, u.scene
+    grasp, cfg = scene.grasp, u._gripper_config
+    mujoco.mj_resetData(m, d)
+    d.qpos[:] = scene.rest_qpos
+    d.qpos[u._tcp_q] = scene.workspace[1] - 0.01  # the gripper parked away, as in free_motion
+    mujoco.mj_forward(m, d)
+    opening = cfg.max_opening if grasp.opening is None else grasp.opening
+    lines = [grasp.point, grasp.point + opening * grasp.closing, grasp.point - opening * grasp.closing]
+    floor = -cfg.tip_beyond_tcp  # levels below the fingertips' do not stand in the hand's way
+    triangles = np.asarray(scene.asset.mesh().triangles)
+    groups = np.zeros(6, dtype=np.uint8)
+    groups[3] = 1  # collision geoms only (sim/mjcf.py: group 3)
+    hand = {b for b in range(m.nbody) if (m.body(b).name or "").startswith("spark_gripper")}
+    worst = 0.0
+    for line in lines:
+        start = line + GAP_REACH * grasp.outward
+        seen = first_hit(triangles, start, -grasp.outward, 0.0, GAP_REACH - floor)
+        visual = floor if seen is None else GAP_REACH - seen
+        geom = np.array([-1], dtype=np.int32)
+        t = mujoco.mj_ray(m, d, start, -grasp.outward, groups, 1, -1, geom)
+        if geom[0] >= 0 and int(m.geom_bodyid[geom[0]]) in hand:
+            continue
+        collision = floor if geom[0] < 0 or t < 0 else max(GAP_REACH - t, floor)
+        worst = max(worst, collision - max(visual, floor))
+    return worst
 
 
 def _write_failure(frames: list, video_dir: Path, object_id: str, joint: str) -> Path:
@@ -263,6 +310,8 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
               f"{r.get('success_rate', 0.0):.2f}, largest opening {r.get('max_fraction', 0.0):.2f} of the range"
               + (f"; {r['error']}" if r.get("error") else "")
               + (f"; **jammed**: driven directly it reaches {r['free_fraction']:.2f}" if jammed(r) else "")
+              + (f"; the collision shapes stand {1000 * r['hull_gap']:.0f} mm in front of the visual surface on "
+                 "the hand's way in" if r.get("hull_gap", 0.0) >= FILLED_GAP else "")
               + (f" — [video]({os.path.relpath(r['video'], path.parent)})" if r.get("video") else "")
               for r in failed] or ["- none"]
     if sheet is not None:

@@ -47,7 +47,6 @@ from spark_bench.envs.features import (
     clusters,
     face_normal,
     find_notch,
-    first_hit,
     front_level,
     long_axis,
     min_cluster,
@@ -57,7 +56,7 @@ from spark_bench.envs.features import (
 )
 from spark_bench.envs.gripper import GripperConfig
 from spark_bench.envs.handles import PINCH_MARGIN, candidates, edge_pinch, pad_center, reach_depth
-from spark_bench.envs.pads import OBSTACLE_MIN_PROUD, plan_pads
+from spark_bench.envs.pads import OBSTACLE_MIN_PROUD, approach_blocked, pad_landing, plan_pads
 from spark_bench.envs.rest_meshes import RestMeshes
 
 #: A surface point counts as handle when it stands this far (m) in front of the front face (twice
@@ -118,6 +117,7 @@ class GraspTarget:
     :param pad_thickness: pad thickness (m) the pads must not exceed to fit beside the handle (None: any)
     :param clearance: room (m) left on each side of a pad placed in a gap beside the handle
     :param reason: why a parallel gripper cannot pull this part open (one line), or None when it can
+    :param landing: an open pad comes down on the object (kept only when no other candidate is clear)
     """
 
     point: np.ndarray
@@ -132,6 +132,7 @@ class GraspTarget:
     pad_thickness: float | None = None
     clearance: float | None = None
     reason: str | None = None
+    landing: bool = False
 
     @property
     def inside_grip(self) -> bool:
@@ -358,26 +359,41 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
             widest = max(widest or 0.0, wide)
         if not fitting:
             continue
-        # a feature standing well out first (a knob, not a keyhole plate), then the best placed
-        best = min(fitting, key=lambda c: (c.base is not None and float(np.max(c.points @ n)) - c.base < FIRM_PROUD,
-                                           front.lateral_score(c.points)))
-        depth = best.points @ n
-        point = pad_center(best, front, gripper) @ basis + reach_depth(best.base, float(depth.max()),
-                                                                      float(depth.min()), gripper) * n
-        grasp = GraspTarget(point=point, outward=n, long_axis=best.long_axis(front), has_handle=True, source=source)
-        links = asset.part_of_joint(joint)
-        others = [name for name in asset.links if name not in links]
-        pads = plan_pads(front.part, asset.mesh(links=others) if others else None, point, n, grasp.closing,
-                         grasp.long_axis, front.face, gripper)
-        if pads is not None:
-            grasp.point = point + pads["shift"] * grasp.closing
-            grasp.opening, grasp.pad_thickness = pads["opening"], pads["pad_thickness"]
-            grasp.clearance = pads["clearance"]
-        return grasp, None
+        # a feature standing well out first (a knob, not a keyhole plate), then the best placed; one where an
+        # open pad would land on the object (a piece of a wide plate) only when no other is clear
+        ranked = sorted(fitting, key=lambda c: (c.base is not None and float(np.max(c.points @ n)) - c.base < FIRM_PROUD,
+                                                front.lateral_score(c.points)))
+        grasp = next((g for g in map(lambda c: _pinch_on(asset, joint, front, c, source, gripper), ranked)
+                      if not g.landing), None) if len(ranked) > 1 else None
+        return (grasp or _pinch_on(asset, joint, front, ranked[0], source, gripper)), None
     if widest is not None:
         return None, (f"its handle is {1000 * widest:.0f} mm across, wider than the open gripper "
                       f"({1000 * span:.0f} mm)")
     return None, None
+
+
+def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: str, gripper: GripperConfig
+              ) -> GraspTarget:
+    """The pinch grasp on handle candidate ``best``, its pads placed; ``landing`` set when an open pad would
+    come down on the object (:func:`~spark_bench.envs.pads.pad_landing`)."""
+    n, basis = front.outward, front.basis
+    depth = best.points @ n
+    point = pad_center(best, front, gripper) @ basis + reach_depth(best.base, float(depth.max()),
+                                                                  float(depth.min()), gripper) * n
+    grasp = GraspTarget(point=point, outward=n, long_axis=best.long_axis(front), has_handle=True, source=source)
+    links = asset.part_of_joint(joint)
+    others = [name for name in asset.links if name not in links]
+    pads = plan_pads(front.part, asset.mesh(links=others) if others else None, point, n, grasp.closing,
+                     grasp.long_axis, front.face, gripper)
+    if pads is not None:
+        grasp.point = point + pads["shift"] * grasp.closing
+        grasp.opening, grasp.pad_thickness = pads["opening"], pads["pad_thickness"]
+        grasp.clearance = pads["clearance"]
+    opening = gripper.max_opening if grasp.opening is None else grasp.opening
+    thickness = gripper.pad_thickness if grasp.pad_thickness is None else grasp.pad_thickness
+    grasp.landing = pad_landing(asset.mesh(), grasp.point, n, grasp.closing, grasp.long_axis, opening,
+                                thickness, gripper) > 0.0
+    return grasp
 
 
 def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
@@ -404,7 +420,7 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
     if not isinstance(asset, RestMeshes):
         asset = RestMeshes(asset)
     grasp = _find(asset, joint, seed, gripper)
-    blocked = _approach_blocked(asset, grasp, gripper)
+    blocked = approach_blocked(asset, grasp, gripper, APPROACH_CLEAR)
     if blocked is not None:
         link, distance, through = blocked
         what = (asset.links[link].label or link).replace("_", " ")
@@ -417,29 +433,6 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
             grasp.reason = (f"{joint}: the {what} stands in the open fingers' way to the {part}'s grasp, "
                             f"{1000 * distance:.0f} mm in front of it")
     return grasp
-
-
-def _approach_blocked(asset: ArticulatedAsset, grasp: GraspTarget, gripper: GripperConfig
-                      ) -> tuple[str, float, bool] | None:
-    """What of the object stands in the hand's way in: rays from the pads' places as they come in (open,
-    or pre-closed to ``grasp.opening``) along the outward direction, from the palm's level (what stands
-    lower is the pads' business, :func:`~spark_bench.envs.pads.plan_pads`) out to :data:`APPROACH_CLEAR`.
-    Returns ``(the first link hit, its distance m, whether the ray from the grasp point itself is blocked
-    too)`` or None. A part whose joint opens into the object has the object across its whole way in; a
-    neighbouring feature (a dial beside a safe's lever) stands beside the grasp, in one pad's way."""
-    opening = gripper.max_opening if grasp.opening is None else grasp.opening
-    across = grasp.closing * opening
-    origins = np.stack([grasp.point + across, grasp.point - across])
-    near, best, through = gripper.finger_length - gripper.tip_beyond_tcp, None, False
-    for name, link in asset.links.items():
-        if not link.has_geometry:
-            continue
-        triangles = np.asarray(asset.mesh(links=[name]).triangles)
-        hit = first_hit(triangles, origins, grasp.outward, near, APPROACH_CLEAR if best is None else best[1])
-        if hit is not None:
-            best = (name, hit)
-        through = through or first_hit(triangles, grasp.point, grasp.outward, near, APPROACH_CLEAR) is not None
-    return None if best is None else (*best, through)
 
 
 def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig) -> GraspTarget:

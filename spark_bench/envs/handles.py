@@ -84,6 +84,44 @@ def reach_depth(base: float | None, top: float, bottom: float, gripper: GripperC
     return tips + gripper.tip_beyond_tcp
 
 
+#: Holding a sloped feature (a dome-shaped knob): the pads hold by friction only where the feature's sides
+#: rise no more steeply than this (lateral change per side per unit height, 0.5: 27 degrees from the pull)
+#: over :data:`WALL_BAND` (m) above the fingertips; below a steeper flange (the dome's wide foot) the pads,
+#: pulled, slide up the slope and off the cap. Widths are measured in :data:`WALL_BIN` (m) slices.
+MAX_WALL_SLOPE = 0.5
+WALL_BAND = 0.006
+WALL_BIN = 0.003
+
+
+def _width_at(depth: np.ndarray, across: np.ndarray, level: float) -> float | None:
+    """The feature's width across the closing direction in the :data:`WALL_BIN` slice above ``level``."""
+    s = across[(depth >= level) & (depth < level + WALL_BIN)]
+    return float(np.ptp(s)) if len(s) >= 4 else None
+
+
+def holding_level(candidate: Candidate, front: Front, gripper: GripperConfig) -> float | None:
+    """The level the fingertips should reach down to so that the pads close on sides they can hold: the
+    candidate's own when its sides there are steep (a bar, a boss, a knob's neck), else the lowest level
+    (in :data:`WALL_BIN` steps) above it whose sides over :data:`WALL_BAND` rise by at most
+    :data:`MAX_WALL_SLOPE` and above which the feature still stands :data:`RAISED_MIN` (a dome's upper cap,
+    not its wide foot). None: keep the candidate as it is (too few points to tell, or no such level)."""
+    n = front.outward
+    closing = np.cross(n, candidate.long_axis(front))
+    closing = closing / max(float(np.linalg.norm(closing)), 1e-12)
+    depth, across = candidate.points @ n, candidate.points @ closing
+    top, bottom = float(depth.max()), float(depth.min())
+    tips = reach_depth(candidate.base, top, bottom, gripper) - gripper.tip_beyond_tcp
+    start = level = max(tips, bottom)  # the pads close on nothing below the feature's bottom
+    while level <= top - RAISED_MIN:
+        low, high = _width_at(depth, across, level), _width_at(depth, across, level + WALL_BAND)
+        if low is None or high is None:
+            return None
+        if (low - high) / (2 * WALL_BAND) <= MAX_WALL_SLOPE:
+            return None if level <= start + 1e-9 else level
+        level += WALL_BIN
+    return None
+
+
 def local_patch(points: np.ndarray, order: np.ndarray, front: Front, span: float, radius: float,
                 gripper: GripperConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """A pinchable piece of a feature too wide to pinch whole (a safe's wheel: a stretch of a spoke): around
@@ -163,6 +201,10 @@ def candidates(points: np.ndarray, groups: list[tuple], front: Front, gripper: G
             out.append(Candidate(patch[0], patch[1] @ front.basis.T, base, patch[2]))
         else:
             widest = max(widest or 0.0, pinch_width(whole, front.outward, long_axis(whole, front.basis)))
+    for candidate in out:  # a dome: pinch its cap above the steep foot, where the sides hold the pads
+        level = holding_level(candidate, front, gripper)
+        if level is not None:
+            candidate.base = level
     return out, widest
 
 

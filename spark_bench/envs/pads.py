@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from spark_bench.envs.features import first_hit
 from spark_bench.envs.gripper import GripperConfig
 
 #: Another part's surface stands in the fingers' way when it is this far (m) proud of the grasped front
@@ -139,3 +140,61 @@ def plan_pads(part, others, point: np.ndarray, outward: np.ndarray, closing: np.
         return None
     return {"shift": 0.5 * (h_hi + h_lo + room_plus - room_minus), "opening": opening,
             "pad_thickness": thickness, "clearance": clearance}
+
+
+#: A pad comes down on something when a surface stands this far (m) above its fingertips' level where it
+#: lands (less is contact noise, and a handle's own base the tips are planned to touch).
+LANDING_MARGIN = 0.004
+
+
+def pad_landing(mesh, point: np.ndarray, outward: np.ndarray, closing: np.ndarray, long_axis: np.ndarray,
+                opening: float, pad_thickness: float, gripper: GripperConfig) -> float:
+    """How far (m) above the fingertips' level a surface of ``mesh`` stands where an open pad comes down
+    (0 when none): rays down the approach through each pad's middle and its two ends along the handle,
+    from the palm's level to :data:`LANDING_MARGIN` above the tips'. A grasp on a piece of a wide plate
+    (a safe's keypad, picked for a handle) lands one pad on the plate itself: the hand stops short.
+
+    :param mesh: the object's mesh (world, at rest: the grasped part's own included)
+    :param point: the grasp point (TCP)
+    :param opening: finger opening per side the pads come down with, m
+    :param pad_thickness: the pads' thickness, m
+    """
+    top = gripper.finger_length - gripper.tip_beyond_tcp  # the palm's level above the TCP
+    span = top + gripper.tip_beyond_tcp - LANDING_MARGIN  # palm level down to just above the tips
+    lines = np.array([point + top * outward + side * (opening + 0.5 * pad_thickness) * closing + h * long_axis
+                      for side in (-1.0, 1.0) for h in (-0.5 * gripper.pad_height, 0.0, 0.5 * gripper.pad_height)])
+    triangles = np.asarray(mesh.triangles)
+    if len(triangles) == 0:
+        return 0.0
+    lo, hi = lines.min(0) - np.abs(outward) * span - 1e-6, lines.max(0) + 1e-6
+    lo, hi = np.minimum(lo, lines.min(0) - outward * span), np.maximum(hi, lines.max(0) - outward * span)
+    boxed = (triangles.min(1) <= hi).all(1) & (triangles.max(1) >= lo).all(1)
+    hit = first_hit(triangles[boxed], lines, -outward, 0.0, span)
+    return 0.0 if hit is None else span - hit + LANDING_MARGIN
+
+
+def approach_blocked(asset, grasp, gripper: GripperConfig, clear: float) -> tuple[str, float, bool] | None:
+    """What of the object stands in the hand's way in: rays from the pads' places as they come in (open,
+    or pre-closed to ``grasp.opening``) along the outward direction, from the palm's level (what stands
+    lower is the pads' business, :func:`~spark_bench.envs.pads.plan_pads`) out to ``clear`` (m).
+    Returns ``(the first link hit, its distance m, whether the ray from the grasp point itself is blocked
+    too)`` or None. A part whose joint opens into the object has the object across its whole way in; a
+    neighbouring feature (a dial beside a safe's lever) stands beside the grasp, in one pad's way.
+
+    :param asset: the object (a :class:`~spark_bench.envs.rest_meshes.RestMeshes`)
+    :param grasp: the planned :class:`~spark_bench.envs.grasp.GraspTarget`
+    :param clear: how far (m) in front of the grasp nothing may stand
+    """
+    opening = gripper.max_opening if grasp.opening is None else grasp.opening
+    across = grasp.closing * opening
+    origins = np.stack([grasp.point + across, grasp.point - across])
+    near, best, through = gripper.finger_length - gripper.tip_beyond_tcp, None, False
+    for name, link in asset.links.items():
+        if not link.has_geometry:
+            continue
+        triangles = np.asarray(asset.mesh(links=[name]).triangles)
+        hit = first_hit(triangles, origins, grasp.outward, near, clear if best is None else best[1])
+        if hit is not None:
+            best = (name, hit)
+        through = through or first_hit(triangles, grasp.point, grasp.outward, near, clear) is not None
+    return None if best is None else (*best, through)

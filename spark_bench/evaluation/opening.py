@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from spark_bench.asset.transforms import unit
-from spark_bench.data.case import BenchmarkCase, benchmark_frame
+from spark_bench.data.case import benchmark_frame, ground_truth_in_metres
 from spark_bench.errors import InputError
 
 ENV_OF_TYPE = {"prismatic": "SparkDrawer-v0", "revolute": "SparkDoor-v0"}
@@ -44,25 +44,6 @@ def prediction_to_gt_world(pred, gt, alignment=None) -> np.ndarray:
     """
     align = np.asarray(alignment if alignment is not None else np.eye(4), dtype=np.float64)
     return np.linalg.inv(benchmark_frame(gt)) @ align @ benchmark_frame(pred)
-
-
-def ground_truth_in_metres(gt_folder: str | Path):
-    """``(ground truth as stored, ground truth in metres, 4x4 from the first to the second)``.
-
-    A benchmark case's ground truth comes back from the benchmark frame to its source's size and place
-    (:meth:`~spark_bench.data.case.BenchmarkCase.gt_at_source_size`); any other object folder is used as
-    it is, with the identity.
-
-    :param gt_folder: the ground-truth object folder (a case's ground truth, or any object folder)
-    """
-    from spark_bench.data import load_object
-
-    stored = load_object(gt_folder)
-    case = BenchmarkCase.of_gt_folder(gt_folder)
-    if case is None:
-        return stored, stored, np.eye(4)
-    gt, to_metres = case.gt_at_source_size(stored)
-    return stored, gt, to_metres
 
 
 def predicted_axes_in_gt_frame(pred, gt, alignment=None, gt_to_world=None
@@ -104,7 +85,9 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     from spark_bench.rl import open_with_ground_truth, open_with_joint
 
     gt_files, gt, to_source = ground_truth_in_metres(gt_folder)
-    pred = load_object(pred_folder)
+    # the oracle's prediction is the ground-truth folder itself: loaded once (a real object takes seconds)
+    same_folder = Path(pred_folder).resolve() == Path(gt_folder).resolve()
+    pred = gt_files if same_folder else load_object(pred_folder)
     matched = {m["gt_joint"]: m["pred_joint"] for m in metrics.get("matching", [])}
     axes = predicted_axes_in_gt_frame(pred, gt_files, metrics.get("alignment"), to_source)
     joints = {}

@@ -229,3 +229,49 @@ def test_a_push_button_is_declined_as_one():
     assert grasp.reason is not None and "push button (4.0 mm" in grasp.reason and "\n" not in grasp.reason
     joint.upper = 0.3  # a drawer again
     assert find_grasp(asset, "joint_0").reason is None
+
+
+def _cone(center, radius, height) -> tuple[Visual, Collision]:
+    """A cone along -X (out of a -X-facing front), its base (``radius``) at ``center``."""
+    transform = np.eye(4)
+    transform[:3, :3] = trimesh.transformations.rotation_matrix(-np.pi / 2, [0, 1, 0])[:3, :3]
+    transform[:3, 3] = center
+    mesh = trimesh.creation.cone(radius=radius, height=height, sections=32, transform=transform)
+    return Visual(mesh=mesh, rgba=METAL), Collision(kind="mesh", mesh=mesh)
+
+
+def test_a_dome_knob_is_pinched_on_its_steep_cap_not_its_sloping_foot():
+    """A 140 mm knob shaped like a dome (a cone, 30 mm high: its sides slope 2.3 sideways per unit of
+    height) with a 36 mm cylindrical cap: the pads closing on the foot's slope slide off when pulled, so
+    the fingertips reach only down to the cap, whose sides hold them (the level search steps 3 mm)."""
+    from spark_bench.envs.handles import MAX_WALL_SLOPE
+
+    asset = _drawer_with([_cone((0.0, 0.0, 0.0), 0.07, 0.03), _cylinder((-0.022, 0.0, 0.0), 0.018, 0.015)])
+    grasp = find_grasp(asset, "joint_0")
+    assert grasp.source == "geometry" and grasp.reason is None
+    tips = grasp.point - 0.012 * grasp.outward
+    height = (tips - _drawer_world(asset, (0.0, 0.0, 0.0))) @ grasp.outward
+    # where the sides slope by at most MAX_WALL_SLOPE over the 6 mm band above the tips: the cap, from 22 mm
+    # up (the cone is 18 mm across there); the foot's part narrow enough to pinch starts at 12 mm (the raised
+    # piece's level search gives 16 mm: the tips there, on the slope, is what this test refuses)
+    assert MAX_WALL_SLOPE < 70 / 30
+    assert 0.019 < height < 0.026
+
+
+def test_a_pad_landing_on_the_object_is_measured():
+    """:func:`pad_landing`: an open pad coming down on a plate beside the grasp stands on it (the hand
+    would stop short); over a bar that fits between the pads, nothing is in their way."""
+    from spark_bench.envs.gripper import GripperConfig
+    from spark_bench.envs.pads import LANDING_MARGIN, pad_landing
+
+    gripper = GripperConfig()
+    front = trimesh.creation.box(extents=[0.02, 0.6, 0.6], transform=trimesh.transformations.translation_matrix([0.01, 0, 0]))
+    bar = trimesh.creation.box(extents=[0.03, 0.02, 0.2], transform=trimesh.transformations.translation_matrix([-0.015, 0, 0]))
+    plate = trimesh.creation.box(extents=[0.02, 0.1, 0.1], transform=trimesh.transformations.translation_matrix([-0.01, 0.05, 0]))
+    out, closing, along = np.array([-1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0])
+    tcp = np.array([-0.012 - 0.002, 0.0, 0.0])  # fingertips 2 mm above the front (x = 0)
+    clear = pad_landing(trimesh.util.concatenate([front, bar]), tcp, out, closing, along, 0.045, 0.012, gripper)
+    assert clear == 0.0
+    # the same grasp at the plate's edge: the pad at +y comes down on the plate's face, 20 mm proud
+    landed = pad_landing(trimesh.util.concatenate([front, plate]), tcp, out, closing, along, 0.045, 0.012, gripper)
+    assert landed == pytest.approx(0.02 - 0.002, abs=1e-6) and landed > LANDING_MARGIN

@@ -106,3 +106,34 @@ def test_a_part_the_planner_declines_is_left_out_with_its_reason(tmp_path):
     assert entry["success"] is None and "no handle" in entry["reason"] and "\n" not in entry["reason"]
     assert result["joints"]["joint_1"]["success"] is True
     assert result["success_rate"] == 1.0  # the door alone is judged
+
+
+def test_the_oracle_ground_truth_is_loaded_once(gt_dir, tmp_path, monkeypatch):
+    """The oracle's prediction folder is the ground-truth folder: one load, not two (seconds on a real
+    object); a prediction in another folder is still loaded from its own files."""
+    import spark_bench.data as data
+    import spark_bench.data.readers as readers
+
+    loaded = []
+    real_load = readers.load_object
+
+    def counting_load(folder, *args, **kwargs):
+        loaded.append(str(folder))
+        return real_load(folder, *args, **kwargs)
+
+    monkeypatch.setattr(data, "load_object", counting_load)  # both names the loader goes by
+    monkeypatch.setattr(readers, "load_object", counting_load)
+    no_matching = {"matching": []}  # every joint unmatched: no episode runs, only the loads and the planner
+    same = open_with_predicted_joints(gt_dir, gt_dir, no_matching)
+    assert len(loaded) == 1
+    loaded.clear()
+    # the same folder spelled another way (a relative path with ".."): still one load
+    spelled = gt_dir.parent / ".." / gt_dir.parent.name / gt_dir.name
+    open_with_predicted_joints(spelled, gt_dir, no_matching)
+    assert len(loaded) == 1
+    loaded.clear()
+    write_object_folder(load_object(gt_dir), tmp_path / "copy")
+    loaded.clear()
+    other = open_with_predicted_joints(tmp_path / "copy", gt_dir, no_matching)
+    assert len(loaded) == 2 and loaded[1] == str(tmp_path / "copy")
+    assert other == same and all(j["success"] is False for j in same["joints"].values())
