@@ -16,7 +16,9 @@ mean over objects (the paper's and the leaderboard's average) and over joints, e
 the seeds, beside the paper's rows; the per-category means; the seconds per object. One prior seed is
 one ``eval``; the rows differ only in the optimizer (the same prior draw per seed). Per-case results
 are cached under ``--work`` (resumable; stale when the SPARK sources change; ``--cached`` reports the
-cached runs of the same configuration whatever sources made them, and names those sources).
+cached runs of the same configuration whatever sources made them, and names those sources). Runs go
+case by case (every seed and row of one case before the next), so a run cut short leaves whole cases,
+which ``--cached --ids`` reports.
 """
 
 from __future__ import annotations
@@ -376,10 +378,10 @@ def bench_main(args, console: Console) -> int:
                  f"PivotErr {clean['pivot_err']:.4f}, TypeErr {clean['type_err']:.4f}.")
     notes.extend(args.note)
     work = Path(args.work).expanduser() / bench.name
-    tasks = []
-    for seed in seeds:
-        for variant in variants:
-            for c in cases:
+    tasks = []  # case by case (one worker runs them in order): a run cut short leaves whole cases
+    for c in cases:
+        for seed in seeds:
+            for variant in variants:
                 tasks.append(((variant, seed, c.name), str(c), str(work / variant / f"seed{seed}" / c.name),
                               [*VARIANTS[variant], *overrides, f"prior.noise.seed={seed}"], args.n_samples,
                               variant == variants[0]))
