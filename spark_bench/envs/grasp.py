@@ -425,7 +425,11 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
         link, distance, through = blocked
         what = (asset.links[link].label or link).replace("_", " ")
         part = _part_name(asset, joint)
-        if through:  # the object lies across the whole way in, where the part should open to
+        in_front = _moving_part_of(asset, link, joint)
+        if through and in_front is not None:  # a closed door before a tray: not the tray's own fault
+            grasp.reason = (f"{joint}: the {part} lies behind the {what} ({in_front}), {1000 * distance:.0f} mm in "
+                            "front of its grasp: that part must be opened first")
+        elif through:  # the object lies across the whole way in, where the part should open to
             grasp.reason = (f"{joint}: the way the gripper comes in, in front of the {part}, runs into the "
                             f"{what} {1000 * distance:.0f} mm out (the joint opens into the object: is its axis "
                             "reversed?)")
@@ -433,6 +437,12 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
             grasp.reason = (f"{joint}: the {what} stands in the open fingers' way to the {part}'s grasp, "
                             f"{1000 * distance:.0f} mm in front of it")
     return grasp
+
+
+def _moving_part_of(asset: ArticulatedAsset, link: str, joint: str) -> str | None:
+    """The movable joint (not ``joint``) whose part holds ``link``, or None (the body, a fixed part)."""
+    return next((name for name, spec in asset.joints.items()
+                 if name != joint and spec.is_movable and link in asset.part_of_joint(name)), None)
 
 
 def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig) -> GraspTarget:

@@ -195,6 +195,15 @@ def test_a_joint_that_opens_into_the_object_is_declined():
     assert find_grasp(procedural_cabinet(0), "joint_0").reason is None
 
 
+def test_a_drawer_behind_a_closed_door_is_declined_for_the_door_not_its_axis():
+    """A tray behind an oven's closed door: the door stands across the whole way in, and the reason names
+    the door to open first, not a reversed axis (the drawer's own axis is right)."""
+    asset = procedural_cabinet(0)
+    asset.joints["joint_1"].origin[:3, 3] += [-0.06, 0.0, 0.26]  # the door moved up, in front of the drawer
+    reason = find_grasp(asset, "joint_0").reason
+    assert reason is not None and "behind the rotation door (joint_1)" in reason and "reversed" not in reason
+
+
 def test_the_workspace_holds_a_wide_swinging_door():
     """A door opening 170 degrees (a safe's) stands a door's width in front of the cabinet half-way, out of
     the box of its rest and open positions: the gripper's workspace must hold its whole sweep, or the hand
