@@ -231,7 +231,7 @@ def test_render_mesh_keeps_the_silhouette_of_a_dense_mesh_within_the_budget():
     import trimesh
 
     from spark_bench.spark.camera import look_at_camera
-    from spark_bench.spark.optimize import render_mesh
+    from spark_bench.spark.simplify import render_mesh
 
     dense = trimesh.creation.icosphere(subdivisions=6, radius=0.8)  # 81,920 faces
     dense.vertices[:, 2] *= 0.5
