@@ -58,7 +58,8 @@ ALT_YAW_DEG = 45.0
 
 @dataclass(frozen=True)
 class SearchOptions:
-    """How the search scores and refines (defaults measured in ``benchmarks/measure_retrieval.py``).
+    """How the search scores and refines (the defaults' speed and accuracy: ``benchmarks/measure_retrieval.py``,
+    ``benchmarks/results/retrieval.md``).
 
     :param index: the index grid and features
     :param edge_weight: weight of the edge-map similarity
