@@ -93,8 +93,6 @@ class ConvertOptions:
         Measured on 41083: at 0.01 the bevelled door and drawer frames (1.1-1.4 %) go to CoACD, 13
         calls and 62 CPU-seconds; at 0.02 none do, and every check still passes on all seven objects
     :param min_thickness: flat or thin parts are thickened to this fraction of the object's size
-    :param watertight_resolution: unused (kept so that option files stay readable); CoACD's own
-        preprocessing remeshes open parts
     :param max_part_faces: a closed (watertight) part mesh with more faces is simplified (quadric
         decimation, to this many) before its convexity test and CoACD. A case's ground truth is a watertight R=200 remesh with
         10^5-10^6 faces per link; CoACD skips its own remeshing on such manifold input and cuts the full
@@ -134,7 +132,6 @@ class ConvertOptions:
     coacd: CoacdParams = field(default_factory=CoacdParams)
     convex_tolerance: float = 0.02
     min_thickness: float = 0.004
-    watertight_resolution: int = 64
     max_part_faces: int = 5000
     clearance: float = 0.001
     hull_budget: int = 48

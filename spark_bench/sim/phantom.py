@@ -121,12 +121,14 @@ def surface_points(vertices: np.ndarray, faces: np.ndarray, lo: np.ndarray, hi: 
     if len(tri) == 0:
         return np.zeros((0, 3))
     corners = np.unique(tri.reshape(-1, 3), axis=0)
+    rng = np.random.default_rng(seed)
+    if len(corners) > MAX_POINTS:  # a random subset: ``np.unique`` sorts, a slice would keep one side only
+        corners = corners[np.sort(rng.choice(len(corners), size=MAX_POINTS, replace=False))]
     area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
     total = float(area.sum())
-    count = int(min(MAX_POINTS, max(0, MAX_POINTS - len(corners)), total / max(spacing, 1e-9) ** 2))
+    count = int(min(MAX_POINTS - len(corners), total / max(spacing, 1e-9) ** 2))
     if count <= 0 or total <= 0:
-        return corners[:MAX_POINTS]
-    rng = np.random.default_rng(seed)
+        return corners
     pick = rng.choice(len(tri), size=count, p=area / total)
     u, v = rng.random((2, count))
     flip = u + v > 1

@@ -94,7 +94,7 @@ def object_key(prepared) -> str:
     """Key of an object's contact resolution: every link's shapes before relief, the joints, and the
     options that decide exclusions and relief. The ``contacts-N`` tag is bumped whenever the rules
     (rest overlaps, hinge relief, phantom blockings) change."""
-    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-6".encode())
+    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-7".encode())
     options = prepared.options
     digest.update(json.dumps([options.exclude_overlap, options.clearance, list(options.base_quat)]).encode())
     digest.update(np.round(np.float64(prepared.size), 9).tobytes())
