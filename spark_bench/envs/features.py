@@ -221,17 +221,6 @@ class Front:
         return np.linalg.norm((points - self.points.mean(0)) @ self.basis.T, axis=1)
 
 
-def ray_hits(triangles: np.ndarray, origins: np.ndarray, direction: np.ndarray, near: float, far: float) -> bool:
-    """Whether any of the rays ``origins + t * direction`` (``near < t < far``) crosses a triangle
-    (Moller-Trumbore, all rays against all triangles).
-
-    :param triangles: (F, 3, 3) triangle corners
-    :param origins: (R, 3) ray origins
-    :param direction: unit direction shared by the rays
-    """
-    return first_hit(triangles, origins, direction, near, far) is not None
-
-
 def first_hit(triangles: np.ndarray, origins: np.ndarray, direction: np.ndarray, near: float, far: float
               ) -> float | None:
     """The smallest ``t`` (``near < t < far``) at which one of the rays ``origins + t * direction`` crosses a

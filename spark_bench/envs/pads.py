@@ -189,10 +189,14 @@ def approach_blocked(asset, grasp, gripper: GripperConfig, clear: float) -> tupl
     across = grasp.closing * opening
     origins = np.stack([grasp.point + across, grasp.point - across])
     near, best, through = gripper.finger_length - gripper.tip_beyond_tcp, None, False
+    # only triangles whose bounding box meets the rays' box can be hit (a real link holds 10^5 triangles)
+    ends = np.concatenate([origins, grasp.point[None]])[:, None] + np.array([near, clear])[:, None] * grasp.outward
+    lo, hi = ends.reshape(-1, 3).min(0) - 1e-6, ends.reshape(-1, 3).max(0) + 1e-6
     for name, link in asset.links.items():
         if not link.has_geometry:
             continue
         triangles = np.asarray(asset.mesh(links=[name]).triangles)
+        triangles = triangles[(triangles.min(1) <= hi).all(1) & (triangles.max(1) >= lo).all(1)]
         hit = first_hit(triangles, origins, grasp.outward, near, clear if best is None else best[1])
         if hit is not None:
             best = (name, hit)

@@ -284,3 +284,36 @@ def test_a_pad_landing_on_the_object_is_measured():
     # the same grasp at the plate's edge: the pad at +y comes down on the plate's face, 20 mm proud
     landed = pad_landing(trimesh.util.concatenate([front, plate]), tcp, out, closing, along, 0.045, 0.012, gripper)
     assert landed == pytest.approx(0.02 - 0.002, abs=1e-6) and landed > LANDING_MARGIN
+
+
+def test_approach_blocked_finds_what_stands_in_the_way_in():
+    """:func:`approach_blocked`: a plate in front of the grasp is hit by every ray (``through``) at its
+    distance; a post beside the grasp, in one open pad's way, by the pad's ray only; far triangles and a
+    plate beyond the clear distance are in nobody's way (the rays' bounding box must not drop a hit)."""
+    from types import SimpleNamespace
+
+    from spark_bench.envs.grasp import GraspTarget
+    from spark_bench.envs.gripper import GripperConfig
+    from spark_bench.envs.pads import approach_blocked
+
+    gripper = GripperConfig()
+    near = gripper.finger_length - gripper.tip_beyond_tcp
+
+    def asset(**meshes):
+        links = {name: SimpleNamespace(has_geometry=True) for name in meshes}
+        return SimpleNamespace(links=links, mesh=lambda links: meshes[links[0]])
+
+    def box(center, size):
+        return trimesh.creation.box(extents=size, transform=trimesh.transformations.translation_matrix(center))
+
+    grasp = GraspTarget(point=np.zeros(3), outward=np.array([-1.0, 0, 0]), long_axis=np.array([0, 0, 1.0]),
+                        has_handle=True, source="geometry")  # fingers close along y
+    far = box([-0.2, 2.0, 0], [0.1, 0.1, 0.1])
+    plate = box([-(near + 0.1), 0, 0], [0.01, 0.4, 0.4])
+    name, distance, through = approach_blocked(asset(far=far, plate=plate), grasp, gripper, 0.5)
+    assert name == "plate" and through and distance == pytest.approx(near + 0.095, abs=1e-9)
+    post = box([-(near + 0.05), -gripper.max_opening, 0], [0.01, 0.01, 0.01])  # on one pad's line only
+    name, distance, through = approach_blocked(asset(far=far, post=post), grasp, gripper, 0.5)
+    assert name == "post" and not through and distance == pytest.approx(near + 0.045, abs=1e-9)
+    beyond = box([-(near + 0.7), 0, 0], [0.01, 0.4, 0.4])
+    assert approach_blocked(asset(far=far, beyond=beyond), grasp, gripper, 0.5) is None

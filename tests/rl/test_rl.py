@@ -203,7 +203,9 @@ def test_scripted_opener_opens_synth_v1_objects(tmp_path, category, index, joint
 
 def _obs(tcp, grasp) -> np.ndarray:
     """An observation of the environments' layout with only what the opener reads: TCP and grasp point."""
-    obs = np.zeros(19, dtype=np.float32)
+    from spark_bench.envs.base import OBS_SIZE
+
+    obs = np.zeros(OBS_SIZE, dtype=np.float32)
     obs[0:3], obs[8:11] = tcp, grasp
     return obs
 
