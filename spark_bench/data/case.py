@@ -74,6 +74,18 @@ def to_benchmark_frame(asset):
     return normalize_asset(asset)
 
 
+def prediction_to_gt_world(pred, gt, alignment=None) -> np.ndarray:
+    """The 4x4 similarity from the prediction's world frame into the ground truth's: prediction world
+    -> its benchmark frame (-> the metrics' ICP alignment) -> ground-truth world.
+
+    :param pred: predicted asset
+    :param gt: ground-truth asset
+    :param alignment: optional 4x4 similarity the metrics applied to the prediction's benchmark frame
+    """
+    align = np.asarray(alignment if alignment is not None else np.eye(4), dtype=np.float64)
+    return np.linalg.inv(benchmark_frame(gt)) @ align @ benchmark_frame(pred)
+
+
 def ground_truth_in_metres(gt_folder: str | Path):
     """``(ground truth as stored, ground truth in metres, 4x4 from the first to the second)``.
 

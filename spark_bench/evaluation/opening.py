@@ -28,22 +28,10 @@ from pathlib import Path
 import numpy as np
 
 from spark_bench.asset.transforms import unit
-from spark_bench.data.case import benchmark_frame, ground_truth_in_metres
+from spark_bench.data.case import ground_truth_in_metres, prediction_to_gt_world
 from spark_bench.errors import InputError
 
 ENV_OF_TYPE = {"prismatic": "SparkDrawer-v0", "revolute": "SparkDoor-v0"}
-
-
-def prediction_to_gt_world(pred, gt, alignment=None) -> np.ndarray:
-    """The 4x4 similarity from the prediction's world frame into the ground truth's: prediction world
-    -> its benchmark frame (-> the metrics' ICP alignment) -> ground-truth world.
-
-    :param pred: predicted asset
-    :param gt: ground-truth asset
-    :param alignment: optional 4x4 similarity the metrics applied to the prediction's benchmark frame
-    """
-    align = np.asarray(alignment if alignment is not None else np.eye(4), dtype=np.float64)
-    return np.linalg.inv(benchmark_frame(gt)) @ align @ benchmark_frame(pred)
 
 
 def predicted_axes_in_gt_frame(pred, gt, alignment=None, gt_to_world=None

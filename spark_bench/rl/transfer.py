@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from spark_bench.data.case import ground_truth_in_metres
+from spark_bench.data.case import ground_truth_in_metres, prediction_to_gt_world
 from spark_bench.errors import InputError
 from spark_bench.rl.generalist import (
     FRAME_NOISE,
@@ -68,10 +68,7 @@ def prediction_to_gt_metres(pred, gt_stored, alignment=None, to_metres=None) -> 
     :param alignment: 4x4 similarity the metrics applied to the prediction's benchmark frame, or None
     :param to_metres: 4x4 from the stored ground truth to metres (a benchmark case's), or None
     """
-    from spark_bench.data.case import benchmark_frame
-
-    align = np.asarray(alignment if alignment is not None else np.eye(4), dtype=np.float64)
-    frame = np.linalg.inv(benchmark_frame(gt_stored)) @ align @ benchmark_frame(pred)
+    frame = prediction_to_gt_world(pred, gt_stored, alignment)
     return (np.asarray(to_metres, dtype=np.float64) if to_metres is not None else np.eye(4)) @ frame
 
 
@@ -79,8 +76,8 @@ def _why(exc: Exception) -> str:
     return " ".join(str(exc).split())[:200]
 
 
-def _episodes(env, policy, episodes: int, seed: int, frames: list | None = None) -> dict:
-    runs = [run_episode(env, policy, seed + k, frames=frames if k == 0 else None) for k in range(episodes)]
+def _episodes(env, policy, episodes: int, seed: int) -> dict:
+    runs = [run_episode(env, policy, seed + k) for k in range(episodes)]
     return {"success": float(np.mean([r["success"] for r in runs])),
             "max_fraction": float(np.mean([r["max_fraction"] for r in runs]))}
 
