@@ -35,11 +35,22 @@ def _value(row: dict, key: str):
     return value if value is not None else row.get("metrics", {}).get(key)
 
 
-def _rate(rows: Sequence[dict], column: str, stage_ran) -> float | None:
-    counted = [r for r in rows if r["status"] == "failed" or stage_ran(r)]
-    if not any(stage_ran(r) for r in rows):
+#: The RL transfer rates of ``eval --rl`` (:func:`spark_bench.rl.transfer.rl_transfer_score`, stored in each
+#: row's ``checks["rl"]``): the summary key and the key of the per-case result it averages.
+RL_RATES = {"rl_success_rate": "success_rate", "rl_zero_shot_success_rate": "zero_shot_success_rate"}
+
+
+def _rate(rows: Sequence[dict], value) -> float | None:
+    """The mean of ``value(row)`` over the rows where its stage ran (``value`` not None), a failed case
+    counting as 0; None when the stage ran nowhere."""
+    counted = [r for r in rows if r["status"] == "failed" or value(r) is not None]
+    if not any(value(r) is not None for r in rows):
         return None
-    return sum(float(r.get(column) or 0.0) for r in counted if r["status"] == "ok") / len(counted)
+    return sum(float(value(r)) for r in counted if r["status"] == "ok") / len(counted)
+
+
+def _rl_value(key: str):
+    return lambda row: ((row.get("checks") or {}).get("rl") or {}).get(key)
 
 
 def check_convention(rows: Sequence[dict]) -> str:
@@ -75,13 +86,15 @@ def by_part_class(rows: Sequence[dict]) -> dict[str, dict]:
     return mean_by_part_class(joint_records(rows))
 
 
-def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = ()) -> dict:
+def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (), rl: bool = False) -> dict:
     """The per-benchmark metrics of one run's rows (one variant), keys
-    :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``), then :data:`JOINT_MEAN`.
+    :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``, + :data:`RL_RATES`), then :data:`JOINT_MEAN`.
 
     :param rows: result rows of one run and variant (ok and failed), all of one metric convention
     :param sim: whether the sim stages were asked for (False: the rates are None)
-    :param extra: further keys: ``cd_open``, ``rl_success_rate``
+    :param extra: further keys: ``cd_open``
+    :param rl: add the RL transfer rates (each None when no case was scored: no ``--rl``, or no drawer or
+        door anywhere; a failed case counts as not opened)
     :raises SparkBenchError: for rows of several metric conventions
     """
     check_convention(rows)
@@ -92,12 +105,12 @@ def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = ())
         out[key] = _mean(_value(r, key) for r in shape_ok)
     for key in ARTICULATION_KEYS:
         out[key] = _mean(_value(r, key) for r in ok)
-    out["sim_pass_rate"] = _rate(rows, "sim_pass", lambda r: r.get("sim_pass") is not None) if sim else None
-    out["open_success_rate"] = (_rate(rows, "open_success", lambda r: r.get("open_success") is not None)
-                                if sim else None)
+    out["sim_pass_rate"] = _rate(rows, lambda r: r.get("sim_pass")) if sim else None
+    out["open_success_rate"] = _rate(rows, lambda r: r.get("open_success")) if sim else None
     if "cd_open" in extra:
         out["cd_open"] = _mean(_value(r, "cd_open") for r in shape_ok)
-    if "rl_success_rate" in extra:
-        out["rl_success_rate"] = _rate(rows, "rl_success", lambda r: r.get("rl_success") is not None)
+    if rl:
+        for key, result_key in RL_RATES.items():
+            out[key] = _rate(rows, _rl_value(result_key))
     out[JOINT_MEAN] = mean_over_joints(joint_records(rows))
     return out

@@ -40,9 +40,8 @@ from spark_bench.evaluation.board import (
     fmt_value,
     is_number,
 )
-from spark_bench.evaluation.opening import rl_rates
 from spark_bench.evaluation.store import ResultsStore
-from spark_bench.metrics.names import HEADLINE_KEYS, JOINT_MEAN
+from spark_bench.metrics.names import HEADLINE_KEYS
 
 FORMATS = ("md", "latex", "html", "csv")
 
@@ -62,10 +61,7 @@ def _entries(rows: list[dict]) -> list[Entry]:
         run_rows = runs[(label, variant, chash)]
         first = run_rows[0]
         # a rate whose stage never ran in this run is None (n/a) on its own
-        metrics = summarize(run_rows, sim=True, extra=("cd_open",))
-        joint_mean = metrics.pop(JOINT_MEAN)
-        metrics.update(rl_rates(run_rows))  # the RL transfer score beside the scripted opener's
-        metrics[JOINT_MEAN] = joint_mean
+        metrics = summarize(run_rows, sim=True, extra=("cd_open",), rl=True)
         out.append(Entry(label, variant, first["regime"], first["method"], first["method_version"], chash,
                          len(run_rows), sum(r["status"] == "failed" for r in run_rows), metrics, run_rows))
     # references first, then by label; a variant right after its method

@@ -15,10 +15,10 @@ An unmatched joint counts as not opened. Continuous joints (knobs, caps) have no
 left out.
 
 What it uses of other packages is their public face: :class:`~spark_bench.data.case.BenchmarkCase` and
-:func:`~spark_bench.data.case.benchmark_frame` for the case and its frames, :func:`spark_bench.envs.make_env`
+:func:`~spark_bench.data.case.prediction_to_gt_world` for the case and its frames, :func:`spark_bench.envs.make_env`
 and :mod:`spark_bench.rl` (``open_with_joint``, ``open_with_ground_truth``). The RL transfer score
-(``eval --rl``) is :func:`spark_bench.rl.transfer.rl_transfer_score`; :func:`rl_rates` averages it over a
-run.
+(``eval --rl``) is :func:`spark_bench.rl.transfer.rl_transfer_score`;
+:func:`spark_bench.evaluation.aggregate.summarize` averages it over a run.
 """
 
 from __future__ import annotations
@@ -117,31 +117,3 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     judged = [j["success"] for j in joints.values() if j["success"] is not None]
     rate = float(np.mean(judged)) if judged else None
     return {"success_rate": rate, "joints": joints}
-
-
-#: The RL transfer columns of ``eval --rl`` (:func:`spark_bench.rl.transfer.rl_transfer_score`): the summary key
-#: and the key of the per-case result it averages.
-RL_RATES = {"rl_success_rate": "success_rate", "rl_zero_shot_success_rate": "zero_shot_success_rate"}
-
-
-def rl_rates(rows) -> dict:
-    """The RL transfer rates of one run's rows (``eval --rl``): the fine-tuned and the zero-shot success,
-    each the mean over the cases where the stage scored a ground-truth drawer or door, a failed case
-    counting as not opened; None when no case was scored so (no ``--rl``, or no drawer or door anywhere).
-
-    :param rows: result rows of one run and variant (``checks["rl"]`` holds each case's transfer result)
-    :returns: ``{"rl_success_rate": ..., "rl_zero_shot_success_rate": ...}``
-    """
-    out = {}
-    for key, field_name in RL_RATES.items():
-        def scored(row, field_name=field_name):
-            rl = (row.get("checks") or {}).get("rl") or {}
-            return rl.get(field_name) is not None
-
-        counted = [r for r in rows if r["status"] == "failed" or scored(r)]
-        if not any(scored(r) for r in rows):
-            out[key] = None
-            continue
-        total = sum(float(r["checks"]["rl"][field_name]) for r in counted if r["status"] == "ok" and scored(r))
-        out[key] = total / len(counted)
-    return out

@@ -32,7 +32,7 @@ from spark_bench.evaluation.store import ResultsStore, config_hash, now
 from spark_bench.jsonio import plain, to_json_text
 from spark_bench.methods.base import GENERATION_MARKER, CaseInput, Generation, MethodSpec
 from spark_bench.methods.registry import make_method
-from spark_bench.metrics.names import JOINT_MEAN, METRIC_COLUMNS
+from spark_bench.metrics.names import METRIC_COLUMNS
 
 DEFAULT_BENCH = "synth-v1"
 #: Fine-tuning steps of the RL transfer score per policy kind (``eval --rl``; measured by
@@ -452,13 +452,7 @@ def run_eval(spec: MethodSpec, bench: str | None = None, options: EvalOptions | 
     from spark_bench.evaluation.aggregate import summarize
 
     main_rows = [r for r in rows if r["variant"] == ""]
-    metrics = summarize(main_rows, sim=options.sim)
-    if options.rl:  # always both keys with --rl (None: no case had a drawer or door)
-        from spark_bench.evaluation.opening import rl_rates
-
-        joint_mean = metrics.pop(JOINT_MEAN)
-        metrics.update(rl_rates(main_rows))
-        metrics[JOINT_MEAN] = joint_mean
+    metrics = summarize(main_rows, sim=options.sim, rl=options.rl)  # with --rl always both RL keys
     return EvalSummary(run=run, n_cases=len(all_ids), n_failed=sum(r["status"] == "failed" for r in main_rows),
                        n_skipped=len(all_ids) - len(tasks), metrics=metrics,
                        failures={r["case_id"]: f"{r['stage']}: {r['reason']}" for r in main_rows
