@@ -317,9 +317,14 @@ def sizes_main(args, console: Console) -> int:
         cpu = np.median([r["timings"].get("opt_fit_cpu", 0.0) for r in rows])
         lines.append(f"| {size} | {means['pivot_err']:.4f} | {means['joint_pivot_err']:.4f} | "
                      f"{np.mean(changes):.4f} | {cpu:.2f} |")
+    return write_result(console, lines, f"spark_sizes_{bench.name}.md")
+
+
+def write_result(console: Console, lines: list[str], name: str) -> int:
+    """Print the table ``lines`` and write them to ``results/<name>``; returns the exit status 0."""
     text = "\n".join(lines) + "\n"
     console.print(text)
-    out = Path(__file__).parent / "results" / f"spark_sizes_{bench.name}.md"
+    out = Path(__file__).parent / "results" / name
     out.write_text(text)
     console.print(f"wrote {out}")
     return 0

@@ -30,7 +30,7 @@ import numpy as np
 from rich.console import Console
 
 sys.path.insert(0, str(Path(__file__).parent))
-from measure_joint_opt import VARIANTS, case_dirs, run_tasks  # noqa: E402
+from measure_joint_opt import VARIANTS, case_dirs, run_tasks, write_result  # noqa: E402
 
 #: Where the shared development objects are, relative to the repository.
 SOURCE = Path(__file__).resolve().parents[1].parent / "shared" / "partnet_dev"
@@ -135,12 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     lines += ["", "Per object, slowest optimizer first (the optimizer: `optimize_cpu`, the whole stage 4; "
               "`run_ours` adds loading the ground truth's meshes, the prior and writing two object folders):", ""]
     lines += per_object_lines(results, methods)
-    text = "\n".join(lines) + "\n"
-    console.print(text)
-    out = Path(__file__).parent / "results" / f"joint_opt_speed_{bench.name}.md"
-    out.write_text(text)
-    console.print(f"wrote {out}")
-    return 0
+    return write_result(console, lines, f"joint_opt_speed_{bench.name}.md")
 
 
 if __name__ == "__main__":

@@ -49,8 +49,7 @@ from spark_bench.spark.prior import (
     annotation_prior,
     assemble_prior,
     camera_axis_frame,
-    file_axis_frame,
-    file_prior,
+    file_prior_with_frame,
     prior_document,
 )
 from spark_bench.spark.refine import RefineSettings, refine
@@ -99,8 +98,8 @@ def _prior(config: SparkConfig, case: CaseInput, gt, geometry: PartGeometry | No
         frame = camera_axis_frame(load_camera_pose(case.path("camera")))
         return annotation_prior(gt, case.case_id, config.prior.noise, axis_frame=frame), None, frame
     if backend == "file":
-        prior = file_prior(config.prior.file_dir, case.case_id, known)
-        return prior, None, file_axis_frame(config.prior.file_dir, case.case_id)
+        prior, frame = file_prior_with_frame(config.prior.file_dir, case.case_id, known)
+        return prior, None, frame
     prior, raw = request_structure(config.vlm, _input_image(case), known, geometry.labels if geometry else None)
     return prior, raw, None
 

@@ -197,10 +197,14 @@ def file_axis_frame(folder: str | Path, case_id: str) -> np.ndarray | None:
 
     :raises InputError: naming the file when the entry is not a 3x3 rotation
     """
+    path = Path(folder) / f"{case_id}.json"
+    return _axis_frame(read_json(path, missing="no prior answer file for this case"), path)
+
+
+def _axis_frame(data, path: Path) -> np.ndarray | None:
+    """The ``axis_frame`` entry of a prior document read from ``path`` (see :func:`file_axis_frame`)."""
     from spark_bench.errors import InputError
 
-    path = Path(folder) / f"{case_id}.json"
-    data = read_json(path, missing="no prior answer file for this case")
     if not isinstance(data, dict) or data.get("axis_frame") is None:
         return None
     try:
@@ -216,8 +220,14 @@ def file_prior(folder: str | Path, case_id: str, known_links: list[str] | None =
                upper_table: dict | None = None) -> PriorStructure:
     """The ``file`` backend: ``<folder>/<case id>.json`` holds a coarse-URDF answer (e.g. a recorded
     VLM run's ``prior.json``)."""
+    return file_prior_with_frame(folder, case_id, known_links, upper_table)[0]
+
+
+def file_prior_with_frame(folder: str | Path, case_id: str, known_links: list[str] | None = None,
+                          upper_table: dict | None = None) -> tuple[PriorStructure, np.ndarray | None]:
+    """:func:`file_prior` and :func:`file_axis_frame` of one read of the file."""
     path = Path(folder) / f"{case_id}.json"
     data = read_json(path, missing="no prior answer file for this case")
     out = parse_structure(data, path, known_links, upper_table)
     out.source = "file"
-    return out
+    return out, _axis_frame(data, path)

@@ -16,6 +16,7 @@ from spark_bench.spark.prior import (
     camera_axis_frame,
     file_axis_frame,
     file_prior,
+    file_prior_with_frame,
     ground_truth_structure,
     prior_document,
 )
@@ -197,6 +198,9 @@ def test_annotation_prior_axes_are_the_camera_frames_canonical_axes(tmp_path):
     (tmp_path / "c.json").write_text(json.dumps(document))
     np.testing.assert_allclose(file_axis_frame(tmp_path, "c"), frame, atol=1e-9)
     assert file_prior(tmp_path, "c").joints[0].axis == "down"
+    read, read_frame = file_prior_with_frame(tmp_path, "c")  # the pipeline's one read of both
+    assert read.joints[0].axis == "down" and read.source == "file"
+    np.testing.assert_allclose(read_frame, frame, atol=1e-9)
     document["axis_frame"] = [[1, 0, 0], [0, 1, 0]]
     (tmp_path / "c.json").write_text(json.dumps(document))
     with pytest.raises(InputError, match="axis_frame must be a 3x3 rotation"):
