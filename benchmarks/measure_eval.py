@@ -63,6 +63,8 @@ def main(argv=None) -> int:
     parser.add_argument("--json", help="also write the results here")
     parser.add_argument("--rl", type=int, default=0, metavar="N", help="time eval --rl's stage on N cases")
     parser.add_argument("--rl-cases", help="with --rl: these case ids too (comma-separated)")
+    parser.add_argument("--rl-method", default="oracle",
+                        help="with --rl: the method whose prediction is fine-tuned on (default: the oracle, the ceiling)")
     parser.add_argument("--finetune-steps", type=int, nargs="+", default=None,
                         help="with --rl: fine-tuning steps to time (default: 0 and eval's default)")
     args = parser.parse_args(argv)
@@ -101,7 +103,7 @@ def main(argv=None) -> int:
 
 
 def measure_rl(args, cores: list[int]) -> int:
-    """Time the ``rl`` stage of ``eval --rl`` with the oracle (see the module docstring)."""
+    """Time the ``rl`` stage of ``eval --rl`` with ``--rl-method``'s prediction (see the module docstring)."""
     import numpy as np
 
     from spark_bench.data.case import Benchmark
@@ -125,11 +127,11 @@ def measure_rl(args, cores: list[int]) -> int:
             db = Path(tmp) / f"rl-{steps}.sqlite"
             options = EvalOptions(sim=False, rl=True, rl_finetune_steps=steps, n_samples=5_000)
             cpu = time.process_time()
-            summary = run_eval(MethodSpec.create("oracle"), str(folder), options, db=db, workers=0,
+            summary = run_eval(MethodSpec.create(args.rl_method), str(folder), options, db=db, workers=0,
                                runs_root=Path(tmp) / "runs", progress=False, cases=cases)
             cpu = time.process_time() - cpu
             with ResultsStore(db) as store:
-                for row in store.rows(label=summary.run.label):
+                for row in store.rows(label=summary.run.label, where=[("variant", "")]):  # not ours' prior rows
                     rl = row["checks"].get("rl", {})
                     rows.append({"case": row["case_id"], "finetune_steps": steps, "rl_stage_s": row["timings"].get("rl"),
                                  "rl_cpu_s": rl.get("cpu_s"),
@@ -141,14 +143,20 @@ def measure_rl(args, cores: list[int]) -> int:
             print(f"finetune {steps}: process CPU {cpu:.1f} s for {len(cases)} cases (metrics stage included)",
                   flush=True)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    lines = ["# eval --rl: seconds per case and the oracle's ceiling", "",
+    oracle = args.rl_method == "oracle"
+    lines = ["# eval --rl: seconds per case and the oracle's ceiling" if oracle else
+             f"# eval --rl on {summary.run.label}'s predictions: fine-tuned against zero-shot", "",
              f"Produced by `python benchmarks/measure_eval.py --rl {args.rl} --finetune-steps "
              f"{' '.join(map(str, settings))}"
-             f"{' --rl-cases ' + args.rl_cases if args.rl_cases else ''}` on {name} ({len(cases)} cases with a drawer or door, spread over its categories: "
+             f"{' --rl-cases ' + args.rl_cases if args.rl_cases else ''}"
+             f"{'' if oracle else ' --rl-method ' + args.rl_method}` on {name} ({len(cases)} cases with a drawer or door, spread over its categories: "
              f"{', '.join(cases)}), cores {cores}, one "
              f"process; the machine was shared with other jobs (load average {load:.1f} at the end), so the "
-             "times are upper bounds of an idle 2-core machine. The prediction is the ground truth itself (the "
-             "oracle): its RL score is the policy's ceiling. The time is the `rl` stage of each case (the "
+             "times are upper bounds of an idle 2-core machine. "
+             + ("The prediction is the ground truth itself (the oracle): its RL score is the policy's ceiling. "
+                if oracle else f"The prediction is `{summary.run.label}`'s (regime: {summary.run.regime}); the "
+                "policy is fine-tuned on it and scored on the ground truth told the predicted joint. ")
+             + "The time is the `rl` stage of each case (the "
              "fine-tuning, both columns' episodes on every ground-truth drawer and door, and the case's "
              "episode video); the first case also pays for imports and loading the weights. CPU s: this process's CPU "
              "time in the stage (all its threads), what an idle machine's wall time would be on one core.", "",
@@ -174,7 +182,8 @@ def measure_rl(args, cores: list[int]) -> int:
               "--rl's default); "
               "holdable joints: a grasp on a handle, a notch, a lid's tab or the front's edges that the grasp planner "
               "gives no reason against (spark_bench.rl.tasks.holdable).", ""]
-    out = Path(__file__).resolve().parent / "results" / "generalist_transfer.md"
+    out = Path(__file__).resolve().parent / "results" / ("generalist_transfer.md" if oracle else
+                                                         f"generalist_transfer_{args.rl_method}.md")
     out.write_text("\n".join(lines))
     print(f"wrote {out}", flush=True)
     return 0

@@ -49,6 +49,9 @@ class BuiltTask:
 
     :param grasp: the grasp's source (``label``, ``geometry``, ``notch``, ``tab``, ``edge``, ``face``)
     :param reason: the planner's reason why a parallel gripper cannot pull the part open, or None
+    :param part: the moving part's label (``door``, ``lid``, ``drawer``, ``window``, ...; empty if none)
+    :param asset: the simulated object, as stored records name it: ``{"path", "sha256"}``
+        (:func:`spark_bench.rl.records.asset_content_hash` of the asset the environment was built from)
     """
 
     task: Task
@@ -56,6 +59,8 @@ class BuiltTask:
     grasp: str = ""
     info: dict = field(default_factory=dict)
     reason: str | None = None
+    part: str = ""
+    asset: dict | None = None
 
     @property
     def raw(self) -> gym.Env:
@@ -120,15 +125,22 @@ def build_tasks(tasks: list[Task], max_episode_steps: int = EPISODE_STEPS, progr
     """
     from tqdm import tqdm
 
-    built, skipped = [], []
+    from spark_bench.rl.records import asset_content_hash
+
+    built, skipped, hashes = [], [], {}
     for task in tqdm(tasks, desc="building tasks", unit="task", disable=not progress):
         try:
             env = make_task_env(task.kind, task.folder, task.joint, max_episode_steps=max_episode_steps)
         except InputError as exc:
             skipped.append((task, " ".join(str(exc).split())[:200]))
             continue
-        grasp = env.unwrapped.scene.grasp
-        built.append(BuiltTask(task, GraspFrameWrapper(env), grasp.source, reason=getattr(grasp, "reason", None)))
+        scene = env.unwrapped.scene
+        path = str(Path(task.folder).resolve())
+        if path not in hashes:  # every joint of an object shares its asset: hash it once
+            hashes[path] = asset_content_hash(scene.asset)
+        built.append(BuiltTask(task, GraspFrameWrapper(env), scene.grasp.source,
+                               reason=getattr(scene.grasp, "reason", None),
+                               part=scene.asset.links[scene.joint.child].label, asset={"path": path, "sha256": hashes[path]}))
     return built, skipped
 
 
@@ -192,8 +204,8 @@ def _score(built, actor_of, episodes, seed, progress, what) -> list[dict]:
     for bt in tqdm(built, desc=f"evaluating {what}", unit="task", disable=not progress):
         env, actor = actor_of(bt)
         runs = [run_episode(env, actor, seed + k) for k in range(episodes)]
-        rows.append({"task": bt.task.name, "kind": bt.task.kind, "category": bt.task.category, "grasp": bt.grasp,
-                     "reason": bt.reason,
+        rows.append({"task": bt.task.name, "kind": bt.task.kind, "category": bt.task.category, "part": bt.part,
+                     "grasp": bt.grasp, "reason": bt.reason, "asset": bt.asset,
                      "success_rate": float(np.mean([r["success"] for r in runs])),
                      "max_fraction": float(np.mean([r["max_fraction"] for r in runs]))})
     return rows

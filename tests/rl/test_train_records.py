@@ -43,3 +43,25 @@ def test_train_json_names_the_asset_by_path_and_hash(tmp_path):
     text = (out / "train.json").read_text()
     assert "ArticulatedAsset(" not in text and len(text) < 5000
 
+
+
+def test_generalist_task_rows_name_the_asset_by_path_and_hash(tmp_path):
+    """The generalist's record (scores per task) names each object as :func:`asset_record` does."""
+    from spark_bench.asset.urdf import write_object_folder
+    from spark_bench.envs.cabinet import procedural_cabinet
+    from spark_bench.rl.tasks import build_tasks, evaluate_teacher, object_tasks
+
+    folder = tmp_path / "cabinet"
+    write_object_folder(procedural_cabinet(3), folder)
+    tasks = object_tasks(folder)
+    assert tasks
+    built, _ = build_tasks(tasks[:2])
+    try:
+        rows = evaluate_teacher(built[:1])
+    finally:
+        for b in built:
+            b.env.close()
+    expected = asset_record(folder)
+    assert all(b.asset == expected for b in built)
+    assert rows[0]["asset"] == expected and rows[0]["task"] == f"cabinet/{tasks[0].joint}"
+    assert rows[0]["part"] == built[0].part == "drawer"  # the procedural cabinet's moving parts are drawers
