@@ -31,10 +31,11 @@ REAL_OBJECTS = Path(__file__).resolve().parents[1].parent / "shared" / "real_obj
 REAL_IDS = ("41083", "40147", "45780", "7179", "47645", "102442", "3763")
 #: Steps of the watertight remesh whose cumulative time is reported: (file name part, function names).
 WATERTIGHT_PARTS = {
-    "voxelize surface": ("spark_bench/asset/mesh.py", ("voxelize_surface",)),
-    "fill": ("spark_bench/asset/mesh.py", ("fill_holes",)),
+    "voxelize surface": ("spark_bench/asset/voxel.py", ("voxelize_surface",)),
+    "fill": ("spark_bench/asset/voxel.py", ("fill_holes",)),
     "marching cubes": ("skimage/measure", ("marching_cubes",)),
-    "cleanup (weld, dedupe, split)": ("spark_bench/asset/mesh.py", ("cleanup",)),
+    "cleanup (weld, dedupe, split)": ("spark_bench/asset/mesh.py", ("_shell_cleanup", "_cleanup", "_vertex_spacing")),
+    "orientation (signed volume)": ("spark_bench/asset/mesh.py", ("signed_volume",)),
 }
 
 

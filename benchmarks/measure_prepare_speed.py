@@ -16,8 +16,11 @@ With ``--render-mesh source`` the checkout's run renders from the source meshes
 differ from the baseline's (whose renders are of the watertight ground truth): foreground-mask IoU,
 per-pixel part-label agreement and mean absolute RGB difference (0-255) of each rendered state.
 
+The checkout's ``prepare_case`` runs with one BLAS thread; ``--baseline-blas-threads 1`` gives the
+baseline the same, to separate that from the rest of the speed-up.
+
 Run: ``nice -n 10 python benchmarks/measure_prepare_speed.py [--ids 47645 7179] [--baseline REV]
-[--render-mesh source] [--src FOLDER_OF_OBJECTS]``.
+[--render-mesh source] [--baseline-blas-threads 1] [--src FOLDER_OF_OBJECTS]``.
 """
 
 from __future__ import annotations
@@ -78,8 +81,10 @@ def extract(revision: str, into: Path) -> Path:
 
 
 def prepare_in_child(package_root: Path, src: Path, out: Path, resolution: int, size: int,
-                     render_mesh: str | None = None) -> dict:
+                     render_mesh: str | None = None, blas_threads: int | None = None) -> dict:
     env = dict(os.environ, PYTHONPATH=str(package_root))
+    if blas_threads:  # the checkout limits its own BLAS threads; this gives the baseline the same limit
+        env.update({k: str(blas_threads) for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")})
     extra = [render_mesh] if render_mesh else []
     proc = subprocess.run([sys.executable, "-c", CHILD, str(src), str(out), str(resolution), str(size), *extra],
                           capture_output=True, text=True, env=env, cwd=str(out.parent))
@@ -123,6 +128,9 @@ def main(argv=None) -> int:
     parser.add_argument("--image-size", type=int, default=512)
     parser.add_argument("--render-mesh", default=None, choices=("watertight", "source"),
                         help="PrepareOptions.render_mesh of the checkout's run (default: the option's default)")
+    parser.add_argument("--baseline-blas-threads", type=int, default=None,
+                        help="BLAS threads of the baseline's child (default: the library's default; the "
+                             "checkout runs prepare_case with one)")
     parser.add_argument("--out", type=Path, default=RESULTS, help="Markdown report ('-': none)")
     args = parser.parse_args(argv)
     if not args.src.is_dir():
@@ -141,7 +149,8 @@ def main(argv=None) -> int:
                 out = tmp / name / object_id
                 out.parent.mkdir(parents=True, exist_ok=True)
                 row[name] = prepare_in_child(package, args.src / object_id, out, args.resolution, args.image_size,
-                                             args.render_mesh if name == "now" else None)
+                                             args.render_mesh if name == "now" else None,
+                                             args.baseline_blas_threads if name == "before" else None)
                 row[f"{name}_gt"] = tree_digest(out / "gt")
             row["same_gt"] = row["before_gt"] == row["now_gt"]
             row["renders"] = render_difference(tmp / "before" / object_id, tmp / "now" / object_id)
@@ -158,7 +167,9 @@ def main(argv=None) -> int:
     lines = ["# `data prepare`: speed against the code the issue measured", "",
              f"Written by `benchmarks/measure_prepare_speed.py` ({time.strftime('%Y-%m-%d %H:%M')}): "
              f"`prepare_case` at R={args.resolution}, {args.image_size} px, each object in a child process "
-             f"with this checkout's package and with `{args.baseline}`'s (git archive). CPU seconds are "
+             f"with this checkout's package and with `{args.baseline}`'s (git archive"
+             + (f", {args.baseline_blas_threads} BLAS thread(s)" if args.baseline_blas_threads else "")
+             + "). CPU seconds are "
              f"`time.process_time` of the call (all threads; imports excluded). The machine "
              f"({os.cpu_count()} cores) was shared with other work: load average {load_before:.1f} before, "
              f"{load_after:.1f} after, so wall seconds are inflated and only the CPU seconds compare. "

@@ -4,7 +4,8 @@
   Cleaning and Merging").
 - :func:`make_watertight`: voxelize at a pitch from R and N_min under a memory cap, fill, marching
   cubes, axis-wise rescale to the original extents, cleanup, largest component; meshes already
-  watertight only get the cleanup (appendix "Watertight Part Preprocessing").
+  watertight only get the cleanup (appendix "Watertight Part Preprocessing"). The voxel steps live
+  in :mod:`spark_bench.asset.voxel`.
 - :func:`sample_surface`: seeded, area-weighted uniform surface samples.
 """
 
@@ -16,8 +17,12 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-#: Soft cap on the voxel grid, in bytes (one byte per voxel), as in the appendix.
-VOXEL_MEMORY_CAP = 400_000_000
+from spark_bench.asset.voxel import VOXEL_MEMORY_CAP, fill_holes, voxel_pitch, voxelize_surface
+
+__all__ = ["VOXEL_MEMORY_CAP", "WELD_RADIUS", "WatertightReport", "cleanup", "drop_degenerate_faces", "fill_holes",
+           "make_watertight", "merge_meshes", "sample_surface", "sample_triangles", "signed_volume",
+           "simplify_manifold", "voxel_pitch", "voxelize_surface"]
+
 WELD_RADIUS = 1e-6
 
 
@@ -32,23 +37,6 @@ def merge_meshes(meshes: Sequence[trimesh.Trimesh]) -> trimesh.Trimesh:
     vertices = np.concatenate([m.vertices for m in meshes])
     faces = np.concatenate([m.faces + off for m, off in zip(meshes, offsets)])
     return trimesh.Trimesh(vertices, faces, process=False)
-
-
-def voxel_pitch(extents: np.ndarray, resolution: int = 200, n_min: int = 3,
-                memory_cap: float = VOXEL_MEMORY_CAP) -> float:
-    """The appendix's pitch: ``min(max(e)/R, min(e)/N_min)``, relaxed to fit ``memory_cap`` voxels.
-
-    Zero extents (a flat part) are ignored for the thin-axis term: a plane has no thickness to keep.
-    """
-    extents = np.asarray(extents, dtype=float)
-    pitch = extents.max() / resolution
-    positive = extents[extents > 1e-9 * max(extents.max(), 1e-12)]
-    if len(positive):
-        pitch = min(pitch, positive.min() / n_min)
-    n_voxels = np.prod(np.ceil(np.maximum(extents, pitch) / pitch) + 2)
-    if n_voxels > memory_cap:
-        pitch *= (n_voxels / memory_cap) ** (1.0 / 3.0)
-    return float(pitch)
 
 
 def cleanup(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS, keep_largest: bool = True,
@@ -108,21 +96,136 @@ def _edge_structure(faces: np.ndarray) -> tuple[bool, bool]:
     edge that no third face has (trimesh's ``face_adjacency``, which ``split`` follows). Watertight:
     every edge has exactly two faces (trimesh's ``is_watertight``).
     """
+    count, _, watertight = _face_components(faces)
+    return count == 1, watertight
+
+
+def _face_components(faces: np.ndarray) -> tuple[int, np.ndarray, bool]:
+    """``(number of components, label per face, watertight)`` of a triangle list (see
+    :func:`_edge_structure`). The labels are scipy's for the face-adjacency graph, numbered in the order
+    of each component's first face: the array trimesh's ``split`` groups its faces by.
+    """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
     faces = np.asarray(faces, dtype=np.int64)
     if len(faces) == 0:
-        return True, False
-    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    key = edges[:, 0] * (int(faces.max()) + 1) + edges[:, 1]
+        return 1, np.zeros(0, dtype=np.int32), False
+    paired = _twin_pairs(faces)
+    if paired is not None:  # every edge has exactly two faces, walked in opposite directions
+        a, b = paired
+        graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(len(faces), len(faces)))
+        count, labels = connected_components(graph, directed=False)
+        return int(count), labels, True
+    # edge k of face f is key 3 f + k: (f0, f1), (f1, f2), (f2, f0), as (smaller, larger) vertex
+    u, v = faces.ravel(), faces[:, [1, 2, 0]].ravel()
+    key = np.minimum(u, v) * (int(faces.max()) + 1) + np.maximum(u, v)
     order = np.argsort(key)
     starts = np.flatnonzero(np.r_[True, np.diff(key[order]) != 0])
     counts = np.diff(np.r_[starts, len(key)])
     pairs = starts[counts == 2]  # edges shared by exactly two faces
     a, b = order[pairs] // 3, order[pairs + 1] // 3
     graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(len(faces), len(faces)))
-    return bool(connected_components(graph, directed=False)[0] == 1), bool(len(pairs) * 2 == len(key))
+    count, labels = connected_components(graph, directed=False)
+    return int(count), labels, bool(len(pairs) * 2 == len(key))
+
+
+def _twin_pairs(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The pairs of faces sharing an edge, when every directed edge ``u -> v`` of the faces occurs
+    exactly once and so does its twin ``v -> u`` (a closed, consistently oriented surface: marching
+    cubes'); None otherwise. Then every edge has exactly two faces, and these are the pairs of
+    trimesh's ``face_adjacency``, found by two sparse-matrix transposes instead of sorting the edges.
+    """
+    from scipy.sparse import csr_matrix
+
+    u, v = faces.ravel(), faces[:, [1, 2, 0]].ravel()  # directed edge k of face f is 3 f + k
+    if (u == v).any():
+        return None
+    n = int(faces.max()) + 1
+    half = csr_matrix((np.arange(1, len(u) + 1, dtype=np.int64), (u, v)), shape=(n, n))
+    if half.nnz != len(u):  # a directed edge repeated (its entries were summed)
+        return None
+    half.sort_indices()
+    twin = half.T.tocsr()  # entry (u, v) holds the directed edge v -> u
+    twin.sort_indices()
+    if not (np.array_equal(half.indptr, twin.indptr) and np.array_equal(half.indices, twin.indices)):
+        return None
+    a, b = (half.data - 1) // 3, (twin.data - 1) // 3
+    keep = a < b  # each edge once
+    return a[keep], b[keep]
+
+
+def _vertex_spacing(grid_vertices: np.ndarray) -> float:
+    """A lower bound of the largest per-axis difference between any two distinct marching-cubes
+    vertices, in voxels (0: two coincide).
+
+    A vertex at the midpoint of a grid edge (one coordinate a half-integer, the other two integers)
+    differs from every other such vertex by at least half a voxel along some axis. Lewiner's cases
+    with a vertex inside the cube add a few others: each is checked against its nearest neighbour.
+    """
+    vertices = np.asarray(grid_vertices)
+    twice = vertices * 2  # exact: a power of two
+    steps = twice.astype(np.int64)
+    odd = (steps & 1).sum(1)
+    midpoint = (odd == 1) & (steps == twice).all(1)  # one half-integer coordinate, two integers
+    others = vertices[~midpoint].astype(np.float64)
+    if len(others) == 0 or len(vertices) < 2:
+        return 0.5
+    from scipy.spatial import cKDTree
+
+    # the nearest two of each: the vertex itself, then its nearest other (per-axis distance)
+    distance, _ = cKDTree(vertices.astype(np.float64)).query(others, k=2, p=np.inf)
+    return float(min(0.5, distance[:, 1].min()))
+
+
+def _shell_cleanup(mesh: trimesh.Trimesh, spacing: float) -> tuple[trimesh.Trimesh, bool] | None:
+    """:func:`_cleanup` (``fix_normals=False``) of a marching-cubes shell whose vertices lie at least
+    ``spacing`` apart along some axis, without the steps it can prove change nothing; None where a
+    proof fails (then the caller runs :func:`_cleanup`). Byte-identical to :func:`_cleanup`.
+
+    - Welding at ``WELD_RADIUS`` merges only vertices that round to the same multiple of it on every
+      axis, so none when ``spacing`` exceeds twice that and every vertex is used: the weld keeps them
+      all, in order.
+    - No face is degenerate (:func:`_min_height` above trimesh's tolerance): none is dropped.
+    - Every edge has exactly two faces (watertight) and every piece at least four faces: no face is
+      repeated (two copies of a face would be a closed piece of two), so the dedupe keeps them all.
+    - The largest piece (most faces, then largest volume) is trimesh's ``split`` piece: the same
+      component labels, grouped by trimesh's own ``group``, the faces and the vertices they use in
+      the order ``submesh`` keeps them. Each piece is watertight, so ``split``'s hole repair adds none.
+
+    :param mesh: the shell (vertices and faces; nothing cached is used)
+    :param spacing: a lower bound of the distance between two vertices along the axis where they
+        differ most (:func:`_vertex_spacing` times the pitch, times the smallest rescale)
+    :returns: ``(mesh, True)``: the cleaned shell, watertight, or None
+    """
+    vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+    quantum = 10.0 ** -max(0, int(-np.log10(WELD_RADIUS)))  # what trimesh's merge_vertices rounds to
+    if len(faces) <= 2 or not spacing > 2.0 * quantum:
+        return None
+    used = np.zeros(len(vertices), dtype=bool)
+    used[faces] = True
+    if not used.all() or _min_height(mesh) <= 100 * trimesh.tol.merge:
+        return None
+    count, labels, watertight = _face_components(faces)
+    if not watertight:
+        return None
+    if count > 1:
+        from trimesh.grouping import group
+
+        sizes = np.bincount(labels)
+        if sizes.min() < 4:
+            return None
+        pieces = group(labels)  # as split: by label, each piece's faces in this order
+        largest = [p for p in pieces if len(p) == sizes.max()]
+        if len(largest) > 1:  # a tie in faces: the larger volume, as trimesh computes it
+            volumes = [abs(m.volume) for m in mesh.submesh(largest, only_watertight=False, repair=False)]
+            largest = [largest[int(np.argmax(volumes))]]  # argmax and max both keep the first maximum
+        kept = faces[largest[0]]
+        unique = np.unique(kept.reshape(-1))
+        remap = np.arange(len(vertices))
+        remap[unique] = np.arange(len(unique))
+        vertices, faces = vertices[unique], remap[kept]
+    return trimesh.Trimesh(vertices, faces, process=False), True
 
 
 def signed_volume(mesh: trimesh.Trimesh) -> float:
@@ -132,191 +235,6 @@ def signed_volume(mesh: trimesh.Trimesh) -> float:
     x, y, z = (vertices[faces, d] for d in range(3))  # (F, 3) each
     cross_x = (y[:, 1] - y[:, 0]) * (z[:, 2] - z[:, 0]) - (z[:, 1] - z[:, 0]) * (y[:, 2] - y[:, 0])
     return float(np.dot(cross_x, x[:, 0] + x[:, 1] + x[:, 2])) / 6.0
-
-
-def _barycentric_grid(n: int) -> np.ndarray:
-    """Barycentric weights (k, 3) of the points ``(i/n, j/n)``, ``i + j <= n``, of a triangle."""
-    i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
-    keep = i + j <= n
-    u, v = i[keep] / n, j[keep] / n
-    return np.stack([1.0 - u - v, u, v], axis=1)
-
-
-#: Relative cost of a point evaluated alone (row walk) and of one in a triangle's full grid, which is
-#: what :func:`voxelize_surface` weighs to choose between walking a triangle's rows and its full grid.
-_WALK_COST = 6.0
-#: Lattice points per block of the full-grid sampler (small enough for the arrays to stay in cache).
-_BLOCK_POINTS = 1 << 16
-
-
-class _Grid:
-    """The voxel grid of :func:`voxelize_surface`, and the one formula from a triangle's lattice point
-    to its voxel, shared by both samplers so that a point lands in the same voxel whichever visits it.
-
-    Lattice point ``(i, j)`` of triangle ``(a, b, c)`` with ``n`` steps has barycentric weights
-    ``w = (1 - i/n - j/n, i/n, j/n)`` and world coordinates ``(w0 a + w1 b) + w2 c`` (summed in this
-    order, as ``einsum("kv,tvd->tkd")`` does).
-    """
-
-    def __init__(self, origin: np.ndarray, pitch: float, shape: np.ndarray):
-        self.origin, self.pitch, self.shape = origin, pitch, shape
-        self.occupancy = np.zeros(tuple(shape), dtype=bool)
-
-    def coordinates(self, w0, w1, w2, a, b, c) -> list[np.ndarray]:
-        """Continuous voxel coordinates (voxel ``k`` spans ``[k, k+1)``) of the points with weights
-        ``w0, w1, w2`` of the corners ``a, b, c`` (each ``(..., 3)``, broadcast together), per axis."""
-        out = []
-        for d in range(3):
-            x = w0 * a[..., d]
-            x += w1 * b[..., d]
-            x += w2 * c[..., d]
-            x -= self.origin[d]
-            x /= self.pitch
-            out.append(x)
-        return out
-
-    def mark(self, coordinates: list[np.ndarray]) -> None:
-        """Mark the voxels holding the points of :meth:`coordinates`."""
-        flat = None
-        for d, x in enumerate(coordinates):
-            # every point lies in the bounding box, half a pitch inside the grid, so x > 0 and
-            # truncation is the floor; the clip only guards the last voxel against rounding
-            index = x.astype(np.intp)
-            np.clip(index, 0, self.shape[d] - 1, out=index)
-            flat = index if flat is None else flat * self.shape[d] + index
-        self.occupancy.ravel()[flat.ravel()] = True
-
-    def lattice(self, triangles: np.ndarray, i: np.ndarray, j: np.ndarray, n: np.ndarray) -> list[np.ndarray]:
-        """Voxel coordinates of lattice point ``(i[p], j[p])`` of ``triangles[p]`` (``n[p]`` steps)."""
-        u, v = i / n, j / n
-        return self.coordinates(1.0 - u - v, u, v, triangles[:, 0], triangles[:, 1], triangles[:, 2])
-
-
-def _sample_grids(grid: _Grid, triangles: np.ndarray, steps: np.ndarray) -> None:
-    """Mark the voxel of every point of every triangle's full lattice (``steps`` per side)."""
-    for n in np.unique(steps):
-        group = triangles[steps == n]
-        weights = _barycentric_grid(int(n))
-        w0, w1, w2 = (weights[None, :, k] for k in range(3))
-        per_block = max(1, _BLOCK_POINTS // len(weights))
-        for start in range(0, len(group), per_block):
-            corners = group[start:start + per_block, :, None, :]
-            grid.mark(grid.coordinates(w0, w1, w2, corners[:, 0], corners[:, 1], corners[:, 2]))
-
-
-def _lattice_rows(triangles: np.ndarray, steps: np.ndarray, family: np.ndarray) -> dict[str, np.ndarray]:
-    """Each triangle's lattice as rows: row ``r`` is the points ``(i0 + t di, j0 + t dj)``, ``t = 0..m``.
-
-    ``family`` 0 runs the rows along edge ``ab`` (``i`` varies), 1 along ``ac`` (``j`` varies), 2 along
-    ``cb`` (``i`` up, ``j`` down); each family covers every lattice point exactly once.
-    """
-    per = steps + 1
-    owner = np.repeat(np.arange(len(triangles)), per)
-    r = np.arange(per.sum()) - np.repeat(np.cumsum(per) - per, per)
-    n, fam = steps[owner], family[owner]
-    along_ac = fam == 1
-    return {"owner": owner, "n": n,
-            "i0": np.where(along_ac, r, 0), "j0": np.where(along_ac, 0, r),
-            "di": np.where(along_ac, 0, 1), "dj": np.select([along_ac, fam == 2], [1, -1], 0),
-            "m": np.where(fam == 2, r, n - r)}
-
-
-def _walk_rows(grid: _Grid, triangles: np.ndarray, steps: np.ndarray, family: np.ndarray) -> None:
-    """Mark the voxels of every lattice point of ``triangles``, evaluating only the points next to a
-    voxel face.
-
-    Along a row the voxel changes only where the row crosses a voxel face, so the row's voxels are
-    those of its ends and of the points on either side of each crossing. Each crossing is located
-    from the row's ends, and the lattice points around it are evaluated with :meth:`_Grid.lattice`
-    (the formula of the full-grid sampler), with one more on each side where the crossing falls
-    within 1e-6 steps of a lattice point. Rounding can move a point across a face only within ~1e-13
-    voxels of it, so a point two steps from every crossing has the voxel of its run, unless the row
-    runs along a face (less than 1e-6 voxels per step across it, within 1e-9 voxels of it): such a
-    row is evaluated point by point. Hence the same voxels as evaluating every point.
-    """
-    rows = _lattice_rows(triangles, steps, family)
-    tri, n, m = triangles[rows["owner"]], rows["n"], rows["m"]
-    first = np.stack(grid.lattice(tri, rows["i0"], rows["j0"], n), axis=1)
-    last = np.stack(grid.lattice(tri, rows["i0"] + m * rows["di"], rows["j0"] + m * rows["dj"], n), axis=1)
-    grid.mark(list(first.T))
-    grid.mark(list(last.T))
-    low, high = np.floor(np.minimum(first, last)), np.floor(np.maximum(first, last))
-    spread = np.abs(last - first)
-    gap = np.minimum(np.abs(first - np.rint(first)), np.abs(last - np.rint(last)))
-    along_face = ((spread < 1e-6 * m[:, None]) & (gap < 1e-9 + spread)).any(1) & (m > 1)
-    count = (high - low).astype(np.int64)
-    count[along_face] = 0
-    count = count.ravel()
-    pair = np.repeat(np.arange(count.size), count)  # (row, axis) of each crossing
-    row = pair // 3
-    face = low.ravel()[pair] + 1 + (np.arange(len(pair)) - np.repeat(np.cumsum(count) - count, count))
-    start, end = first.ravel()[pair], last.ravel()[pair]
-    at = (face - start) / (end - start) * m[row]  # the crossing, in steps along the row
-    before = np.floor(at).astype(np.int64)
-    near = np.abs(at - np.rint(at)) < 1e-6
-    nearest = np.rint(at[near]).astype(np.int64)
-    # rows along a face: every point
-    whole = np.flatnonzero(along_face)
-    length = m[whole] + 1
-    every = np.arange(length.sum()) - np.repeat(np.cumsum(length) - length, length)
-    t = np.concatenate([before, before + 1, nearest - 1, nearest + 1, every])
-    row = np.concatenate([row, row, row[near], row[near], np.repeat(whole, length)])
-    if not len(row):
-        return
-    t = np.clip(t, 0, m[row])
-    i, j = rows["i0"][row] + t * rows["di"][row], rows["j0"][row] + t * rows["dj"][row]
-    grid.mark(grid.lattice(tri[row], i, j, n[row]))
-
-
-def voxelize_surface(mesh: trimesh.Trimesh, pitch: float, walk: bool = True, max_rows: int = 200_000
-                     ) -> tuple[np.ndarray, np.ndarray]:
-    """Boolean occupancy of the voxels that the surface passes through.
-
-    Each triangle is sampled on a barycentric grid with spacing at most ``pitch / 2`` and every
-    sample marks its voxel: the same cells as subdividing until edges are shorter than the pitch
-    (trimesh's ``voxelized``), without building the subdivided mesh, which is what made that slow.
-    A long thin triangle has a grid of n^2/2 points for a handful of voxels: its grid is walked in
-    rows along its shortest edge instead, evaluating only the points where the voxel changes, which
-    marks the same voxels.
-
-    :param walk: walk the rows of thin triangles (False: evaluate every lattice point, the reference
-        that the walk must reproduce)
-    :param max_rows: rows walked at once (bounds the memory of the row walk)
-    :returns: ``(occupancy of shape (nx, ny, nz), origin)``; voxel ``(i, j, k)`` covers
-        ``origin + pitch * [i, i+1) x [j, j+1) x [k, k+1)``
-    """
-    triangles = np.asarray(mesh.vertices, dtype=float)[np.asarray(mesh.faces)]
-    origin = triangles.reshape(-1, 3).min(0) - 0.5 * pitch
-    shape = np.ceil((triangles.reshape(-1, 3).max(0) + 0.5 * pitch - origin) / pitch).astype(int) + 1
-    grid = _Grid(origin, pitch, shape)
-    edges = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).max(1)
-    steps = np.maximum(1, np.ceil(edges / (0.5 * pitch))).astype(int)
-    # rows along the shortest edge: how many voxel faces a row crosses at most, against the grid's size
-    sides = np.stack([triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0],
-                      triangles[:, 1] - triangles[:, 2]], axis=1)
-    family = np.argmin(np.linalg.norm(sides, axis=2), axis=1)
-    span = np.abs(sides[np.arange(len(sides)), family]).sum(1) / pitch
-    walked = walk & (_WALK_COST * (steps + 1) * (2 + 2 * (span + 1)) < (steps + 1) * (steps + 2) / 2)
-    _sample_grids(grid, triangles[~walked], steps[~walked])
-    index = np.flatnonzero(walked)
-    rows = np.cumsum(steps[index] + 1)
-    cuts = np.searchsorted(rows, np.arange(max_rows, rows[-1] if len(rows) else 0, max_rows))
-    for block in np.split(index, cuts):
-        if len(block):
-            _walk_rows(grid, triangles[block], steps[block], family[block])
-    return grid.occupancy, origin
-
-
-def fill_holes(occupancy: np.ndarray) -> np.ndarray:
-    """``occupancy`` with every empty voxel that the outside cannot reach (through faces) filled.
-
-    The same voxels as ``scipy.ndimage.binary_fill_holes`` (6-connected background), from one
-    labelling pass instead of dilating from the border until nothing changes.
-    """
-    from scipy.ndimage import label
-
-    labels, _ = label(np.pad(~occupancy, 1, constant_values=True))
-    return (labels != labels[0, 0, 0])[1:-1, 1:-1, 1:-1]
 
 
 @dataclass
@@ -360,8 +278,8 @@ def make_watertight(mesh: trimesh.Trimesh, resolution: int = 200, n_min: int = 3
     occupancy, origin = voxelize_surface(mesh, pitch)
     occupancy = fill_holes(occupancy)
     # pad by one empty voxel so marching cubes closes the surface at the grid border
-    verts, faces, _, _ = marching_cubes(np.pad(occupancy, 1).astype(np.float32), level=0.5)
-    verts = origin + (verts - 1.0 + 0.5) * pitch  # voxel centers sit at half a pitch from the origin
+    grid_verts, faces, _, _ = marching_cubes(np.pad(occupancy, 1).astype(np.float32), level=0.5)
+    verts = origin + (grid_verts - 1.0 + 0.5) * pitch  # voxel centers sit at half a pitch from the origin
     shell = trimesh.Trimesh(verts, faces[:, ::-1], process=False)
     # axis-wise rescale back to the original extents, about the original center
     center_orig = mesh.bounds.mean(0)
@@ -369,8 +287,12 @@ def make_watertight(mesh: trimesh.Trimesh, resolution: int = 200, n_min: int = 3
     scale = extents / np.maximum(shell.extents, 1e-12)
     scale[extents <= 0] = 1.0
     shell.vertices = (shell.vertices - center_shell) * scale + center_orig
+    # how far apart the vertices are at least (what decides whether welding merges any), less the
+    # rounding of the float32 arithmetic above
+    spacing = _vertex_spacing(grid_verts) - 8 * float(np.spacing(np.float32(np.abs(grid_verts).max() + 2)))
     # marching cubes orients its faces consistently: skip fix_normals, the slowest part of cleanup
-    shell, watertight = _cleanup(shell, fix_normals=False)
+    fast = _shell_cleanup(shell, spacing * pitch * float(scale.min()))
+    shell, watertight = fast if fast is not None else _cleanup(shell, fix_normals=False)
     if signed_volume(shell) < 0:
         shell.invert()  # flips every face: the same edges, as watertight as before
     if simplify > 0:

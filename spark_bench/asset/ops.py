@@ -15,7 +15,11 @@ def scale_asset(asset: ArticulatedAsset, scale: float) -> ArticulatedAsset:
     """
     if not np.isfinite(scale) or scale <= 0:
         raise ValueError(f"scale must be positive and finite, got {scale}")
-    out = asset.copy()
+    return _scale_in_place(asset.copy(), scale)
+
+
+def _scale_in_place(out: ArticulatedAsset, scale: float) -> ArticulatedAsset:
+    """:func:`scale_asset` on ``out`` itself (a copy the caller owns: one deep copy per chain of moves)."""
     for link in out.links.values():
         for visual in link.visuals:
             visual.mesh.vertices = visual.mesh.vertices * scale
@@ -48,9 +52,13 @@ def move_asset(asset: ArticulatedAsset, rigid: np.ndarray) -> ArticulatedAsset:
     hanging from it, are moved, so the asset's files need no extra world transform. Joint axes are in
     their joints' frames and move with them.
     """
+    return _move_in_place(asset.copy(), rigid)
+
+
+def _move_in_place(out: ArticulatedAsset, rigid: np.ndarray) -> ArticulatedAsset:
+    """:func:`move_asset` on ``out`` itself (a copy the caller owns)."""
     rigid = np.asarray(rigid, dtype=float)
     rotation, offset = rigid[:3, :3], rigid[:3, 3]
-    out = asset.copy()
     root = out.root
     for visual in out.links[root].visuals:
         visual.mesh.vertices = visual.mesh.vertices @ rotation.T + offset
@@ -76,7 +84,7 @@ def similarity_asset(asset: ArticulatedAsset, matrix: np.ndarray) -> Articulated
         raise ValueError("expected a similarity transform (uniform scale > 0, rotation, translation)")
     rigid = np.eye(4)
     rigid[:3, :3], rigid[:3, 3] = linear / scale, matrix[:3, 3]
-    return move_asset(scale_asset(asset, scale), rigid)
+    return _move_in_place(scale_asset(asset, scale), rigid)
 
 
 def denormalization(center, scale: float) -> np.ndarray:
@@ -106,6 +114,8 @@ def normalize_asset(asset: ArticulatedAsset) -> tuple[ArticulatedAsset, np.ndarr
     :returns: ``(normalized asset, center, scale)`` with ``p_bench = (p_world - center) * scale``
     """
     center, scale = normalization(asset)
-    out = scale_asset(translate_asset(asset, -center), scale)
+    shift = np.eye(4)
+    shift[:3, 3] = -center
+    out = _scale_in_place(_move_in_place(asset.copy(), shift), scale)  # one copy: real meshes are large
     out.meta = {**out.meta, "normalization": {"center": center.tolist(), "scale": scale}}
     return out, center, scale

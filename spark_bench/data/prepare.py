@@ -131,6 +131,15 @@ def link_color(link: Link) -> tuple[float, float, float, float]:
     return tuple(float(c) for c in np.average(colors, axis=0, weights=weights))
 
 
+def _copy_without_visuals(asset: ArticulatedAsset) -> ArticulatedAsset:
+    """A deep copy of ``asset`` whose links have no visuals yet (the caller gives them new ones): the
+    source meshes are not copied only to be replaced."""
+    import copy
+
+    memo = {id(link.visuals): [] for link in asset.links.values()}  # each visuals list copies to a new []
+    return copy.deepcopy(asset, memo)
+
+
 def ground_truth_asset(asset: ArticulatedAsset, resolution: int = 200, n_min: int = 3,
                        timer: StageTimer | None = None) -> tuple[ArticulatedAsset, dict[str, dict]]:
     """The asset with one watertight mesh per link, its mean colour and only convex collisions.
@@ -144,12 +153,13 @@ def ground_truth_asset(asset: ArticulatedAsset, resolution: int = 200, n_min: in
     from spark_bench.asset.mesh import make_watertight
 
     timer = timer or StageTimer()
-    out = asset.copy()
+    out = _copy_without_visuals(asset)
     reports: dict[str, dict] = {}
     for name, link in out.links.items():
+        original = asset.links[name]
         with timer("merge"):
-            color = link_color(link)
-            merged = link.merged_mesh() if link.has_geometry else None
+            color = link_color(original)
+            merged = original.merged_mesh() if original.has_geometry else None
             collisions = [c for c in link.collisions if c.is_convex]
         if merged is not None:
             with timer("watertight"):
@@ -171,10 +181,11 @@ def source_render_asset(source: ArticulatedAsset, center: np.ndarray, scale: flo
     """
     from spark_bench.asset.ops import scale_asset, translate_asset
 
-    out = source.copy()
-    for link in out.links.values():
-        merged = link.merged_mesh() if link.has_geometry else None
-        link.visuals = [Visual(mesh=merged, rgba=link_color(link))] if merged is not None else []
+    out = _copy_without_visuals(source)
+    for name, link in out.links.items():
+        original = source.links[name]
+        merged = original.merged_mesh() if original.has_geometry else None
+        link.visuals = [Visual(mesh=merged, rgba=link_color(original))] if merged is not None else []
         link.collisions = []
     return scale_asset(translate_asset(out, -np.asarray(center, dtype=float)), float(scale))
 
@@ -261,14 +272,21 @@ def prepare_case(src: str | Path, case_dir: str | Path, options: PrepareOptions 
     :param case_id: the case id (default: the name of ``case_dir``)
     :param timer: collects seconds per stage (:data:`STAGES`)
     """
+    from threadpoolctl import threadpool_limits
+
+    # one BLAS thread: the products here are (N, 3) x (3, 3), whose extra threads only spin, and a run
+    # with several workers already has a process per core
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _prepare_case(Path(src), Path(case_dir), options or PrepareOptions(), case_id or Path(case_dir).name,
+                             timer or StageTimer())
+
+
+def _prepare_case(src: Path, case_dir: Path, options: PrepareOptions, case_id: str, timer: StageTimer) -> dict:
+    """:func:`prepare_case`'s body, with its defaults filled in."""
     from spark_bench.asset.ops import normalize_asset
     from spark_bench.asset.urdf import write_object_folder
     from spark_bench.data.render import AssetRenderer
 
-    options = options or PrepareOptions()
-    timer = timer or StageTimer()
-    src, case_dir = Path(src), Path(case_dir)
-    case_id = case_id or case_dir.name
     work = case_dir.parent / f".{case_dir.name}.partial"
     if work.exists():
         shutil.rmtree(work)

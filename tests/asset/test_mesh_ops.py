@@ -7,18 +7,25 @@ import pytest
 import trimesh
 
 from spark_bench.asset.mesh import (
+    _cleanup,
     _edge_structure,
-    _Grid,
+    _face_components,
     _min_height,
-    _sample_grids,
-    _walk_rows,
+    _shell_cleanup,
+    _twin_pairs,
+    _vertex_spacing,
     cleanup,
     drop_degenerate_faces,
-    fill_holes,
     make_watertight,
     merge_meshes,
     sample_surface,
     signed_volume,
+)
+from spark_bench.asset.voxel import (
+    _Grid,
+    _sample_grids,
+    _walk_rows,
+    fill_holes,
     voxel_pitch,
     voxelize_surface,
 )
@@ -264,3 +271,79 @@ def test_drop_degenerate_faces_keeps_faces_with_area_and_their_vertices():
     np.testing.assert_array_equal(kept_vertices, vertices[used])
     assert drop_degenerate_faces(vertices, bad) is None
     assert drop_degenerate_faces(np.full((3, 3), np.nan), [[0, 1, 2]]) is None
+
+
+def _marching_cubes_shell(occupancy: np.ndarray) -> tuple[trimesh.Trimesh, np.ndarray]:
+    """The shell make_watertight builds from a filled grid (pitch 0.01), and the grid vertices."""
+    from skimage.measure import marching_cubes
+
+    grid_verts, faces, _, _ = marching_cubes(np.pad(occupancy, 1).astype(np.float32), level=0.5)
+    return trimesh.Trimesh((grid_verts - 0.5) * 0.01, faces[:, ::-1], process=False), grid_verts
+
+
+def test_shell_cleanup_is_cleanup_on_marching_cubes_shells():
+    """The shortcut path of make_watertight gives _cleanup's bytes: one piece, several pieces (the largest
+    kept), two equal largest pieces (the first kept), and a grid whose shell has cube-interior vertices."""
+    one = np.zeros((12, 12, 12), dtype=bool)
+    one[2:9, 3:10, 2:7] = True
+    pieces = one.copy()
+    pieces[10:12, 0:2, 9:12] = True  # a small second piece
+    twins = np.zeros((14, 6, 6), dtype=bool)
+    twins[1:4, 1:4, 1:4] = twins[8:11, 1:4, 1:4] = True  # equal faces and volume: the first is kept
+    noisy = np.random.default_rng(0).random((8, 8, 8)) < 0.3  # Lewiner adds vertices at cube centres
+    taken = 0
+    for occupancy in (one, pieces, twins, noisy):
+        shell, grid_verts = _marching_cubes_shell(occupancy)
+        spacing = _vertex_spacing(grid_verts)
+        assert 0 < spacing <= 0.5
+        got = _shell_cleanup(shell, spacing * 0.01)
+        want, _ = _cleanup(shell, fix_normals=False)
+        if got is None:  # a proof failed (e.g. a piece of two faces): the caller runs _cleanup
+            continue
+        taken += 1
+        np.testing.assert_array_equal(got[0].vertices, want.vertices)
+        np.testing.assert_array_equal(got[0].faces, want.faces)
+        assert got[1] and want.is_watertight
+    assert taken >= 3
+    shell, grid_verts = _marching_cubes_shell(noisy)
+    frac = grid_verts - np.floor(grid_verts)
+    assert (frac == 0.5).all(1).any()  # cube centres: half a voxel from every edge midpoint
+    assert _vertex_spacing(grid_verts) == 0.5
+    assert _vertex_spacing(np.array([[0.5, 0, 0], [0.5, 0.5, 0.5], [0.5, 0.6, 0.5]])) == pytest.approx(0.1)
+    assert _vertex_spacing(np.array([[0.3, 0.3, 0.3], [0.3, 0.3, 0.3], [0.5, 0, 0]])) == 0.0
+    # welding would merge vertices closer than its radius: then the shortcut declines
+    assert _shell_cleanup(_marching_cubes_shell(one)[0], 1e-6) is None
+
+
+def test_face_components_twin_path_matches_edge_sort():
+    """The sparse-transpose pairing (closed, consistently oriented faces) labels the faces as the edge sort
+    does; a face flipped against its neighbours falls back to the sort and is still watertight."""
+    box = trimesh.creation.box()
+    far = box.copy()
+    far.apply_translation((3, 0, 0))
+    two = merge_meshes([box, far])
+    assert _twin_pairs(np.asarray(two.faces)) is not None
+    count, labels, watertight = _face_components(two.faces)
+    assert count == 2 and watertight and labels.tolist() == [0] * 12 + [1] * 12
+    flipped = np.asarray(box.faces).copy()
+    flipped[0] = flipped[0, ::-1]
+    assert _twin_pairs(flipped) is None
+    count, labels, watertight = _face_components(flipped)
+    assert count == 1 and watertight == trimesh.Trimesh(box.vertices, flipped, process=False).is_watertight
+
+
+def test_mark_points_marks_what_mark_of_coordinates_marks():
+    rng = np.random.default_rng(2)
+    triangles = rng.random((50, 3, 3))
+    origin, pitch = np.full(3, -0.05), 0.013
+    shape = np.ceil((1.1 - origin) / pitch).astype(int) + 1
+    weights = rng.dirichlet((1, 1, 1), size=40)
+    w0, w1, w2 = (weights[None, :, k] for k in range(3))
+    corners = triangles[:, None, :, :]
+    reference, reused = _Grid(origin, pitch, shape), _Grid(origin, pitch, shape)
+    reference.mark(reference.coordinates(w0, w1, w2, corners[:, :, 0], corners[:, :, 1], corners[:, :, 2]))
+    for block in (slice(0, 30), slice(30, 50)):  # the buffers are reused for a smaller block
+        c = corners[block]
+        reused.mark_points(w0, w1, w2, c[:, :, 0], c[:, :, 1], c[:, :, 2])
+    assert reference.occupancy.sum() > 100
+    np.testing.assert_array_equal(reused.occupancy, reference.occupancy)
