@@ -212,6 +212,9 @@ def write_scripted_md(report: dict, n_synth: int, results: Path) -> Path:
     failures = [r for r in synth + real if r["success_rate"] < 1.0]
     lines += [f"- {r['object']} {r['joint']} ({r['type']}, grasp {r.get('grasp')}, largest opening "
               f"{r.get('max_fraction', 0):.2f}) {r.get('error', '')}".rstrip() for r in failures] or ["- none"]
+    declined = [r for r in synth + real if r.get("reason")]
+    lines += ["", "Declined by the planner or the scene (a `reason`; the episodes were run all the same):", ""]
+    lines += [f"- {r['object']} {r['joint']}: {r['reason']}" for r in declined] or ["- none"]
     path = results / "envs_scripted.md"
     path.write_text("\n".join(lines) + "\n")
     return path

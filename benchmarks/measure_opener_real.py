@@ -12,9 +12,10 @@ buttons, knobs, a bucket's bail, are not drawers or doors):
 Also the issue's per-object number: ``spark-bench rollout --env SparkDrawer-v0|SparkDoor-v0 --policy
 scripted`` on each object's *default* joint (drawer for tables, door or lid otherwise).
 
-A failed joint is then driven directly (a force on the joint, the gripper parked away,
-:func:`free_motion`): one that does not open so either is *jammed* in the simulation (its collision
-shapes), not the opener's doing, and the report counts it apart.
+A part that no pull of the gripper can open (driven directly with the hand's largest force, nothing in
+the way: :func:`spark_bench.envs.scene.stuck_reason`) is declined by the scene with that reason (too heavy
+for the gripper, or jammed by its collision shapes) and counted among the declined, as *stuck*; a failed
+joint also reports how far it opens driven so (:func:`free_motion`).
 
 Failures are written as small MP4 videos (first episode, a close view of the grasp) into ``--videos``
 (default ``benchmarks/results/opener_failures``) with a PNG contact sheet of their frames, and the report
@@ -96,7 +97,9 @@ def run_joint(asset, object_id: str, row: dict, episodes: int, max_steps: int, v
     out = {**row, "grasp": grasp.source, "build_s": build}
     if grasp.reason is not None:
         env.close()
-        return {**out, "reason": grasp.reason, "success_rate": None}
+        jam = env.unwrapped.scene.free_fraction
+        return {**out, "reason": grasp.reason, "success_rate": None,
+                **({"free_fraction": jam, "stuck": True} if jam is not None and jam < TARGET else {})}
     frames: list = []
     if video_dir:
         _close_camera(env, 0.25 + 0.5 * float(np.linalg.norm(np.ptp(env.unwrapped.scene.workspace, axis=0))) / 3)
@@ -115,41 +118,14 @@ def run_joint(asset, object_id: str, row: dict, episodes: int, max_steps: int, v
     return out
 
 
-#: Direct drive of a failed joint (:func:`free_motion`): the force (N; a torque of this force at the grasp's
-#: lever arm for a door) and the steps it is applied for.
-FREE_FORCE = 200.0
-FREE_STEPS = 100
+def free_motion(env) -> float:
+    """The largest fraction of its range the environment's joint reaches when driven directly
+    (:func:`spark_bench.envs.scene.free_motion`: a force at the grasp, the gripper parked away), from rest."""
+    from spark_bench.envs.gripper import largest_pull
+    from spark_bench.envs.scene import free_motion as drive
 
-
-def free_motion(env, force: float = FREE_FORCE, steps: int = FREE_STEPS) -> float:
-    """The largest fraction of its range the environment's joint reaches when driven directly (a
-    generalized force on the joint, the gripper parked at a corner of its workspace), from rest: a part
-    that does not open so is jammed in the simulation (its collision shapes), whatever the opener does."""
-    from spark_bench.mujoco_gl import mujoco_module
-
-    mujoco = mujoco_module()
-    u = env.unwrapped
-    m, d = u.model, u.data
-    scene = u.scene
-    mujoco.mj_resetData(m, d)
-    d.qpos[:] = scene.rest_qpos
-    park = scene.workspace[1] - 0.01
-    d.qpos[u._tcp_q] = park
-    d.ctrl[u._act_tcp] = park
-    lever = 1.0
-    if scene.joint.is_rotational:
-        pivot, axis = scene.asset.joint_frames()[scene.joint.name]
-        r = scene.grasp.point - pivot
-        lever = max(float(np.linalg.norm(r - (r @ axis) * axis)), 0.05)
-    dof = m.jnt_dofadr[m.joint(scene.joint.name).id]
-    best = 0.0
-    for _ in range(steps):
-        d.qfrc_applied[:] = 0.0
-        d.qfrc_applied[dof] = force * lever
-        mujoco.mj_step(m, d, nstep=10)
-        best = max(best, u.joint_fraction)
-    d.qfrc_applied[:] = 0.0
-    return best
+    scene = env.unwrapped.scene
+    return scene.free_fraction if scene.free_fraction is not None else drive(scene, largest_pull(scene.gripper.config))
 
 
 #: Collision shapes standing in the way (:func:`hull_gap`): how far (m) out along the approach the check
@@ -246,13 +222,14 @@ def default_rows(asset, object_id: str, rows: list[dict], episodes: int, max_ste
 
 
 def jammed(row: dict) -> bool:
-    """Whether a failed joint does not open even driven directly (:func:`free_motion`)."""
+    """Whether a joint does not open even driven directly (:func:`free_motion`): the scene declines it with
+    that reason (:func:`spark_bench.envs.scene.build_scene`)."""
     return row.get("free_fraction") is not None and row["free_fraction"] < TARGET
 
 
 def summarize(rows: list[dict]) -> list[dict]:
-    """One line per category (and ``all``): joints, declined by the planner, attempted, opened (every
-    episode), opened / attempted, opened / all."""
+    """One line per category (and ``all``): joints, declined by the planner (of which jammed in the
+    simulation), attempted, opened (every episode), opened / attempted, opened / all."""
     out = []
     categories = sorted({r["category"] for r in rows})
     for category in categories + ["all"]:
@@ -260,12 +237,11 @@ def summarize(rows: list[dict]) -> list[dict]:
         declined = [r for r in sel if r.get("reason")]
         attempted = [r for r in sel if not r.get("reason")]
         opened = [r for r in attempted if r.get("success_rate", 0.0) >= 1.0]
-        stuck = [r for r in attempted if jammed(r)]
+        stuck = [r for r in sel if jammed(r)]
         out.append({"category": category, "joints": len(sel), "declined": len(declined), "attempted": len(attempted),
                     "opened": len(opened), "jammed": len(stuck),
                     "rate_attempted": len(opened) / len(attempted) if attempted else None,
-                    "rate_all": len(opened) / len(sel) if sel else None,
-                    "rate_movable": len(opened) / (len(attempted) - len(stuck)) if len(attempted) > len(stuck) else None})
+                    "rate_all": len(opened) / len(sel) if sel else None})
     return out
 
 
@@ -285,17 +261,19 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
              "success = the joint passes 75 % of its range. A joint counts as opened when every episode opens it. "
              "*Declined*: the planner says, before any episode, why a parallel gripper cannot pull the part "
              f"(that line is the rollout's `reason`). Total time {seconds:.0f} s.", "",
-             "*Jammed*: a failed joint that does not reach the success fraction either when driven directly "
-             f"({FREE_FORCE:.0f} N at the grasp, gripper parked away, {FREE_STEPS} steps): the simulated part "
-             "does not move (its collision shapes), whatever the opener does; *opened / movable* leaves them out.",
+             "*Stuck*: a joint that does not reach the success fraction when driven directly with the gripper's "
+             "largest pull (104 N at the grasp point's lever arm, nothing in the way, 100 control steps: "
+             "`spark_bench.envs.scene.stuck_reason`): no policy of this hand can open it, whatever it does; the "
+             "reason says whether 4 times that force opens it (too heavy for the gripper) or not (jammed by its "
+             "collision shapes). The scene checks this when it is built and declines such a part with that reason "
+             "(counted under *declined*).",
              "",
-             "| category | joints | declined | attempted | opened | jammed | opened / attempted | opened / movable "
+             "| category | joints | declined | of which stuck | attempted | opened | opened / attempted "
              "| opened / all |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|"]
     for s in summarize(rows):
-        lines.append(f"| {s['category']} | {s['joints']} | {s['declined']} | {s['attempted']} | {s['opened']} | "
-                     f"{s['jammed']} | {_pct(s['rate_attempted'])} | {_pct(s['rate_movable'])} | "
-                     f"{_pct(s['rate_all'])} |")
+        lines.append(f"| {s['category']} | {s['joints']} | {s['declined']} | {s['jammed']} | {s['attempted']} | "
+                     f"{s['opened']} | {_pct(s['rate_attempted'])} | {_pct(s['rate_all'])} |")
     if defaults:
         lines += ["", "## Per object, default joint (`spark-bench rollout --env SparkDrawer-v0|SparkDoor-v0 "
                   f"--policy scripted --episodes {args.episodes}`)", "",
@@ -309,14 +287,14 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
     lines += [f"- {r['object']} {r['joint']} ({r['category']} {r['label']}, grasp {r.get('grasp')}): success "
               f"{r.get('success_rate', 0.0):.2f}, largest opening {r.get('max_fraction', 0.0):.2f} of the range"
               + (f"; {r['error']}" if r.get("error") else "")
-              + (f"; **jammed**: driven directly it reaches {r['free_fraction']:.2f}" if jammed(r) else "")
+              + (f"; **stuck**: driven directly it reaches {r['free_fraction']:.2f}" if jammed(r) else "")
               + (f"; the collision shapes stand {1000 * r['hull_gap']:.0f} mm in front of the visual surface on "
                  "the hand's way in" if r.get("hull_gap", 0.0) >= FILLED_GAP else "")
               + (f" — [video]({os.path.relpath(r['video'], path.parent)})" if r.get("video") else "")
               for r in failed] or ["- none"]
     if sheet is not None:
         lines += ["", f"![failures, one per line]({os.path.relpath(sheet, path.parent)})"]
-    lines += ["", "## Declined by the planner", ""]
+    lines += ["", "## Declined by the planner or the scene", ""]
     lines += [f"- {r['object']} {r['joint']} ({r['category']} {r['label']}): {r['reason']}"
               for r in rows if r.get("reason")] or ["- none"]
     builds = [r["build_s"] for r in rows if "build_s" in r]
@@ -450,7 +428,7 @@ def main() -> None:
                 defaults.append(found)
     seconds = time.perf_counter() - start
     for s in summarize(rows):
-        console.print(f"{s['category']}: {s['opened']}/{s['attempted']} attempted opened, {s['declined']} declined, {s['jammed']} jammed, "
+        console.print(f"{s['category']}: {s['opened']}/{s['attempted']} attempted opened, {s['declined']} declined ({s['jammed']} stuck), "
                       f"{s['joints']} joints")
     if args.out is not None:
         args.out.write_text(json.dumps({"rows": rows, "defaults": defaults}, indent=1, default=float))

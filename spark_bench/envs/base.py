@@ -13,14 +13,12 @@ import numpy as np
 from gymnasium import spaces
 
 from spark_bench.envs.assets import AssetLike, asset_key, load_asset
-from spark_bench.envs.gripper import finger_target, grip_command
+from spark_bench.envs.gripper import MAX_STEP, finger_target, grip_command
 from spark_bench.envs.scene import N_SUBSTEPS, TIMESTEP, Scene, build_scene
 from spark_bench.mujoco_gl import mujoco_module
 
 mujoco = mujoco_module()
 
-#: Largest TCP displacement per step (action 1.0), m.
-MAX_STEP = 0.02
 #: Start distance of the TCP in front of the grasp point, m, and the uniform noise on each axis.
 START_OFFSET = 0.10
 START_NOISE = 0.03

@@ -381,9 +381,14 @@ def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: s
     point = pad_center(best, front, gripper) @ basis + reach_depth(best.base, float(depth.max()),
                                                                   float(depth.min()), gripper) * n
     grasp = GraspTarget(point=point, outward=n, long_axis=best.long_axis(front), has_handle=True, source=source)
+    # the handle's side: the part, and a part hinged to it that the candidate lies on (a safe's dial or lever,
+    # held at rest: :func:`~spark_bench.envs.scene.hold_hinged_parts`); any other hinged part (a big dial
+    # beside a bar) stands in the pads' way like another part's feature
     links = asset.part_of_joint(joint)
-    others = [name for name in asset.links if name not in links]
-    pads = plan_pads(front.part, asset.mesh(links=others) if others else None, point, n, grasp.closing,
+    holding = [name for name in carried_links(asset, joint, links) if _holds(asset, name, best.points)]
+    own = [name for name in asset.links if name in links or name in holding]
+    others = [name for name in asset.links if name not in own]
+    pads = plan_pads(asset.mesh(links=own), asset.mesh(links=others) if others else None, point, n, grasp.closing,
                      grasp.long_axis, front.face, gripper)
     if pads is not None:
         grasp.point = point + pads["shift"] * grasp.closing
@@ -394,6 +399,19 @@ def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: s
     grasp.landing = pad_landing(asset.mesh(), grasp.point, n, grasp.closing, grasp.long_axis, opening,
                                 thickness, gripper) > 0.0
     return grasp
+
+
+#: A link holds a handle candidate when every candidate point lies within this distance (m) of its box.
+HOLD_MARGIN = 0.001
+
+
+def _holds(asset: ArticulatedAsset, link: str, points: np.ndarray) -> bool:
+    """Whether ``points`` (a handle candidate's surface samples) lie on ``link`` (within its box)."""
+    mesh = asset.mesh(links=[link])
+    if len(mesh.vertices) == 0:
+        return False
+    low, high = np.asarray(mesh.vertices).min(0) - HOLD_MARGIN, np.asarray(mesh.vertices).max(0) + HOLD_MARGIN
+    return bool(np.all((points >= low) & (points <= high)))
 
 
 def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,

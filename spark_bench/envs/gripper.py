@@ -22,6 +22,9 @@ from spark_bench.mujoco_gl import mujoco_module
 mujoco = mujoco_module()
 
 PREFIX = "spark_gripper"
+#: Largest TCP displacement per step (action 1.0), m: the environments move each translation servo's target
+#: at most this far from the TCP.
+MAX_STEP = 0.02
 
 
 @dataclass
@@ -203,6 +206,13 @@ def add_gripper(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
                           slide_actuators=tuple(slide_acts), finger_actuators=tuple(finger_acts),
                           hand_body=hand.name, finger_bodies=tuple(fingers), touch_sensors=tuple(sensors),
                           config=cfg)
+
+
+def largest_pull(config: GripperConfig) -> float:
+    """The largest steady force (N) the hand can exert on what it holds: each translation servo pulls at most
+    ``kp * MAX_STEP`` (its target at most :data:`MAX_STEP` from the TCP), up to its force limit, and the
+    three together at most sqrt(3) times that (along a diagonal)."""
+    return float(np.sqrt(3.0) * min(config.kp * MAX_STEP, config.force_limit))
 
 
 def finger_target(config: GripperConfig, command: float) -> float:

@@ -18,7 +18,7 @@ import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.envs.grasp import GraspTarget, find_grasp
-from spark_bench.envs.gripper import GripperConfig, GripperHandles, add_gripper
+from spark_bench.envs.gripper import GripperConfig, GripperHandles, add_gripper, largest_pull
 from spark_bench.envs.rest_meshes import RestMeshes
 from spark_bench.errors import InputError
 from spark_bench.mujoco_gl import mujoco_module
@@ -66,6 +66,9 @@ class Scene:
     :param workspace: ``[[min], [max]]`` box the TCP may reach
     :param rest_qpos: the full ``qpos`` with every object joint at rest, gripper at the origin
     :param held_joints: joints of parts hinged to the opened part, held at rest (:func:`hold_hinged_parts`)
+    :param free_fraction: the fraction of its range the joint reaches driven directly with the gripper's
+        largest pull (:func:`stuck_reason`), when checked (the planner found a grasp): below
+        :data:`JAM_FRACTION` the grasp's ``reason`` says why no policy of this gripper can open the part
     """
 
     model: mujoco.MjModel
@@ -78,6 +81,7 @@ class Scene:
     workspace: np.ndarray
     rest_qpos: np.ndarray
     held_joints: tuple[str, ...] = ()
+    free_fraction: float | None = None
 
     @property
     def joint_range(self) -> tuple[float, float]:
@@ -303,5 +307,73 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     if bid < 0:
         raise InputError(asset.source or asset.name, f"MJCF has no body for link {body!r}")
     local = data.xmat[bid].reshape(3, 3).T @ (grasp.point - data.xpos[bid])
-    return Scene(model=model, asset=asset, joint=chosen, grasp=grasp, grasp_body=body, grasp_local=local,
-                 gripper=handles, workspace=workspace, rest_qpos=data.qpos.copy(), held_joints=tuple(held))
+    scene = Scene(model=model, asset=asset, joint=chosen, grasp=grasp, grasp_body=body, grasp_local=local,
+                  gripper=handles, workspace=workspace, rest_qpos=data.qpos.copy(), held_joints=tuple(held))
+    if grasp.reason is None:  # a part no pull of this hand can open: say so, like a flush lid
+        reason = stuck_reason(scene)
+        if reason is not None:
+            scene.grasp = replace(grasp, reason=reason)
+    return scene
+
+
+#: The drive check (:func:`free_motion`, :func:`stuck_reason`): the control steps a force is applied for
+#: (an episode's), the fraction of the range the part must reach so (the tasks' default success fraction),
+#: and how many times the gripper's largest pull the second drive applies, to tell a part too heavy for the
+#: gripper from one its collision shapes hold.
+FREE_STEPS = 100
+JAM_FRACTION = 0.75
+OVERLOAD = 4.0
+
+
+def stuck_reason(scene: Scene) -> str | None:
+    """Why no policy of this gripper can open ``scene``'s part, or None: driven directly (no gripper in the
+    way) by the largest force the hand can exert (:func:`~spark_bench.envs.gripper.largest_pull`, at the
+    grasp point, for an episode's steps) it does not reach :data:`JAM_FRACTION` of its range. Driven then by
+    :data:`OVERLOAD` times that force, it either opens (the part is too heavy for the gripper: its simulated
+    mass, damping or friction; or caught on a collision shape that the harder pull forces through) or not
+    (its collision shapes hold it: jammed). Sets ``scene.free_fraction``."""
+    pull = largest_pull(scene.gripper.config)
+    reached = scene.free_fraction = free_motion(scene, pull)
+    if reached >= JAM_FRACTION:
+        return None
+    seconds = FREE_STEPS * N_SUBSTEPS * TIMESTEP
+    part = scene.asset.links[scene.joint.child].label.replace("_", " ").strip() or "part"
+    harder = free_motion(scene, OVERLOAD * pull)
+    # a part that gives way to a harder pull may be heavy or caught on a shape a harder pull forces: say both
+    why = (f"too heavy for the gripper, or caught on its collision shapes (pulled with {OVERLOAD * pull:.0f} N "
+           f"it reaches {harder:.2f})"
+           if harder >= JAM_FRACTION else f"jammed by its collision shapes (with {OVERLOAD * pull:.0f} N: {harder:.2f})")
+    return (f"{scene.joint.name}: the simulated {part} is {why}: driven directly with the gripper's largest pull "
+            f"({pull:.0f} N at the grasp, {seconds:.0f} s, nothing in the way) it reaches {reached:.2f} of its range, "
+            f"short of {JAM_FRACTION:.2f}")
+
+
+def free_motion(scene: Scene, force: float, steps: int = FREE_STEPS) -> float:
+    """The largest fraction of its range ``scene``'s joint reaches when driven directly from rest: a
+    generalized force on the joint (``force`` at the grasp point's lever arm for a rotational joint, at
+    least 5 cm), the gripper parked at a corner of its workspace, at most ``steps`` control steps (it stops
+    once the part passes :data:`JAM_FRACTION`): a fraction of an episode's physics (no gripper contacts)."""
+    model = scene.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = scene.rest_qpos
+    park = scene.workspace[1] - 0.01
+    slides = [model.jnt_qposadr[model.joint(name).id] for name in scene.gripper.slide_joints]
+    data.qpos[slides] = park
+    for name, target in zip(scene.gripper.slide_actuators, park):
+        data.ctrl[model.actuator(name).id] = target
+    lever = 1.0
+    if scene.joint.is_rotational:
+        pivot, axis = scene.asset.joint_frames()[scene.joint.name]
+        r = scene.grasp.point - pivot
+        lever = max(float(np.linalg.norm(r - (r @ axis) * axis)), 0.05)
+    jid = model.joint(scene.joint.name).id
+    dof, qadr = model.jnt_dofadr[jid], model.jnt_qposadr[jid]
+    rest, span = scene.joint.rest_value, scene.joint.open_value - scene.joint.rest_value
+    data.qfrc_applied[dof] = force * lever
+    best = 0.0
+    for _ in range(steps):
+        mujoco.mj_step(model, data, nstep=N_SUBSTEPS)
+        best = max(best, float((data.qpos[qadr] - rest) / span))
+        if best >= JAM_FRACTION or not np.isfinite(best):
+            break
+    return best

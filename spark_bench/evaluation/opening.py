@@ -6,7 +6,9 @@ Each ground-truth drawer (prismatic) and door (revolute) is opened once in its e
 by the metrics (Hungarian matching on parts). A joint the opener cannot open even with the
 ground-truth parameters tests the opener, not the prediction: it is left out (``success`` None) with a
 one-line ``reason``, the planner's own when it declines the part before any episode (no handle, knob,
-notch or tab: a flush lid, a button) or the ground-truth run's failure. The
+notch or tab: a flush lid, a button), the scene's when the part driven directly by the gripper's largest
+pull does not open (too heavy for the gripper, or jammed by its collision shapes), or the ground-truth
+run's failure. The
 robot acts on the object at its real size: a case's ground truth is stored in the benchmark frame
 ([-1, 1]^3), so it is scaled back to metres (:meth:`~spark_bench.data.case.BenchmarkCase.to_metres`).
 The predicted axis line is carried from the prediction's frame into the ground truth's: prediction world
@@ -65,7 +67,8 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     :param max_steps: step limit per episode
     :returns: ``{"success_rate": fraction opened (None when nothing can be opened), "joints": {...}}``; a
         joint left out has ``success`` None and a one-line ``reason`` (the planner's: no handle, a flush lid;
-        or the opener failing with the ground-truth joint too)
+        the scene's: a part too heavy for the gripper or jammed by its collision shapes, driven directly; or
+        the opener failing with the ground-truth joint too)
     """
     from spark_bench.data import load_object
     from spark_bench.envs import make_env
@@ -102,6 +105,11 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
             env = make_env(env_id, asset=gt, joint=joint.name, max_episode_steps=max_steps)
         except InputError as exc:  # no task for this joint (the model does not compile...): not the method's fault
             joints[joint.name] = {"success": None, "reason": f"no opening task: {' '.join(str(exc).split())[:200]}"}
+            continue
+        stuck = env.unwrapped.scene.grasp.reason  # no pull of the gripper opens it (too heavy, jammed): no test
+        if stuck is not None:
+            joints[joint.name] = {"success": None, "reason": stuck}
+            env.close()
             continue
         try:
             reference = open_with_ground_truth(env, seed=seed, max_steps=max_steps)

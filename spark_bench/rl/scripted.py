@@ -275,7 +275,8 @@ def open_with_ground_truth(env: gym.Env, seed: int | None = None, **kwargs) -> O
 
 def open_every_joint(asset, episodes: int = 1, seed: int = 0, max_episode_steps: int = 150) -> list[dict]:
     """The scripted opener with ground-truth joints on every drawer (prismatic) and door (revolute)
-    of one object: one row per joint with its success rate and mean largest opening.
+    of one object: one row per joint with its success rate and mean largest opening (and the planner's or
+    the scene's ``reason`` when it declines the part; the episodes are run all the same).
 
     :param asset: anything the environments accept as ``asset``
     :param episodes: episodes per joint (seeds ``seed ..``)
@@ -297,6 +298,7 @@ def open_every_joint(asset, episodes: int = 1, seed: int = 0, max_episode_steps:
         rows.append({"joint": joint.name, "type": joint.type, "grasp": grasp.source,
                      "pad_thickness": grasp.pad_thickness,
                      "success_rate": float(np.mean([r.success for r in results])),
-                     "max_fraction": float(np.mean([r.max_fraction for r in results]))})
+                     "max_fraction": float(np.mean([r.max_fraction for r in results])),
+                     **({"reason": grasp.reason} if grasp.reason else {})})
         env.close()
     return rows

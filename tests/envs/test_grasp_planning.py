@@ -317,3 +317,81 @@ def test_approach_blocked_finds_what_stands_in_the_way_in():
     assert name == "post" and not through and distance == pytest.approx(near + 0.045, abs=1e-9)
     beyond = box([-(near + 0.7), 0, 0], [0.01, 0.4, 0.4])
     assert approach_blocked(asset(far=far, beyond=beyond), grasp, gripper, 0.5) is None
+
+
+def _door_with_hinged_knob():
+    """The procedural cabinet whose door has no bar but a 20 mm knob on a hinge of its own (a safe's dial,
+    its axis out of the door) near the free edge, and, 30 mm towards the hinge, a thin fin of the door's own
+    (a dial's index mark) standing in the open fingers' sweep."""
+    asset = procedural_cabinet(0)
+    door = asset.links["link_1"]
+    door.visuals, door.collisions = door.visuals[:1], door.collisions[:1]
+    width = door.collisions[0].size[1]
+    knob_at = np.array([-0.02, width - 0.08, 0.05])  # on the door's front (x = -0.02 in the door's frame)
+    fin = _box(knob_at + (-0.012, -0.03, 0.0), (0.024, 0.004, 0.04))
+    door.visuals.append(fin[0])
+    door.collisions.append(fin[1])
+    knob = _cylinder((0.0, 0.0, 0.0), 0.01, 0.03)
+    asset.links["knob"] = Link(name="knob", visuals=[knob[0]], collisions=[knob[1]], label="knob",
+                               semantic_joint="hinge")
+    origin = np.eye(4)
+    origin[:3, 3] = knob_at
+    asset.joints["knob_joint"] = Joint("knob_joint", "continuous", "link_1", "knob", origin=origin,
+                                       axis=np.array([-1.0, 0.0, 0.0]), lower=0.0, upper=0.0)
+    return asset, knob_at
+
+
+def test_a_knob_on_its_own_hinge_is_the_handle_not_an_obstacle_beside_the_door():
+    """What moves with the door (a knob on a hinge of its own, held at rest while the door opens) is the
+    handle's side when the pads are planned: it used to count as another part's obstacle, so the pads were
+    thinned and shifted into the 'gap' beside the door's own fin and closed on it, or on nothing (a real
+    safe, 102381: the fingers closed beside its dial)."""
+    asset, knob_at = _door_with_hinged_knob()
+    grasp = find_grasp(asset, "joint_1")
+    assert grasp.reason is None and grasp.source == "geometry"
+    knob = asset.link_poses()["link_1"] @ np.append(knob_at, 1.0)
+    off = grasp.point - knob[:3]
+    assert np.linalg.norm(off - (off @ grasp.outward) * grasp.outward) < 0.004  # on the knob's axis
+    assert grasp.opening is None and grasp.pad_thickness is None  # the open pads, nothing in their way
+
+
+def test_a_part_its_collision_shapes_jam_is_declined_as_jammed():
+    """A drawer whose front runs into a collision shape 10 mm out (a stop fixed to the body that the visual
+    meshes do not show: what a convex hull sunk into a real lid's rim does) opens for no one: the scene
+    drives the joint directly when it is built and declines the part with that reason. The plain cabinet's
+    drawer reaches the success fraction so, and keeps no reason. (The stop is a link of its own: MuJoCo
+    leaves out contacts between a body and its parent.)"""
+    from spark_bench.envs.scene import JAM_FRACTION, build_scene
+
+    plain = build_scene(procedural_cabinet(0), "prismatic", "joint_0", visuals=False)
+    assert plain.grasp.reason is None and plain.free_fraction >= JAM_FRACTION
+    asset = procedural_cabinet(0)
+    front = _drawer_world(asset, (0.0, -0.25, -0.1))  # the drawer's front face, near its lower left corner
+    base = asset.link_poses()["base"]
+    stop = np.eye(4)
+    stop[:3, 3] = np.linalg.inv(base)[:3] @ np.append(front + (-0.015, 0.0, 0.0), 1.0)
+    asset.links["stop"] = Link(name="stop", visuals=[], label="stop",
+                               collisions=[Collision(kind="box", origin=np.eye(4), size=np.array([0.01, 0.04, 0.02]))])
+    asset.joints["stop_joint"] = Joint("stop_joint", "fixed", "base", "stop", origin=stop)
+    scene = build_scene(asset, "prismatic", "joint_0", visuals=False)
+    assert scene.free_fraction < 0.1  # 10 mm of a 323 mm travel, and the front's give
+    assert scene.grasp.reason is not None and "jammed by its collision shapes" in scene.grasp.reason
+    assert find_grasp(asset, "joint_0").reason is None  # the planner's geometry sees nothing wrong
+
+
+def test_a_part_too_heavy_for_the_gripper_is_told_from_a_jammed_one():
+    """A drawer whose joint friction (150 N) exceeds the hand's largest pull (104 N) but not four times it
+    stays shut under that pull and opens under the harder one: the reason says it is too heavy for the
+    gripper, not jammed."""
+    from spark_bench.envs.gripper import largest_pull
+    from spark_bench.envs.scene import JAM_FRACTION, build_scene, free_motion, stuck_reason
+
+    scene = build_scene(procedural_cabinet(0), "prismatic", "joint_0", visuals=False)
+    pull = largest_pull(scene.gripper.config)
+    assert 100.0 < pull < 110.0  # sqrt(3) x 3000 N/m x 0.02 m
+    dof = scene.model.jnt_dofadr[scene.model.joint("joint_0").id]
+    scene.model.dof_frictionloss[dof] = 1.5 * pull
+    assert free_motion(scene, pull) < 0.05
+    reason = stuck_reason(scene)
+    assert reason is not None and "too heavy for the gripper" in reason
+    assert scene.free_fraction < JAM_FRACTION
