@@ -376,7 +376,7 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=2)
     parser.add_argument("--max-steps", type=int, default=None,
                         help="steps per episode (default: the environments' registered time limit)")
-    parser.add_argument("--videos", type=Path, default=RESULTS / "opener_failures",
+    parser.add_argument("--videos", default=str(RESULTS / "opener_failures"),
                         help="folder for the failures' MP4s and contact sheet ('' for none)")
     parser.add_argument("--results", type=Path, default=RESULTS, help="folder for opener_real.md")
     parser.add_argument("--out", type=Path, default=None, help="per-joint JSON (default: none)")
@@ -401,7 +401,7 @@ def main() -> None:
     if not args.root.is_dir():
         raise SystemExit(f"{args.root}: no such folder")
     ids = args.ids.split(",") if args.ids else sorted(p.name for p in args.root.iterdir() if (p / "mobility.urdf").is_file())
-    videos = args.videos if str(args.videos) else None
+    videos = Path(args.videos) if args.videos else None  # '' is no videos (Path('') would be the cwd)
     if videos is not None and videos.is_dir():  # no stale video of an earlier run's failure
         for old in videos.glob("*.mp4"):
             if args.ids is None or old.name.split("_")[0] in ids:
