@@ -1,9 +1,13 @@
 """CoACD convex decomposition with a content-hash cache and a process pool.
 
-A decomposition is keyed by the SHA-256 of the mesh (vertices relative to their bounding-box center,
-rounded to a nanometre, and faces) and of every CoACD parameter, so the same part decomposes once:
-on a second conversion, and for identical parts at different places (the four handles of a cabinet).
-Results are stored as ``<cache>/coacd/<key[:2]>/<key>.npz`` and written atomically, so concurrent
+A decomposition is keyed by the SHA-256 of the mesh (vertices relative to their bounding-box center
+and in units of its largest extent, rounded to 1e-9, and faces) and of every CoACD parameter, so the
+same part decomposes once: on a second conversion, for identical parts at different places (the four
+handles of a cabinet), and for the same part at another scale (a benchmark case's ground truth in the
+benchmark frame, which the sim checks convert, and in metres, which the opener converts). CoACD
+normalizes its input to a unit box and its parameters are relative, so its hulls scale with the mesh
+(the same normalized output at scales 0.013, 1 and 7.3: ``tests/sim/test_scale_cache.py``). Results
+are stored normalized as ``<cache>/coacd/<key[:2]>/<key>.npz`` and written atomically, so concurrent
 conversions share one cache safely.
 
 CoACD is single-threaded per call; independent calls run in worker processes
@@ -33,7 +37,7 @@ from spark_bench.sim.file_cache import atomic_savez, entry_path, load_npz
 from spark_bench.sim.options import CoacdParams
 
 #: Bumped whenever the stored result of the same input would change.
-CACHE_VERSION = "coacd-cache-1"
+CACHE_VERSION = "coacd-cache-3"
 #: A CoACD call still running after this many seconds is taken as hung: its worker is killed and the
 #: mesh gets its convex hull. A safety bound, far above the calls of ``benchmarks/measure_convert.py``.
 JOB_TIMEOUT_S = 600.0
@@ -54,10 +58,11 @@ class DecomposeStats:
 
 
 def mesh_key(vertices: np.ndarray, faces: np.ndarray, params: CoacdParams) -> str:
-    """The cache key of decomposing ``(vertices, faces)`` with ``params`` (translation invariant)."""
+    """The cache key of decomposing ``(vertices, faces)`` with ``params`` (invariant to translation and
+    scale: see :func:`_frame`)."""
     vertices = np.asarray(vertices, dtype=np.float64)
-    center = 0.5 * (vertices.min(0) + vertices.max(0)) if len(vertices) else np.zeros(3)
-    rounded = np.round((vertices - center) * 1e9).astype(np.int64)
+    center, extent = _frame(vertices)
+    rounded = np.round((vertices - center) / extent * 1e9).astype(np.int64)
     digest = hashlib.sha256()
     digest.update(CACHE_VERSION.encode())
     digest.update(json.dumps(asdict(params), sort_keys=True).encode())
@@ -88,7 +93,7 @@ def unpack_hulls(data) -> list[Hull]:
 
 
 def load_cached(key: str, cache: Path) -> list[Hull] | None:
-    """Hulls stored under ``key`` (centered), or None when absent or unreadable."""
+    """Hulls stored under ``key`` (normalized: :func:`_frame`), or None when absent or unreadable."""
     return load_npz(entry_path(cache, key), unpack_hulls)
 
 
@@ -104,8 +109,27 @@ def _hull_of(points: np.ndarray) -> Hull:
     return points[hull.vertices], np.zeros((0, 3), np.int64)
 
 
-def _center(vertices: np.ndarray) -> np.ndarray:
-    return 0.5 * (vertices.min(0) + vertices.max(0))
+def _frame(vertices: np.ndarray) -> tuple[np.ndarray, float]:
+    """``(center, extent)``: the bounding box's center and largest side (1 for a point or no vertex);
+    a mesh is keyed and its hulls stored as ``(vertices - center) / extent``."""
+    if not len(vertices):
+        return np.zeros(3), 1.0
+    lo, hi = vertices.min(0), vertices.max(0)
+    extent = float(np.max(hi - lo))
+    return 0.5 * (lo + hi), extent if extent > 0 else 1.0
+
+
+#: Normalized coordinates are rounded to this grid (about 1e-9 of the part's size).
+GRID = 2.0 ** -30
+
+
+def normalized(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(unit, center, extent)``: ``vertices`` centered on their box, divided by its largest side
+    (:func:`_frame`) and rounded to :data:`GRID`, so that a scaled or moved copy of a mesh gives the
+    same numbers bit for bit (float noise aside exactly at a grid boundary), and what CoACD or a
+    decimation makes of them is the same."""
+    center, extent = _frame(vertices)
+    return np.round((vertices - center) / extent / GRID) * GRID, center, extent
 
 
 def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | None = None,
@@ -124,31 +148,37 @@ def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | No
     """
     stats = stats if stats is not None else DecomposeStats()
     results: list[list[Hull] | None] = [None] * len(meshes)
-    centers = [_center(np.asarray(v, dtype=np.float64)) for v, _ in meshes]
+    frames = [_frame(np.asarray(v, dtype=np.float64)) for v, _ in meshes]
+
+    def placed(index: int, hulls: list[Hull]) -> list[Hull]:  # normalized hulls -> the mesh's coordinates
+        center, extent = frames[index]
+        return [(v * extent + center, f) for v, f in hulls]
+
     todo: dict[str, list[int]] = {}
     for index, (vertices, faces) in enumerate(meshes):
         key = mesh_key(vertices, faces, params)
         cached = load_cached(key, cache) if cache is not None else None
         if cached is not None:
             stats.cache_hits += 1
-            results[index] = [(v + centers[index], f) for v, f in cached]
+            results[index] = placed(index, cached)
         else:
             todo.setdefault(key, []).append(index)  # identical parts decompose once
     jobs = sorted(todo.items(), key=lambda item: -len(meshes[item[1][0]][1]))
-    outputs, errors = _run_jobs([(np.asarray(meshes[idx[0]][0], float) - centers[idx[0]], meshes[idx[0]][1])
+    outputs, errors = _run_jobs([(normalized(np.asarray(meshes[idx[0]][0], float))[0], meshes[idx[0]][1])
                                  for _, idx in jobs], params, workers, progress, timeout)
     for job, ((key, indices), output) in enumerate(zip(jobs, outputs)):
         stats.calls += 1
         if output is None:  # the worker died on this mesh: its convex hull stands in, uncached
             stats.failed.update({index: errors.get(job, "CoACD wrote no result") for index in indices})
-            hulls = [_hull_of(np.asarray(meshes[indices[0]][0], float) - centers[indices[0]])]
+            center, extent = frames[indices[0]]
+            hulls = [_hull_of((np.asarray(meshes[indices[0]][0], float) - center) / extent)]
         else:
             hulls, cpu = output
             stats.coacd_cpu_s += cpu
             if cache is not None:
                 store_cached(key, cache, hulls)
         for index in indices:
-            results[index] = [(v + centers[index], f) for v, f in hulls]
+            results[index] = placed(index, hulls)
     return [r if r is not None else [] for r in results]
 
 

@@ -24,7 +24,7 @@ import trimesh
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from spark_bench.asset.model import ArticulatedAsset, Link
-from spark_bench.sim.decompose import decompose_many
+from spark_bench.sim.decompose import decompose_many, normalized
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.shape_cache import link_key, load_shapes, store_shapes
 from spark_bench.sim.shapes import CollisionReport, CollisionShape
@@ -137,12 +137,17 @@ class _Pending:
 
 
 def _weld(mesh: trimesh.Trimesh, tolerance: float) -> trimesh.Trimesh:
-    mesh = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
-    digits = max(0, int(np.floor(-np.log10(max(tolerance, 1e-12)))))
-    mesh.merge_vertices(digits_vertex=digits)
-    mesh.update_faces(mesh.nondegenerate_faces())
-    mesh.remove_unreferenced_vertices()
-    return mesh
+    """``mesh`` with vertices on the same ``tolerance`` grid cell merged (a grid in units of the
+    tolerance, so that a scaled mesh welds the same) and degenerate faces dropped."""
+    tolerance = max(tolerance, 1e-12)
+    vertices = np.asarray(mesh.vertices, np.float64)
+    _, first, inverse = np.unique(np.round(vertices / tolerance), axis=0, return_index=True, return_inverse=True)
+    faces = inverse.reshape(-1)[np.asarray(mesh.faces, np.int64)]
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+    welded = trimesh.Trimesh(vertices[first], faces, process=False)
+    welded.update_faces(welded.nondegenerate_faces())
+    welded.remove_unreferenced_vertices()
+    return welded
 
 
 def simplify(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:
@@ -156,12 +161,15 @@ def simplify(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:
         return mesh
     import fast_simplification
 
-    vertices, faces = fast_simplification.simplify(np.asarray(mesh.vertices, np.float64),
-                                                   np.asarray(mesh.faces, np.int64),
+    # on the mesh's normalized coordinates (:func:`~spark_bench.sim.decompose.normalized`), so that a
+    # scaled or moved copy simplifies the same: the decimation turns float noise into other decisions
+    # (2498 or 2497 vertices for one part and its copy scaled by 0.81), rounding to 2^-30 removes it
+    unit, center, extent = normalized(np.asarray(mesh.vertices, np.float64))
+    vertices, faces = fast_simplification.simplify(unit, np.asarray(mesh.faces, np.int64),
                                                    target_reduction=1.0 - max_faces / len(mesh.faces))
     if len(faces) < 4:  # nothing sensible left: keep the original
         return mesh
-    return trimesh.Trimesh(vertices, faces, process=False)
+    return trimesh.Trimesh(np.asarray(vertices, np.float64) * extent + center, faces, process=False)
 
 
 def _element_meshes(link: Link, options: ConvertOptions) -> tuple[list[CollisionShape], list[trimesh.Trimesh]]:
@@ -240,7 +248,7 @@ def _sort_element(mesh: trimesh.Trimesh, geo: _LinkGeometry, depth: int = 0
 
 def object_collision_shapes(asset: ArticulatedAsset, options: ConvertOptions | None = None,
                             cache: Path | None = None, report: CollisionReport | None = None,
-                            progress: bool = False) -> dict[str, list[CollisionShape]]:
+                            progress: bool = False, size: float | None = None) -> dict[str, list[CollisionShape]]:
     """Convex collision shapes of every link, in link frames (links without geometry get none).
 
     :param asset: the object
@@ -248,10 +256,11 @@ def object_collision_shapes(asset: ArticulatedAsset, options: ConvertOptions | N
     :param cache: CoACD cache folder (None: no cache)
     :param report: filled with counts per method and CoACD statistics
     :param progress: show progress of the CoACD calls
+    :param size: :func:`object_size` of ``asset`` when the caller has it (it merges every link's meshes)
     """
     options = options or ConvertOptions()
     report = report if report is not None else CollisionReport()
-    size = _object_size(asset)
+    size = _object_size(asset) if size is None else size
     thickness = options.min_thickness * size
 
     shapes: dict[str, list[CollisionShape]] = {}
@@ -265,7 +274,7 @@ def object_collision_shapes(asset: ArticulatedAsset, options: ConvertOptions | N
             continue
         if cache is not None and options.use_cache:
             keys[link.name] = link_key(meshes, ready, options, size)
-            cached = load_shapes(cache, keys[link.name])
+            cached = load_shapes(cache, keys[link.name], size)
             if cached is not None:
                 shapes[link.name] = cached
                 report.cached_links += 1
@@ -301,7 +310,7 @@ def object_collision_shapes(asset: ArticulatedAsset, options: ConvertOptions | N
             report.merged += len(link_shapes) - len(merged)
             link_shapes = shapes[name] = [_eroded(s, erosion) for s in merged]
             if name in keys and not report.coacd.failed:
-                store_shapes(cache, keys[name], link_shapes)
+                store_shapes(cache, keys[name], link_shapes, size)
         report.hulls[name] = len(link_shapes)
         for shape in link_shapes:
             report.methods[shape.method] = report.methods.get(shape.method, 0) + 1

@@ -71,13 +71,14 @@ def prepare(asset: ArticulatedAsset, options: ConvertOptions | None = None,
             raise InputError(asset.source or asset.name, f"name {name!r} cannot be a MuJoCo body or joint name")
     report = CollisionReport()
     start = time.perf_counter()
+    size = object_size(asset)
     if shapes is None:
         cache = cache_dir("coacd") if options.use_cache else None
-        shapes = object_collision_shapes(asset, options, cache=cache, report=report, progress=progress)
+        shapes = object_collision_shapes(asset, options, cache=cache, report=report, progress=progress, size=size)
     else:
         report.hulls = {name: len(s) for name, s in shapes.items()}
     report.seconds["shapes"] = time.perf_counter() - start
-    prepared = PreparedObject(asset, options, shapes, {}, {}, object_size(asset), report)
+    prepared = PreparedObject(asset, options, shapes, {}, {}, size, report)
     _update_physics(prepared)
     _resolve_contacts(prepared)
     report.seconds["contacts"] = time.perf_counter() - start - report.seconds["shapes"]
@@ -95,7 +96,7 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     mujoco = mujoco_module()
     cache = cache_dir("coacd") if prepared.options.use_cache else None
     key = object_key(prepared) if cache is not None else None
-    cached = load_contacts(cache, key) if cache is not None else None
+    cached = load_contacts(cache, key, prepared.size) if cache is not None else None
     if cached is not None:
         prepared.shapes, prepared.excluded, prepared.relief, prepared.phantom = cached
         _update_physics(prepared)

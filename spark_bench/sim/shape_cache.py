@@ -4,6 +4,12 @@ CoACD results are cached per mesh (:mod:`spark_bench.sim.decompose`); this secon
 whole per-link pipeline (welding, convexity tests, hull budget, erosion) on a repeated conversion, so a
 cached conversion costs reading the meshes and building the model. Files live in
 ``<cache>/links/<key[:2]>/<key>.npz`` and are written atomically.
+
+Both layers, and the contact resolution (:func:`object_key`), are keyed and stored in units of the
+object's size: every tolerance of the conversion is relative to it (thickness, clearance, convexity,
+overlaps, relief depths), so an object scaled as a whole gets the same decisions, scaled. A benchmark
+case's ground truth is converted in the benchmark frame by the sim checks and in metres by the opener:
+the second conversion reads what the first computed.
 """
 
 from __future__ import annotations
@@ -22,26 +28,35 @@ from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.shapes import CollisionShape
 
 #: Bumped whenever the same link and options would give other shapes.
-SHAPES_VERSION = "link-shapes-3"
+SHAPES_VERSION = "link-shapes-5"
 KINDS = ("box", "cylinder", "sphere", "mesh")
 
 
 def link_key(meshes: Sequence[trimesh.Trimesh], ready: Sequence[CollisionShape], options: ConvertOptions,
              size: float) -> str:
-    """Key of a link's shapes: its element meshes, its given convex shapes, the geometry options and
-    the object's size (thicknesses and clearances are relative to it)."""
+    """Key of a link's shapes: its element meshes and given convex shapes in units of the object's
+    ``size`` (thicknesses and clearances are relative to it), and the geometry options."""
     digest = hashlib.sha256(SHAPES_VERSION.encode())
     geometry = {k: v for k, v in asdict(options).items()
                 if k in ("coacd", "convex_tolerance", "min_thickness", "clearance", "hull_budget",
                          "max_hull_vertices", "decompose_visuals", "max_part_faces")}
     digest.update(json.dumps(geometry, sort_keys=True).encode())
-    digest.update(np.round(np.float64(size), 9).tobytes())
     for mesh in meshes:
-        _hash_values(digest, mesh.vertices)
+        _hash_values(digest, np.asarray(mesh.vertices, np.float64) / size)
         digest.update(np.asarray(mesh.faces, np.int64).tobytes())
     for shape in ready:
-        _hash_shape(digest, shape)
+        _hash_shape(digest, scaled(shape, 1.0 / size))
     return digest.hexdigest()
+
+
+def scaled(shape: CollisionShape, factor: float) -> CollisionShape:
+    """``shape`` scaled by ``factor`` about its link's origin (lengths only: rotations stay)."""
+    origin = np.array(shape.origin, np.float64, copy=True)
+    origin[:3, 3] *= factor
+    return CollisionShape(shape.kind, shape.method, origin=origin,
+                          size=np.asarray(shape.size, np.float64) * factor,
+                          vertices=None if shape.vertices is None else np.asarray(shape.vertices, np.float64) * factor,
+                          faces=shape.faces)
 
 
 def _hash_values(digest, array) -> None:
@@ -60,10 +75,10 @@ def _path(cache: Path, key: str) -> Path:
     return entry_path(Path(cache) / "links", key)
 
 
-def store_shapes(cache: Path, key: str, shapes: Sequence[CollisionShape]) -> None:
-    """Write ``shapes`` under ``key`` (atomically)."""
+def store_shapes(cache: Path, key: str, shapes: Sequence[CollisionShape], size: float = 1.0) -> None:
+    """Write ``shapes`` under ``key`` (atomically), in units of ``size`` (the object's)."""
     arrays: dict[str, np.ndarray] = {"methods": np.array(json.dumps([s.method for s in shapes]))}
-    for k, shape in enumerate(shapes):
+    for k, shape in enumerate(scaled(s, 1.0 / size) for s in shapes):
         arrays[f"{k}_kind"] = np.array(KINDS.index(shape.kind))
         arrays[f"{k}_origin"] = np.asarray(shape.origin, np.float64)
         arrays[f"{k}_size"] = np.asarray(shape.size, np.float64)
@@ -73,9 +88,10 @@ def store_shapes(cache: Path, key: str, shapes: Sequence[CollisionShape]) -> Non
     atomic_savez(_path(cache, key), arrays)
 
 
-def load_shapes(cache: Path, key: str) -> list[CollisionShape] | None:
-    """Shapes stored under ``key``, or None when absent or unreadable."""
-    return load_npz(_path(cache, key), _unpack_shapes)
+def load_shapes(cache: Path, key: str, size: float = 1.0) -> list[CollisionShape] | None:
+    """Shapes stored under ``key`` (scaled back by ``size``, the object's), or None when absent or unreadable."""
+    shapes = load_npz(_path(cache, key), _unpack_shapes)
+    return None if shapes is None else [scaled(s, size) for s in shapes]
 
 
 def _unpack_shapes(data) -> list[CollisionShape]:
@@ -91,38 +107,47 @@ def _unpack_shapes(data) -> list[CollisionShape]:
 
 # ----- whole-object contact resolution (exclusions and hinge relief) -------------------------------
 def object_key(prepared) -> str:
-    """Key of an object's contact resolution: every link's shapes before relief, the joints, and the
-    options that decide exclusions and relief. The ``contacts-N`` tag is bumped whenever the rules
-    (rest overlaps, hinge relief, phantom blockings) change."""
-    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-7".encode())
+    """Key of an object's contact resolution: every link's shapes before relief, the joints (lengths in
+    units of the object's size: the decisions are relative to it), and the options that decide
+    exclusions and relief. The ``contacts-N`` tag is bumped whenever the rules (rest overlaps, hinge
+    relief, phantom blockings) change."""
+    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-8".encode())
     options = prepared.options
+    size = prepared.size
     digest.update(json.dumps([options.exclude_overlap, options.clearance, list(options.base_quat)]).encode())
-    digest.update(np.round(np.float64(prepared.size), 9).tobytes())
     for joint in prepared.asset.joints.values():
         digest.update(json.dumps([joint.name, joint.type, joint.parent, joint.child]).encode())
-        for array in (joint.origin, joint.axis, [joint.lower, joint.upper]):
+        origin = np.array(joint.origin, np.float64, copy=True)
+        origin[:3, 3] /= size
+        limits = np.array([joint.lower, joint.upper], np.float64) / (1.0 if joint.is_rotational else size)
+        for array in (origin, joint.axis, limits):
             _hash_values(digest, array)
     for name in sorted(prepared.shapes):
         digest.update(name.encode())
         for shape in prepared.shapes[name]:
-            _hash_shape(digest, shape)
+            _hash_shape(digest, scaled(shape, 1.0 / size))
     return digest.hexdigest()
 
 
 def store_contacts(cache: Path, key: str, prepared) -> None:
-    """Store the resolved shapes, exclusions and relief cuts of ``prepared`` under ``key``."""
-    entry = {"excluded": [[a, b, d] for (a, b), d in prepared.excluded.items()],
-             "relief": [c.__dict__ for c in prepared.relief], "phantom": [b.__dict__ for b in prepared.phantom],
+    """Store the resolved shapes, exclusions and relief cuts of ``prepared`` under ``key`` (lengths in
+    units of the object's size)."""
+    size = prepared.size
+    entry = {"excluded": [[a, b, d / size] for (a, b), d in prepared.excluded.items()],
+             "relief": [{**c.__dict__, "depth": c.depth / size} for c in prepared.relief],
+             "phantom": [{**b.__dict__, "depth": b.depth / size, "surface_depth": b.surface_depth / size}
+                         for b in prepared.phantom],
              "links": {}}
     for name, shapes in prepared.shapes.items():
         sub = hashlib.sha256(f"{key}/{name}".encode()).hexdigest()
-        store_shapes(cache, sub, shapes)
+        store_shapes(cache, sub, shapes, size)
         entry["links"][name] = sub
     atomic_write_text(entry_path(Path(cache) / "objects", key, ".json"), json.dumps(entry))
 
 
-def load_contacts(cache: Path, key: str):
-    """``(shapes, excluded, relief, phantom)`` stored under ``key``, or None."""
+def load_contacts(cache: Path, key: str, size: float = 1.0):
+    """``(shapes, excluded, relief, phantom)`` stored under ``key``, scaled back by ``size`` (the
+    object's), or None."""
     from spark_bench.sim.phantom import PhantomBlock
     from spark_bench.sim.relief import ReliefCut
 
@@ -133,13 +158,14 @@ def load_contacts(cache: Path, key: str):
         entry = json.loads(path.read_text())
         shapes = {}
         for name, sub in entry["links"].items():
-            loaded = load_shapes(cache, sub)
+            loaded = load_shapes(cache, sub, size)
             if loaded is None:
                 return None
             shapes[name] = loaded
-        excluded = {(a, b): float(d) for a, b, d in entry["excluded"]}
-        relief = [ReliefCut(**c) for c in entry["relief"]]
-        phantom = [PhantomBlock(**b) for b in entry["phantom"]]
+        excluded = {(a, b): float(d) * size for a, b, d in entry["excluded"]}
+        relief = [ReliefCut(**{**c, "depth": c["depth"] * size}) for c in entry["relief"]]
+        phantom = [PhantomBlock(**{**b, "depth": b["depth"] * size, "surface_depth": b["surface_depth"] * size})
+                   for b in entry["phantom"]]
     except (OSError, ValueError, KeyError, TypeError):
         return None
     return shapes, excluded, relief, phantom

@@ -162,12 +162,13 @@ def test_density_by_category_and_override():
     assert options.density_of("StorageFurniture", "link_1") == 50.0
 
 
-def test_mesh_key_is_translation_invariant_and_parameter_sensitive():
+def test_mesh_key_is_translation_and_scale_invariant_and_parameter_sensitive():
     box = trimesh.creation.box()
     params = CoacdParams()
     key = mesh_key(box.vertices, box.faces, params)
     assert mesh_key(box.vertices + 3.0, box.faces, params) == key
-    assert mesh_key(box.vertices * 2.0, box.faces, params) != key
+    assert mesh_key(box.vertices * 2.0, box.faces, params) == key  # CoACD's hulls scale with the mesh
+    assert mesh_key(box.vertices * [2.0, 1.0, 1.0], box.faces, params) != key  # another shape
     assert mesh_key(box.vertices, box.faces, CoacdParams(threshold=0.1)) != key
 
 
