@@ -108,14 +108,17 @@ def normalization(asset: ArticulatedAsset, q=None) -> tuple[np.ndarray, float]:
     return bounds.mean(0), 2.0 / extent
 
 
-def normalize_asset(asset: ArticulatedAsset) -> tuple[ArticulatedAsset, np.ndarray, float]:
+def normalize_asset(asset: ArticulatedAsset, copy: bool = True) -> tuple[ArticulatedAsset, np.ndarray, float]:
     """The asset in the benchmark frame (DESIGN.md): rest pose, box centered at 0, fitting [-1, 1]^3.
 
+    :param asset: the object (world frame)
+    :param copy: False normalizes ``asset`` itself (a caller that made it and needs only the result saves a
+        deep copy of every mesh: seconds for a real object's R=200 remesh)
     :returns: ``(normalized asset, center, scale)`` with ``p_bench = (p_world - center) * scale``
     """
     center, scale = normalization(asset)
     shift = np.eye(4)
     shift[:3, 3] = -center
-    out = _scale_in_place(_move_in_place(asset.copy(), shift), scale)  # one copy: real meshes are large
+    out = _scale_in_place(_move_in_place(asset.copy() if copy else asset, shift), scale)
     out.meta = {**out.meta, "normalization": {"center": center.tolist(), "scale": scale}}
     return out, center, scale

@@ -299,7 +299,7 @@ def _prepare_case(src: Path, case_dir: Path, options: PrepareOptions, case_id: s
                 raise InputError(src, "object has no visual geometry")
         gt, reports = ground_truth_asset(source, options.resolution, options.n_min, timer)
         with timer("normalize_write"):
-            gt, center, scale = normalize_asset(gt)
+            gt, center, scale = normalize_asset(gt, copy=False)  # gt is this function's own
             gt.name = case_id
             write_object_folder(gt, case.gt_dir)
             write_gapartnet_annotations(gt, case.gt_dir)

@@ -55,6 +55,19 @@ def test_configurations_and_joint_frames():
         asset.link_poses({"nope": 1.0})
 
 
+def test_normalize_in_place_gives_the_copy_s_result_on_the_asset_itself():
+    asset, other = tiny_cabinet(), tiny_cabinet()
+    copied, center, scale = normalize_asset(other)
+    np.testing.assert_array_equal(other.mesh().vertices, tiny_cabinet().mesh().vertices)  # input untouched
+    same, center2, scale2 = normalize_asset(asset, copy=False)
+    assert same is asset
+    # the same operations on the same numbers, in the same order: equal to rounding
+    np.testing.assert_allclose(center2, center, atol=1e-15)
+    assert scale2 == pytest.approx(scale, rel=1e-15)
+    np.testing.assert_allclose(asset.mesh().vertices, copied.mesh().vertices, atol=1e-12)
+    np.testing.assert_allclose(asset.joints["joint_door"].origin, copied.joints["joint_door"].origin, atol=1e-12)
+
+
 def test_moving_links_and_parts():
     asset = tiny_cabinet()
     assert asset.moving_links("joint_door") == ["door"]
