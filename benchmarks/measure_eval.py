@@ -106,17 +106,18 @@ def measure_rl(args, cores: list[int]) -> int:
     """Time the ``rl`` stage of ``eval --rl`` with ``--rl-method``'s prediction (see the module docstring)."""
     import numpy as np
 
+    from spark_bench.data import load_object
     from spark_bench.data.case import Benchmark
     from spark_bench.evaluation.runner import RL_FINETUNE_STEPS, EvalOptions, resolve_bench, run_eval
     from spark_bench.evaluation.store import ResultsStore
     from spark_bench.methods.base import MethodSpec
+    from spark_bench.rl.tasks import TASK_KIND
 
     name, folder = resolve_bench(args.bench)
-    from spark_bench.data import load_object
 
     bench = Benchmark(folder)
     every = [c for c in bench.case_ids()  # cases with a drawer or door, spread over the categories
-             if any(j.type in ("prismatic", "revolute")
+             if any(j.type in TASK_KIND
                     for j in load_object(bench.case(c).gt_dir, load_meshes=False).movable_joints())]
     cases = every[:: max(1, len(every) // args.rl)][: args.rl]
     cases += [c for c in args.rl_cases.split(",") if c and c not in cases] if args.rl_cases else []

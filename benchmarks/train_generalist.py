@@ -24,17 +24,19 @@ import hashlib
 import platform
 import sys
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 from spark_bench.data.synth import GENERATOR_VERSION
 from spark_bench.rl.generalist import EPISODE_STEPS, FEATURE_VERSION, RECORD_NAME, WEIGHTS_DIR, weights_path
-from spark_bench.rl.generalist_train import POLICY_KWARGS, PPO_SETTINGS, StageSettings, rate_by, train_kind
+from spark_bench.rl.generalist_train import POLICY_KWARGS, PPO_SETTINGS, StageSettings, train_kind
 from spark_bench.rl.tasks import (
     build_tasks,
     evaluate,
     evaluate_teacher,
     holdable,
     object_tasks,
+    rate_by,
     success_rate,
     synth_tasks,
 )
@@ -48,7 +50,6 @@ TARGET = 0.9
 #: How the synth tasks' objects are named (by seed and generator version, not by path).
 SYNTH = {"generator_version": GENERATOR_VERSION,
          "objects": "<category>_<seed> of every synth category, by spark_bench.data.synth.generate_object"}
-#: Grasps with something to hold (a handle, a notch, a lid's tab); ``face`` is a bare front.
 
 
 def seed_range(text: str) -> list[int]:
@@ -143,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
               "seed": args.seed, "episode_steps": EPISODE_STEPS, "seeds": seeds,
               "synth": SYNTH,
               "policy_kwargs": POLICY_KWARGS, "ppo": PPO_SETTINGS,
-              "stages": {k: v for k, v in vars(settings).items()},
+              "stages": asdict(settings),
               "software": {"python": platform.python_version(), "stable_baselines3": stable_baselines3.__version__,
                            "torch": torch.__version__},
               "policies": {}}
@@ -227,7 +228,7 @@ def rescore_synth(args) -> tuple[dict, dict, dict]:
 def write_record(record: dict, args, t0: float, wall_key: str) -> None:
     """The record beside the weights and the Markdown report (rewritten as the run goes on).
 
-    :param wall_key: where the wall time so far goes (``wall_s`` training, ``real_wall_s`` real scoring)
+    :param wall_key: where the wall time so far goes (``wall_s`` training, ``score_wall_s`` ``--score-only``)
     """
     from spark_bench.jsonio import to_json_text
 

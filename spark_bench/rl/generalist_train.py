@@ -22,8 +22,6 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 
-import numpy as np
-
 from spark_bench.rl.generalist import FRAME_NOISE, GraspFrameWrapper
 from spark_bench.rl.imitation import clone, collect_demos
 from spark_bench.rl.tasks import BuiltTask, evaluate, success_rate
@@ -211,12 +209,3 @@ def _ppo(result: KindResult, settings: StageSettings, steps: dict, point: Callab
     steps["ppo"] = int(model.num_timesteps)
     if not result.curve or result.curve[-1].env_steps != sum(steps.values()):
         point("PPO (end)")
-
-
-def rate_by(rows: list[dict], key: str) -> dict:
-    """Success rate and count of ``rows`` grouped by ``key`` (``grasp``, ``category``)."""
-    groups: dict = {}
-    for r in rows:
-        groups.setdefault(r[key], []).append(r["success_rate"])
-    return {k: {"success_rate": round(float(np.mean(v)), 4), "tasks": len(v)} for k, v in sorted(groups.items())}
-

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spark_bench.rl.generalist import (
+    EPISODE_STEPS,
     N_FEATURES,
     Memory,
     features,
@@ -83,7 +84,7 @@ def collect_demos(built: list[BuiltTask], episodes: int = 2, noise: float = DEMO
             seen = perturb_frame(obs, rotation)
             memory.reset(seen)
             xs, ys, success = [], [], False
-            for _ in range(env.spec.max_episode_steps if env.spec and env.spec.max_episode_steps else 150):
+            for _ in range(env.spec.max_episode_steps if env.spec and env.spec.max_episode_steps else EPISODE_STEPS):
                 label = teacher(obs)
                 x = features(seen, memory.vector())
                 xs.append(x)

@@ -15,10 +15,10 @@ import gymnasium as gym
 import numpy as np
 
 from spark_bench.errors import InputError
-from spark_bench.rl.generalist import EPISODE_STEPS, GraspFrameWrapper, make_task_env
+from spark_bench.rl.generalist import EPISODE_STEPS, KIND_OF_TYPE, GraspFrameWrapper, make_task_env
 
-#: The policy kind of each openable joint type.
-TASK_KIND = {"prismatic": "drawer", "revolute": "door"}
+#: The policy kind of each openable joint type (continuous joints, knobs and caps, are not opening tasks).
+TASK_KIND = {t: k for t, k in KIND_OF_TYPE.items() if t != "continuous"}
 
 
 @dataclass
@@ -139,7 +139,7 @@ def build_tasks(tasks: list[Task], max_episode_steps: int = EPISODE_STEPS, progr
         if path not in hashes:  # every joint of an object shares its asset: hash it once
             hashes[path] = asset_content_hash(scene.asset)
         built.append(BuiltTask(task, GraspFrameWrapper(env), scene.grasp.source,
-                               reason=getattr(scene.grasp, "reason", None),
+                               reason=scene.grasp.reason,
                                part=scene.asset.links[scene.joint.child].label, asset={"path": path, "sha256": hashes[path]}))
     return built, skipped
 
@@ -166,6 +166,14 @@ def run_episode(env: gym.Env, policy, seed: int, max_steps: int = EPISODE_STEPS,
         if terminated or truncated or (success and stop_on_success):
             break
     return {"success": bool(success), "max_fraction": float(best), "steps": int(steps), "return": total}
+
+
+def run_episodes(env: gym.Env, policy, episodes: int, seed: int) -> dict:
+    """``episodes`` episodes of :func:`run_episode` (seeds ``seed + k``): ``{"success", "max_fraction"}``,
+    each the mean over them."""
+    runs = [run_episode(env, policy, seed + k) for k in range(episodes)]
+    return {"success": float(np.mean([r["success"] for r in runs])),
+            "max_fraction": float(np.mean([r["max_fraction"] for r in runs]))}
 
 
 class ModelActor:
@@ -203,11 +211,10 @@ def _score(built, actor_of, episodes, seed, progress, what) -> list[dict]:
     rows = []
     for bt in tqdm(built, desc=f"evaluating {what}", unit="task", disable=not progress):
         env, actor = actor_of(bt)
-        runs = [run_episode(env, actor, seed + k) for k in range(episodes)]
+        runs = run_episodes(env, actor, episodes, seed)
         rows.append({"task": bt.task.name, "kind": bt.task.kind, "category": bt.task.category, "part": bt.part,
                      "grasp": bt.grasp, "reason": bt.reason, "asset": bt.asset,
-                     "success_rate": float(np.mean([r["success"] for r in runs])),
-                     "max_fraction": float(np.mean([r["max_fraction"] for r in runs]))})
+                     "success_rate": runs["success"], "max_fraction": runs["max_fraction"]})
     return rows
 
 
@@ -223,3 +230,10 @@ def success_rate(rows: list[dict], kind: str | None = None) -> float | None:
     picked = [r["success_rate"] for r in rows if kind is None or r["kind"] == kind]
     return float(np.mean(picked)) if picked else None
 
+
+def rate_by(rows: list[dict], key: str) -> dict:
+    """Success rate and count of ``rows`` grouped by ``key`` (``grasp``, ``category``, ``part``)."""
+    groups: dict = {}
+    for r in rows:
+        groups.setdefault(r[key], []).append(r["success_rate"])
+    return {k: {"success_rate": round(float(np.mean(v)), 4), "tasks": len(v)} for k, v in sorted(groups.items())}

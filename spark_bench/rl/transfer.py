@@ -46,7 +46,7 @@ from spark_bench.rl.generalist import (
     make_task_env,
     weights_record,
 )
-from spark_bench.rl.tasks import TASK_KIND, holdable, run_episode
+from spark_bench.rl.tasks import TASK_KIND, holdable, run_episode, run_episodes
 
 #: Default fine-tuning budget (environment steps per policy kind) and episodes per ground-truth joint.
 FINETUNE_STEPS = 1024
@@ -74,12 +74,6 @@ def prediction_to_gt_metres(pred, gt_stored, alignment=None, to_metres=None) -> 
 
 def _why(exc: Exception) -> str:
     return " ".join(str(exc).split())[:200]
-
-
-def _episodes(env, policy, episodes: int, seed: int) -> dict:
-    runs = [run_episode(env, policy, seed + k) for k in range(episodes)]
-    return {"success": float(np.mean([r["success"] for r in runs])),
-            "max_fraction": float(np.mean([r["max_fraction"] for r in runs]))}
 
 
 def finetune(kind: str, pred, joints: list[str], steps: int, seed: int = 0, weights=None):
@@ -123,17 +117,17 @@ def _score_joint(row: dict, name: str, gt_folder: Path, zero, tuned, skipped: di
         return
     grasp = env.unwrapped.scene.grasp
     row["grasp"] = grasp.source
-    if getattr(grasp, "reason", None):
+    if grasp.reason:
         row["reason"] = grasp.reason
     try:
-        first = _episodes(env, zero, episodes, seed)
+        first = run_episodes(env, zero, episodes, seed)
         row.update(zero_shot=first["success"], zero_shot_max_fraction=first["max_fraction"])
         if tuned is None:
             row["why"] = "the prediction gives no opening task to fine-tune on"
             return
         if row["pred_joint"] in skipped:
             row["note"] = f"fine-tuned without this joint: {skipped[row['pred_joint']]}"
-        second = first if tuned is zero else _episodes(env, tuned, episodes, seed)
+        second = first if tuned is zero else run_episodes(env, tuned, episodes, seed)
         row.update(success=second["success"], max_fraction=second["max_fraction"])
     finally:
         env.close()
