@@ -262,7 +262,7 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
              "*Declined*: the planner says, before any episode, why a parallel gripper cannot pull the part "
              f"(that line is the rollout's `reason`). Total time {seconds:.0f} s.", "",
              "*Stuck*: a joint that does not reach the success fraction when driven directly with the gripper's "
-             "largest pull (104 N at the grasp point's lever arm, nothing in the way, 100 control steps: "
+             "largest pull (104 N at the grasp point's lever arm, nothing in the way, until it stands still: "
              "`spark_bench.envs.scene.stuck_reason`): no policy of this hand can open it, whatever it does; the "
              "reason says whether 4 times that force opens it (too heavy for the gripper) or not (jammed by its "
              "collision shapes). The scene checks this when it is built and declines such a part with that reason "

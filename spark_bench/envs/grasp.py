@@ -9,12 +9,12 @@ found first taken:
    ``category``);
 2. a labelled handle of a part hinged to it (a safe's lever, its own joint) standing in front of the front;
 3. geometry: the surface of the part and of the parts hinged to it (a dial, a knob) standing proud of the
-   front face by more than :data:`HANDLE_MIN_PROUD`, in connected clusters.
+   front face by more than :data:`~spark_bench.envs.handle_search.HANDLE_MIN_PROUD`, in connected clusters.
 
 Only clusters the open fingers can close around count (narrower than the open fingers by
 :data:`PINCH_MARGIN` on each side, across the closing direction); the chosen one is the central one
 (drawers) or the one farthest from the hinge (doors). A labelled handle whose bounding box's center is
-not over the handle (a bucket's bail, an arc) is grasped at its far end (:func:`on_handle`). The fingers
+not over the handle (a bucket's bail, an arc) is grasped at its far end (:func:`~spark_bench.envs.handle_search.on_handle`). The fingers
 reach down the handle as far as they can: the fingertips :data:`TIP_CLEARANCE` above the front face, or
 the pads' whole length below the handle's top when it stands out further, so that a knob's head or a
 bar is held from behind, not pinched at its rounded front.
@@ -29,6 +29,9 @@ its front face's center (drawers) or a point of the front face near its free edg
 ``has_handle=False`` and a one-line ``reason`` why a parallel gripper cannot pull it.
 
 A pinch grasp is then checked against its neighbourhood (:func:`spark_bench.envs.pads.plan_pads`).
+
+Where the handle candidates are looked for is :mod:`spark_bench.envs.handle_search`; which of them a
+parallel gripper can pinch, and where, :mod:`spark_bench.envs.handles`.
 """
 
 from __future__ import annotations
@@ -42,7 +45,6 @@ from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.asset.transforms import unit
 from spark_bench.envs.features import (
     LEVEL_BIN,
-    MIN_CLUSTER,
     Front,
     clusters,
     face_normal,
@@ -51,35 +53,24 @@ from spark_bench.envs.features import (
     long_axis,
     min_cluster,
     perpendicular_basis,
-    proud_samples,
     rasterise_front,
 )
 from spark_bench.envs.gripper import GripperConfig
+from spark_bench.envs.handle_search import (
+    HANDLE_MIN_PROUD,
+    N_HANDLE_SAMPLES,
+    N_SAMPLES,
+    carried_links,
+    handle_searches,
+    on_handle,
+)
 from spark_bench.envs.handles import PINCH_MARGIN, candidates, edge_pinch, pad_center, reach_depth
-from spark_bench.envs.pads import OBSTACLE_MIN_PROUD, approach_blocked, pad_landing, plan_pads
+from spark_bench.envs.pads import approach_blocked, pad_landing, plan_pads
 from spark_bench.envs.rest_meshes import RestMeshes
 
-#: A surface point counts as handle when it stands this far (m) in front of the front face (twice
-#: :data:`~spark_bench.envs.pads.OBSTACLE_MIN_PROUD`, what counts as in the fingers' way).
-HANDLE_MIN_PROUD = 2 * OBSTACLE_MIN_PROUD  # 8 mm
-#: Surface samples per part.
-N_SAMPLES = 20000
-#: Surface samples of a labelled handle, or of the parts hinged to the grasped one.
-N_HANDLE_SAMPLES = 4000
-#: Sample spacing (m) on a small part hinged to the grasped one (:func:`_hinged_samples`).
-HINGED_SPACING = 0.0015
-#: A labelled handle's grasp point must lie over the handle itself: within this distance (m), in the
-#: front plane, of a handle point. A bucket's bail is an arc: its bounding box's center is in the air.
-HANDLE_ON_TOLERANCE = 0.006
-#: A handle reached over its far end (a revolute part's tip): points this close (m) to the handle point
-#: farthest from the hinge.
-HANDLE_TIP_BAND = 0.02
 #: A revolute part's free edge must lie this far (m) from its hinge for a feature past it to be a lid's tab:
 #: a shorter part is a lever (a toilet's flush lever, 8 cm), pressed on its face, not pinched at its end.
 TAB_MIN_REACH = 0.15
-#: How far (m) around a handle, in the front plane, the surface it stands on is looked at (a pad's thickness
-#: and margin: what the pads would touch reaching down beside it).
-BASE_MARGIN = 0.016
 #: The hand comes in along the outward direction: nothing of the object may stand in its way out to this
 #: distance (m) in front of the grasp.
 APPROACH_CLEAR = 0.5
@@ -92,9 +83,6 @@ NOTCH_DEPTH = 0.004
 FIRM_PROUD = 0.02
 #: A prismatic joint travelling at most this far (m) is a push button (a microwave's door release).
 BUTTON_TRAVEL = 0.01
-#: Smallest extent (m), both ways in the front plane, of a feature standing out of the front for it to be
-#: a handle candidate (a screw head is not).
-MIN_FEATURE = 0.002
 
 
 @dataclass
@@ -163,43 +151,6 @@ def outward_direction(joint_type: str, origin: np.ndarray, axis: np.ndarray, poi
     return unit(np.cross(axis, r))
 
 
-def _handle_links(asset: ArticulatedAsset, links: list[str]) -> list[str]:
-    out = []
-    for name in links:
-        link = asset.links[name]
-        category = str(link.annotations.get("category", "")) if isinstance(link.annotations, dict) else ""
-        if "handle" in link.label.lower() or "handle" in category.lower():
-            out.append(name)
-    return out
-
-
-def carried_links(asset: ArticulatedAsset, joint: str, links: list[str]) -> list[str]:
-    """Links that move with ``joint`` but belong to parts of their own, hinged below it (a door's lever).
-
-    :param links: the joint's own part (:meth:`ArticulatedAsset.part_of_joint`)
-    """
-    moving, own = set(asset.moving_links(joint)), set(links)
-    return [name for name in asset.links if name in moving and name not in own]
-
-
-def on_handle(handle: np.ndarray, basis: np.ndarray, origin: np.ndarray | None, axis: np.ndarray) -> np.ndarray:
-    """The handle points to grasp: all of them when their bounding box's center (in the front plane) lies
-    over the handle, else its far end (the points within :data:`HANDLE_TIP_BAND` of the one farthest from
-    a hinge at ``origin`` along ``axis``; ``origin`` None: of the one nearest that center).
-    A bucket's bail is an arc: the center of its box is in the air, its grip at the top of the arc."""
-    uv = handle @ basis.T
-    center = 0.5 * (uv.min(0) + uv.max(0))
-    gap = np.linalg.norm(uv - center, axis=1)
-    if gap.min() <= HANDLE_ON_TOLERANCE:
-        return handle
-    if origin is None:
-        anchor = handle[int(np.argmin(gap))]
-        return handle[np.linalg.norm(handle - anchor, axis=1) < HANDLE_TIP_BAND]
-    r = handle - origin
-    radial = np.linalg.norm(r - np.outer(r @ axis, axis), axis=1)
-    return handle[radial > radial.max() - HANDLE_TIP_BAND]
-
-
 def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray,
              hinged: np.ndarray | None = None) -> GraspTarget | None:
     """A tab standing out past the free edge of a revolute part (a box lid's lifting tab), or None.
@@ -257,92 +208,6 @@ def _front_of(asset: ArticulatedAsset, joint: str, seed: int) -> Front:
                   origin=origin, axis=axis, rotational=rotational)
 
 
-def _handle_searches(asset: ArticulatedAsset, joint: str, front: Front, seed: int):
-    """The handle searches, in order of preference: ``(source, points, groups)`` with ``groups`` the clusters
-    of ``points`` that are handle candidates, each as ``(indices, anchor, base)``: ``anchor`` is, for a
-    handle on a hinge of its own (a safe's lever, a wheel), that hinge's ``(origin, axis)`` (it is best held
-    near that axis, where a pull does not turn it), else None; ``base`` the level the pads may reach down to
-    (the highest surface of the part around the handle: a knob in a door's recessed panel stands out of
-    the panel, not of the door's rim)."""
-    links = asset.part_of_joint(joint)
-    own_labelled = _handle_links(asset, links)
-    if own_labelled:
-        pts = sample_surface(asset.mesh(links=own_labelled), N_HANDLE_SAMPLES, seed=seed)
-        rest = [name for name in links if name not in own_labelled and asset.links[name].has_geometry]
-        surface = sample_surface(asset.mesh(links=rest), N_SAMPLES // 2, seed=seed) if rest else None
-        # one link may hold several pieces (a wide drawer's two knobs): grasp one of them, not between
-        groups = [g for g in clusters(pts) if len(g) >= MIN_CLUSTER] or [np.arange(len(pts))]
-        bases = [_base(surface, pts[g], front) for g in groups]
-        # a labelled handle sunk into the part (a recessed grip) is no pinch: the notch search sees it
-        yield "label", pts, [(g, None, base) for g, base in zip(groups, bases)
-                             if base is None or float(np.max(pts[g] @ front.outward)) - base >= OBSTACLE_MIN_PROUD]
-    carried = [name for name in carried_links(asset, joint, links) if asset.links[name].has_geometry]
-    frames = asset.joint_frames()
-
-    def hinged(name: str):
-        hinge = _own_joint(asset, name)
-        return frames[hinge] if hinge is not None and asset.joints[hinge].is_rotational else None
-
-    def standing(pts: np.ndarray, anchor) -> list[tuple]:
-        """The clusters of a hinged part's points standing out of the part around them, those points kept."""
-        out = []
-        for g in clusters(pts):
-            base = _base(front.points, pts[g], front)
-            if base is not None:
-                g = g[pts[g] @ front.outward > base]
-            floor = base if base is not None else front.face
-            if len(g) >= MIN_CLUSTER and float(np.max(pts[g] @ front.outward)) - floor >= HANDLE_MIN_PROUD:
-                out.append((g, anchor, base))
-        return out
-
-    for name in _handle_links(asset, carried):  # a handle hinged to the part (a door's lever) is its handle too
-        pts = _hinged_samples(asset.mesh(links=[name]), seed)
-        yield "label", pts, standing(pts, hinged(name))
-    # what stands out of the front, sampled densely (a 15 mm knob on a large drawer is a few of the part's
-    # samples): the part's own, and a dial or knob on its own joint, which stands out like any handle
-    pts = proud_samples(front.part, front.outward, front.face + HANDLE_MIN_PROUD, N_HANDLE_SAMPLES, seed)
-    groups = [(g, None, front.face) for g in clusters(pts)
-              if len(g) >= MIN_CLUSTER and np.ptp(pts[g] @ front.basis.T, axis=0).min() >= MIN_FEATURE]
-    for name in carried:
-        extra = _hinged_samples(asset.mesh(links=[name]), seed)
-        groups += [(g + len(pts), anchor, base) for g, anchor, base in standing(extra, hinged(name))]
-        pts = np.concatenate([pts, extra])
-    yield "geometry", pts, groups
-
-
-def _hinged_samples(mesh, seed: int) -> np.ndarray:
-    """Surface samples of a part hinged to the grasped one: :data:`N_HANDLE_SAMPLES`, or one per
-    :data:`HINGED_SPACING` squared of its area when that is fewer (a safe's door carries a dozen 2 cm
-    buttons: 4000 samples on each put every pair of them within a cluster's reach, 10^7 pairs)."""
-    count = int(np.clip(float(mesh.area) / HINGED_SPACING ** 2, 2 * MIN_CLUSTER, N_HANDLE_SAMPLES))
-    return sample_surface(mesh, count, seed=seed)
-
-
-def _base(surface: np.ndarray | None, feature: np.ndarray, front: Front) -> float | None:
-    """The level the pads may reach down to beside ``feature``: the highest of the ``surface`` points under
-    the feature or within a pad's thickness and margin of it (in the front plane); None when there are
-    none (the feature stands free: a bucket's bail)."""
-    if surface is None or len(surface) == 0:
-        return None
-    uv, near = feature @ front.basis.T, surface @ front.basis.T
-    grow = BASE_MARGIN
-    inside = np.all((near > uv.min(0) - grow) & (near < uv.max(0) + grow), axis=1)
-    if not inside.any():
-        return None
-    return float(np.max(surface[inside] @ front.outward))
-
-
-def _own_joint(asset: ArticulatedAsset, link: str) -> str | None:
-    """The movable joint whose part ``link`` belongs to (the nearest movable joint above it), or None."""
-    parents = {j.child: j for j in asset.joints.values()}
-    while link in parents:
-        j = parents[link]
-        if j.is_movable:
-            return j.name
-        link = j.parent
-    return None
-
-
 def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperConfig, seed: int
            ) -> tuple[GraspTarget | None, str | None]:
     """The pinch grasp on the best handle candidate, or ``(None, why none fits)``."""
@@ -353,7 +218,7 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
     def grasped(points: np.ndarray) -> np.ndarray:
         return on_handle(points, basis, front.origin if front.rotational else None, front.axis)
 
-    for source, pts, groups in _handle_searches(asset, joint, front, seed):
+    for source, pts, groups in handle_searches(asset, joint, front, seed):
         fitting, wide = candidates(pts, groups, front, gripper, grasped)
         if wide is not None:
             widest = max(widest or 0.0, wide)
@@ -363,9 +228,13 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
         # open pad would land on the object (a piece of a wide plate) only when no other is clear
         ranked = sorted(fitting, key=lambda c: (c.base is not None and float(np.max(c.points @ n)) - c.base < FIRM_PROUD,
                                                 front.lateral_score(c.points)))
-        grasp = next((g for g in map(lambda c: _pinch_on(asset, joint, front, c, source, gripper), ranked)
-                      if not g.landing), None) if len(ranked) > 1 else None
-        return (grasp or _pinch_on(asset, joint, front, ranked[0], source, gripper)), None
+        first = None
+        for candidate in ranked:
+            grasp = _pinch_on(asset, joint, front, candidate, source, gripper)
+            first = first or grasp
+            if not grasp.landing or len(ranked) == 1:
+                return grasp, None
+        return first, None
     if widest is not None:
         return None, (f"its handle is {1000 * widest:.0f} mm across, wider than the open gripper "
                       f"({1000 * span:.0f} mm)")
@@ -442,7 +311,7 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
     if blocked is not None:
         link, distance, through = blocked
         what = (asset.links[link].label or link).replace("_", " ")
-        part = _part_name(asset, joint)
+        part = part_name(asset, joint)
         in_front = _moving_part_of(asset, link, joint)
         if through and in_front is not None:  # a closed door before a tray: not the tray's own fault
             grasp.reason = (f"{joint}: the {part} lies behind the {what} ({in_front}), {1000 * distance:.0f} mm in "
@@ -505,7 +374,7 @@ def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig
         lateral = np.array([0.5 * (uv[:, 0].min() + uv[:, 0].max()), np.median(uv[keep, 1])])
     else:
         lateral = 0.5 * (uv.min(0) + uv.max(0))
-    what = _part_name(asset, joint)
+    what = part_name(asset, joint)
     reason = too_wide or (f"no handle, knob, notch or tab on the {what}: nothing stands out of its front for "
                           "a parallel gripper to pull")
     buttons = [j for j in asset.movable_joints() if j.type == "prismatic" and j.name != joint
@@ -516,7 +385,7 @@ def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig
                        has_handle=False, source="face", reason=f"{joint}: {reason}")
 
 
-def _part_name(asset: ArticulatedAsset, joint: str) -> str:
+def part_name(asset: ArticulatedAsset, joint: str) -> str:
     """What to call the part moved by ``joint`` in a message: its link's label, else ``part``."""
     label = asset.links[asset.joints[joint].child].label.replace("_", " ").strip()
     return label or "part"

@@ -166,8 +166,8 @@ def pad_landing(mesh, point: np.ndarray, outward: np.ndarray, closing: np.ndarra
     triangles = np.asarray(mesh.triangles)
     if len(triangles) == 0:
         return 0.0
-    lo, hi = lines.min(0) - np.abs(outward) * span - 1e-6, lines.max(0) + 1e-6
-    lo, hi = np.minimum(lo, lines.min(0) - outward * span), np.maximum(hi, lines.max(0) - outward * span)
+    ends = lines - outward * span  # the rays' box: only triangles meeting it can be hit
+    lo, hi = np.minimum(lines, ends).min(0) - 1e-6, np.maximum(lines, ends).max(0) + 1e-6
     boxed = (triangles.min(1) <= hi).all(1) & (triangles.max(1) >= lo).all(1)
     hit = first_hit(triangles[boxed], lines, -outward, 0.0, span)
     return 0.0 if hit is None else span - hit + LANDING_MARGIN

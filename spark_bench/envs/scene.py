@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset, Joint
-from spark_bench.envs.grasp import GraspTarget, find_grasp
+from spark_bench.envs.grasp import GraspTarget, find_grasp, part_name
 from spark_bench.envs.gripper import GripperConfig, GripperHandles, add_gripper, largest_pull
 from spark_bench.envs.rest_meshes import RestMeshes
 from spark_bench.errors import InputError
@@ -316,19 +316,24 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     return scene
 
 
-#: The drive check (:func:`free_motion`, :func:`stuck_reason`): the control steps a force is applied for
-#: (an episode's), the fraction of the range the part must reach so (the tasks' default success fraction),
-#: and how many times the gripper's largest pull the second drive applies, to tell a part too heavy for the
-#: gripper from one its collision shapes hold.
-FREE_STEPS = 100
+#: The drive check (:func:`free_motion`, :func:`stuck_reason`): the most control steps a force is applied
+#: for (20 s, longer than any episode: the opening score's run 200 steps), the fraction of the range the
+#: part must reach so (the tasks' default success fraction), and how many times the gripper's largest pull
+#: the second drive applies, to tell a part too heavy for the gripper from one its collision shapes hold.
+#: The drive stops earlier once the part stands still: it moved less than :data:`STALL_TOLERANCE` of its
+#: range over the last :data:`STALL_STEPS` control steps (a constant force on a part at rest that it does
+#: not move never will), so the check does not depend on an episode's length.
+FREE_STEPS = 500
 JAM_FRACTION = 0.75
 OVERLOAD = 4.0
+STALL_STEPS = 10
+STALL_TOLERANCE = 1e-3
 
 
 def stuck_reason(scene: Scene) -> str | None:
     """Why no policy of this gripper can open ``scene``'s part, or None: driven directly (no gripper in the
     way) by the largest force the hand can exert (:func:`~spark_bench.envs.gripper.largest_pull`, at the
-    grasp point, for an episode's steps) it does not reach :data:`JAM_FRACTION` of its range. Driven then by
+    grasp point, until it stands still) it does not reach :data:`JAM_FRACTION` of its range. Driven then by
     :data:`OVERLOAD` times that force, it either opens (the part is too heavy for the gripper: its simulated
     mass, damping or friction; or caught on a collision shape that the harder pull forces through) or not
     (its collision shapes hold it: jammed). Sets ``scene.free_fraction``."""
@@ -336,15 +341,14 @@ def stuck_reason(scene: Scene) -> str | None:
     reached = scene.free_fraction = free_motion(scene, pull)
     if reached >= JAM_FRACTION:
         return None
-    seconds = FREE_STEPS * N_SUBSTEPS * TIMESTEP
-    part = scene.asset.links[scene.joint.child].label.replace("_", " ").strip() or "part"
+    part = part_name(scene.asset, scene.joint.name)
     harder = free_motion(scene, OVERLOAD * pull)
     # a part that gives way to a harder pull may be heavy or caught on a shape a harder pull forces: say both
     why = (f"too heavy for the gripper, or caught on its collision shapes (pulled with {OVERLOAD * pull:.0f} N "
            f"it reaches {harder:.2f})"
            if harder >= JAM_FRACTION else f"jammed by its collision shapes (with {OVERLOAD * pull:.0f} N: {harder:.2f})")
     return (f"{scene.joint.name}: the simulated {part} is {why}: driven directly with the gripper's largest pull "
-            f"({pull:.0f} N at the grasp, {seconds:.0f} s, nothing in the way) it reaches {reached:.2f} of its range, "
+            f"({pull:.0f} N at the grasp, nothing in the way) it stops at {reached:.2f} of its range, "
             f"short of {JAM_FRACTION:.2f}")
 
 
@@ -352,7 +356,8 @@ def free_motion(scene: Scene, force: float, steps: int = FREE_STEPS) -> float:
     """The largest fraction of its range ``scene``'s joint reaches when driven directly from rest: a
     generalized force on the joint (``force`` at the grasp point's lever arm for a rotational joint, at
     least 5 cm), the gripper parked at a corner of its workspace, at most ``steps`` control steps (it stops
-    once the part passes :data:`JAM_FRACTION`): a fraction of an episode's physics (no gripper contacts)."""
+    once the part passes :data:`JAM_FRACTION`, or stands still: :data:`STALL_STEPS`): tens of ms, no
+    gripper contacts."""
     model = scene.model
     data = mujoco.MjData(model)
     data.qpos[:] = scene.rest_qpos
@@ -370,10 +375,14 @@ def free_motion(scene: Scene, force: float, steps: int = FREE_STEPS) -> float:
     dof, qadr = model.jnt_dofadr[jid], model.jnt_qposadr[jid]
     rest, span = scene.joint.rest_value, scene.joint.open_value - scene.joint.rest_value
     data.qfrc_applied[dof] = force * lever
-    best = 0.0
+    best, trail = 0.0, []
     for _ in range(steps):
         mujoco.mj_step(model, data, nstep=N_SUBSTEPS)
-        best = max(best, float((data.qpos[qadr] - rest) / span))
-        if best >= JAM_FRACTION or not np.isfinite(best):
+        fraction = float((data.qpos[qadr] - rest) / span)
+        if not np.isfinite(fraction):
+            break
+        best = max(best, fraction)
+        trail = (trail + [fraction])[-(STALL_STEPS + 1):]
+        if best >= JAM_FRACTION or (len(trail) > STALL_STEPS and np.ptp(trail) < STALL_TOLERANCE):
             break
     return best

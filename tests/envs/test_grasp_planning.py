@@ -395,3 +395,26 @@ def test_a_part_too_heavy_for_the_gripper_is_told_from_a_jammed_one():
     reason = stuck_reason(scene)
     assert reason is not None and "too heavy for the gripper" in reason
     assert scene.free_fraction < JAM_FRACTION
+
+
+def test_the_drive_check_turns_a_door_with_the_pull_at_its_grasp_lever_arm():
+    """A door is driven with the hand's largest pull at the grasp point's distance from the hinge: joint
+    friction 0.8 times that torque lets it open, 1.3 times holds it (a unit lever, or none, would tell
+    these apart wrongly: the cabinet's grasp is well under 1 m from the hinge), and a held part stops the
+    drive early (it stands still) whatever the step limit."""
+    from spark_bench.envs.gripper import largest_pull
+    from spark_bench.envs.scene import JAM_FRACTION, build_scene, free_motion
+
+    scene = build_scene(procedural_cabinet(0), "revolute", "joint_1", visuals=False)
+    pivot, axis = scene.asset.joint_frames()["joint_1"]
+    r = scene.grasp.point - pivot
+    lever = float(np.linalg.norm(r - (r @ axis) * axis))
+    assert 0.1 < lever < 0.8
+    pull = largest_pull(scene.gripper.config)
+    dof = scene.model.jnt_dofadr[scene.model.joint("joint_1").id]
+    scene.model.dof_frictionloss[dof] = 0.8 * pull * lever
+    assert free_motion(scene, pull) >= JAM_FRACTION
+    scene.model.dof_frictionloss[dof] = 1.3 * pull * lever
+    held = free_motion(scene, pull)
+    assert held < 0.05
+    assert free_motion(scene, pull, steps=10_000) == pytest.approx(held, abs=1e-3)  # stopped once still
