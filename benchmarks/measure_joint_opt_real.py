@@ -20,7 +20,6 @@ Writes ``benchmarks/results/joint_opt_speed_partnet_dev.md``.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -30,7 +29,7 @@ import numpy as np
 from rich.console import Console
 
 sys.path.insert(0, str(Path(__file__).parent))
-from measure_joint_opt import VARIANTS, case_dirs, run_tasks, write_result  # noqa: E402
+from measure_joint_opt import VARIANTS, cached_results, case_dirs, run_tasks, write_result  # noqa: E402
 
 #: Where the shared development objects are, relative to the repository.
 SOURCE = Path(__file__).resolve().parents[1].parent / "shared" / "partnet_dev"
@@ -56,19 +55,6 @@ def prepared(bench: str | None, console: Console) -> Path:
 def _stats(values) -> str:
     values = np.asarray(values, float)
     return f"median {np.median(values):.1f}, mean {values.mean():.1f}, max {values.max():.1f}"
-
-
-def cached_rows(tasks: list[tuple], console: Console) -> dict[tuple, dict]:
-    """The rows already under ``--work`` for ``tasks``, whatever code produced them (``--cached``: a report
-    of a run whose sources have changed since; each row names its ``code`` version)."""
-    out = {}
-    for key, _, folder, *_ in tasks:
-        path = Path(folder) / "table4.json"
-        if path.is_file():
-            out[key] = json.loads(path.read_text())
-        else:
-            console.print(f"{key}: no cached run at {path}")
-    return out
 
 
 def per_object_lines(results: dict, methods: list[str]) -> list[str]:
@@ -111,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     work = Path(args.work).expanduser() / bench.name
     tasks = [((m, 0, c.name), str(c), str(work / m / c.name), list(VARIANTS[m]), 0, False)
              for m in methods for c in cases]
-    results = cached_rows(tasks, console) if args.cached else run_tasks(tasks, args.jobs, console)
+    results = cached_results(tasks, console) if args.cached else run_tasks(tasks, args.jobs, console)
     codes = sorted({r["code"] for r in results.values()})
     subset = "" if not args.ids else f" (a subset: {' '.join(c.name for c in cases)})"
     lines = [f"# Seconds per real object: SPARK's joint optimization on {bench.name}", "",

@@ -9,7 +9,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 from spark_bench import CONVENTION_VERSION
-from spark_bench.evaluation.aggregate import by_part_class
+from spark_bench.evaluation.aggregate import RL_RATES, by_part_class
 from spark_bench.metrics.names import (
     ARTICULATION_KEYS,
     HEADLINE_KEYS,
@@ -22,7 +22,7 @@ from spark_bench.metrics.names import (
 #: Regimes listed but not ranked: they see the answer.
 REFERENCE_REGIMES = ("ground truth",)
 #: The RL transfer columns (``eval --rl``), shown after the scripted opener's when any entry has them.
-RL_KEYS = ("rl_success_rate", "rl_zero_shot_success_rate")
+RL_KEYS = tuple(RL_RATES)
 #: Table headers by metric key: the label and an arrow saying which way is better.
 HEADERS = {key: header(key) for key in HEADLINE_KEYS}
 LATEX_HEADERS = {key: header(key, r"$\uparrow$", r"$\downarrow$") for key in HEADLINE_KEYS}
