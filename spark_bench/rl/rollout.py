@@ -46,31 +46,44 @@ class RolloutStats:
         return asdict(self)
 
 
-def run_episodes(env: gym.Env, policy, episodes: int, seed: int = 0, frames: list | None = None
-                 ) -> RolloutStats:
-    """Run ``policy`` for ``episodes`` full episodes (until the time limit) with seeds ``seed + i``.
+def run_episode(env: gym.Env, policy, seed: int, max_steps: int | None = None, stop_on_success: bool = False,
+                frames: list | None = None, frame_every: int = 1) -> dict:
+    """One episode of ``policy`` (``reset(env)``, ``__call__(obs)``) in ``env``.
+
+    :param max_steps: at most this many steps (None: until the environment's time limit)
+    :param stop_on_success: end as soon as the joint passes the target
+    :param frames: if given, rendered frames are appended (before steps 0, ``frame_every``, ...)
+    :param frame_every: render one step in this many
+    :returns: ``{"success", "max_fraction", "steps", "return"}``
+    """
+    obs, _ = env.reset(seed=int(seed))
+    policy.reset(env)
+    best, success, total, steps, done = env.unwrapped.joint_fraction, False, 0.0, 0, False
+    while not done and (max_steps is None or steps < max_steps):
+        if frames is not None and steps % max(1, int(frame_every)) == 0:
+            frames.append(env.render())
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        steps += 1
+        total += float(reward)
+        best = max(best, env.unwrapped.joint_fraction)
+        success = success or bool(info.get("is_success", False))
+        done = terminated or truncated or (success and stop_on_success)
+    return {"success": bool(success), "max_fraction": float(best), "steps": int(steps), "return": total}
+
+
+def run_episodes(env: gym.Env, policy, episodes: int, seed: int = 0, frames: list | None = None,
+                 max_steps: int | None = None, stop_on_success: bool = False) -> RolloutStats:
+    """Run ``policy`` for ``episodes`` episodes of :func:`run_episode` with seeds ``seed + i`` (by default
+    each until the time limit).
 
     :param frames: if given, rendered frames are appended (the environment must render ``rgb_array``)
     """
-    successes, returns, fractions = [], [], []
-    for episode in range(episodes):
-        obs, _ = env.reset(seed=seed + episode)
-        policy.reset(env)
-        done, total, success, best = False, 0.0, False, 0.0
-        while not done:
-            if frames is not None:
-                frames.append(env.render())
-            obs, reward, terminated, truncated, info = env.step(policy(obs))
-            total += float(reward)
-            success = success or bool(info.get("is_success", False))
-            best = max(best, env.unwrapped.joint_fraction)
-            done = terminated or truncated
-        successes.append(success)
-        returns.append(total)
-        fractions.append(best)
-    return RolloutStats(success_rate=float(np.mean(successes)), episodes=episodes,
-                        mean_return=float(np.mean(returns)), mean_max_fraction=float(np.mean(fractions)),
-                        successes=successes, returns=returns)
+    runs = [run_episode(env, policy, seed + episode, max_steps, stop_on_success, frames)
+            for episode in range(episodes)]
+    return RolloutStats(success_rate=float(np.mean([r["success"] for r in runs])), episodes=episodes,
+                        mean_return=float(np.mean([r["return"] for r in runs])),
+                        mean_max_fraction=float(np.mean([r["max_fraction"] for r in runs])),
+                        successes=[r["success"] for r in runs], returns=[r["return"] for r in runs])
 
 
 def write_video(frames: list[np.ndarray], path: str | Path, fps: int) -> Path:

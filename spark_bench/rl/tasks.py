@@ -14,6 +14,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
+import spark_bench.rl.rollout as rollout
 from spark_bench.errors import InputError
 from spark_bench.rl.generalist import EPISODE_STEPS, KIND_OF_TYPE, GraspFrameWrapper, make_task_env
 
@@ -146,34 +147,14 @@ def build_tasks(tasks: list[Task], max_episode_steps: int = EPISODE_STEPS, progr
 
 def run_episode(env: gym.Env, policy, seed: int, max_steps: int = EPISODE_STEPS, stop_on_success: bool = True,
                 frames: list | None = None, frame_every: int = 1) -> dict:
-    """One episode of ``policy`` (``reset(env)``, ``__call__(obs)``) in ``env``.
-
-    :param stop_on_success: end as soon as the joint passes the target
-    :param frames: if given, rendered frames are appended (before steps 0, ``frame_every``, ...)
-    :param frame_every: render one step in this many
-    :returns: ``{"success", "max_fraction", "steps", "return"}``
-    """
-    obs, _ = env.reset(seed=int(seed))
-    policy.reset(env)
-    best, success, total, steps = env.unwrapped.joint_fraction, False, 0.0, 0
-    for steps in range(1, max_steps + 1):  # noqa: B007  (steps is reported)
-        if frames is not None and (steps - 1) % max(1, int(frame_every)) == 0:
-            frames.append(env.render())
-        obs, reward, terminated, truncated, info = env.step(policy(obs))
-        total += float(reward)
-        best = max(best, env.unwrapped.joint_fraction)
-        success = success or bool(info.get("is_success", False))
-        if terminated or truncated or (success and stop_on_success):
-            break
-    return {"success": bool(success), "max_fraction": float(best), "steps": int(steps), "return": total}
+    """:func:`spark_bench.rl.rollout.run_episode` with the tasks' defaults: at most :data:`EPISODE_STEPS`
+    steps, ended at success."""
+    return rollout.run_episode(env, policy, seed, max_steps, stop_on_success, frames, frame_every)
 
 
-def run_episodes(env: gym.Env, policy, episodes: int, seed: int) -> dict:
-    """``episodes`` episodes of :func:`run_episode` (seeds ``seed + k``): ``{"success", "max_fraction"}``,
-    each the mean over them."""
-    runs = [run_episode(env, policy, seed + k) for k in range(episodes)]
-    return {"success": float(np.mean([r["success"] for r in runs])),
-            "max_fraction": float(np.mean([r["max_fraction"] for r in runs]))}
+def run_episodes(env: gym.Env, policy, episodes: int, seed: int) -> rollout.RolloutStats:
+    """``episodes`` episodes of :func:`run_episode` (seeds ``seed + k``)."""
+    return rollout.run_episodes(env, policy, episodes, seed, max_steps=EPISODE_STEPS, stop_on_success=True)
 
 
 class ModelActor:
@@ -214,7 +195,7 @@ def _score(built, actor_of, episodes, seed, progress, what) -> list[dict]:
         runs = run_episodes(env, actor, episodes, seed)
         rows.append({"task": bt.task.name, "kind": bt.task.kind, "category": bt.task.category, "part": bt.part,
                      "grasp": bt.grasp, "reason": bt.reason, "asset": bt.asset,
-                     "success_rate": runs["success"], "max_fraction": runs["max_fraction"]})
+                     "success_rate": runs.success_rate, "max_fraction": runs.mean_max_fraction})
     return rows
 
 

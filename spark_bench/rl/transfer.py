@@ -121,14 +121,14 @@ def _score_joint(row: dict, name: str, gt_folder: Path, zero, tuned, skipped: di
         row["reason"] = grasp.reason
     try:
         first = run_episodes(env, zero, episodes, seed)
-        row.update(zero_shot=first["success"], zero_shot_max_fraction=first["max_fraction"])
+        row.update(zero_shot=first.success_rate, zero_shot_max_fraction=first.mean_max_fraction)
         if tuned is None:
             row["why"] = "the prediction gives no opening task to fine-tune on"
             return
         if row["pred_joint"] in skipped:
             row["note"] = f"fine-tuned without this joint: {skipped[row['pred_joint']]}"
         second = first if tuned is zero else run_episodes(env, tuned, episodes, seed)
-        row.update(success=second["success"], max_fraction=second["max_fraction"])
+        row.update(success=second.success_rate, max_fraction=second.mean_max_fraction)
     finally:
         env.close()
 
