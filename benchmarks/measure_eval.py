@@ -108,9 +108,10 @@ def measure_rl(args, cores: list[int]) -> int:
 
     from spark_bench.data import load_object
     from spark_bench.data.case import Benchmark
-    from spark_bench.evaluation.runner import RL_FINETUNE_STEPS, EvalOptions, resolve_bench, run_eval
+    from spark_bench.evaluation.runner import EvalOptions, resolve_bench, run_eval
     from spark_bench.evaluation.store import ResultsStore
     from spark_bench.methods.base import MethodSpec
+    from spark_bench.rl import FINETUNE_STEPS
     from spark_bench.rl.tasks import TASK_KIND
 
     name, folder = resolve_bench(args.bench)
@@ -121,7 +122,7 @@ def measure_rl(args, cores: list[int]) -> int:
                     for j in load_object(bench.case(c).gt_dir, load_meshes=False).movable_joints())]
     cases = every[:: max(1, len(every) // args.rl)][: args.rl]
     cases += [c for c in args.rl_cases.split(",") if c and c not in cases] if args.rl_cases else []
-    settings = args.finetune_steps if args.finetune_steps else [0, RL_FINETUNE_STEPS]
+    settings = args.finetune_steps if args.finetune_steps else [0, FINETUNE_STEPS]
     rows = []
     with tempfile.TemporaryDirectory(prefix="bench_rl_") as tmp:
         for steps in settings:

@@ -33,11 +33,10 @@ from spark_bench.jsonio import plain, to_json_text
 from spark_bench.methods.base import GENERATION_MARKER, CaseInput, Generation, MethodSpec
 from spark_bench.methods.registry import make_method
 from spark_bench.metrics.names import METRIC_COLUMNS
+from spark_bench.rl import FINETUNE_STEPS
 
 DEFAULT_BENCH = "synth-v1"
-#: Fine-tuning steps of the RL transfer score per policy kind (``eval --rl``; measured by
-#: ``benchmarks/measure_eval.py``) and the episode video kept beside each case's fine-tuned policies.
-RL_FINETUNE_STEPS = 1024
+#: The episode video kept beside each case's fine-tuned policies (``eval --rl``).
 RL_VIDEO = "episode.gif"
 
 
@@ -59,7 +58,7 @@ class EvalOptions:
     n_samples: int = 100_000
     seed: int = 0
     align: str = "none"
-    rl_finetune_steps: int = RL_FINETUNE_STEPS
+    rl_finetune_steps: int = FINETUNE_STEPS
 
     def identity(self) -> dict:
         out = asdict(self)

@@ -19,6 +19,11 @@ from __future__ import annotations
 
 from spark_bench.lazy import lazy_exports
 
+#: Default fine-tuning budget of the RL transfer score (``eval --rl``): environment steps per policy kind,
+#: measured by ``benchmarks/measure_eval.py --rl``. Here, not in :mod:`spark_bench.rl.transfer`, so that
+#: the evaluation's options read it without importing torch.
+FINETUNE_STEPS = 1024
+
 _EXPORTS = {
     "OpenResult": "spark_bench.rl.scripted",
     "ScriptedOpener": "spark_bench.rl.scripted",

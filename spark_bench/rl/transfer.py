@@ -36,6 +36,7 @@ import numpy as np
 
 from spark_bench.data.case import ground_truth_in_metres, prediction_to_gt_world
 from spark_bench.errors import InputError
+from spark_bench.rl import FINETUNE_STEPS
 from spark_bench.rl.generalist import (
     FRAME_NOISE,
     KIND_OF_TYPE,
@@ -48,8 +49,7 @@ from spark_bench.rl.generalist import (
 )
 from spark_bench.rl.tasks import TASK_KIND, holdable, run_episode, run_episodes
 
-#: Default fine-tuning budget (environment steps per policy kind) and episodes per ground-truth joint.
-FINETUNE_STEPS = 1024
+#: Episodes per ground-truth joint (the fine-tuning budget is :data:`spark_bench.rl.FINETUNE_STEPS`).
 EPISODES = 1
 #: Episode videos (``video``): frame size (width, height) and one control step kept in this many.
 VIDEO_SIZE = (240, 180)
