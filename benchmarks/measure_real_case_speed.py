@@ -46,7 +46,8 @@ def _cpu() -> tuple[float, float]:
 
 
 def _stage(fn) -> tuple[object, dict]:
-    """Run ``fn``; its result and ``{"wall_s", "cpu_s", "coacd_cpu_s"}`` (CPU of this process + its workers)."""
+    """Run ``fn``; its result and ``{"wall_s", "cpu_s", "workers_cpu_s"}`` (CPU of this process + its
+    finished worker processes, and of the workers alone)."""
     own0, kids0 = _cpu()
     start = time.perf_counter()
     result = fn()

@@ -108,6 +108,16 @@ def normalization(asset: ArticulatedAsset, q=None) -> tuple[np.ndarray, float]:
     return bounds.mean(0), 2.0 / extent
 
 
+def to_benchmark_frame(asset: ArticulatedAsset, center, scale: float, copy: bool = True) -> ArticulatedAsset:
+    """``asset`` mapped by ``p_bench = (p_world - center) * scale`` (:func:`normalization`'s map).
+
+    :param copy: False maps ``asset`` itself (a caller that owns it saves a deep copy of every mesh)
+    """
+    shift = np.eye(4)
+    shift[:3, 3] = -np.asarray(center, dtype=float)
+    return _scale_in_place(_move_in_place(asset.copy() if copy else asset, shift), float(scale))
+
+
 def normalize_asset(asset: ArticulatedAsset, copy: bool = True) -> tuple[ArticulatedAsset, np.ndarray, float]:
     """The asset in the benchmark frame (DESIGN.md): rest pose, box centered at 0, fitting [-1, 1]^3.
 
@@ -117,8 +127,6 @@ def normalize_asset(asset: ArticulatedAsset, copy: bool = True) -> tuple[Articul
     :returns: ``(normalized asset, center, scale)`` with ``p_bench = (p_world - center) * scale``
     """
     center, scale = normalization(asset)
-    shift = np.eye(4)
-    shift[:3, 3] = -center
-    out = _scale_in_place(_move_in_place(asset.copy() if copy else asset, shift), scale)
+    out = to_benchmark_frame(asset, center, scale, copy=copy)
     out.meta = {**out.meta, "normalization": {"center": center.tolist(), "scale": scale}}
     return out, center, scale

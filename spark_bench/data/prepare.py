@@ -179,7 +179,7 @@ def source_render_asset(source: ArticulatedAsset, center: np.ndarray, scale: flo
     """The source asset as :func:`ground_truth_asset` colours it, one merged mesh per link, not remeshed,
     moved into the benchmark frame by the ground truth's normalization (``p = (p_world - center) * scale``).
     """
-    from spark_bench.asset.ops import scale_asset, translate_asset
+    from spark_bench.asset.ops import to_benchmark_frame
 
     out = _copy_without_visuals(source)
     for name, link in out.links.items():
@@ -187,7 +187,7 @@ def source_render_asset(source: ArticulatedAsset, center: np.ndarray, scale: flo
         merged = original.merged_mesh() if original.has_geometry else None
         link.visuals = [Visual(mesh=merged, rgba=link_color(original))] if merged is not None else []
         link.collisions = []
-    return scale_asset(translate_asset(out, -np.asarray(center, dtype=float)), float(scale))
+    return to_benchmark_frame(out, center, scale, copy=False)  # out is this function's own
 
 
 def _joint_label(asset: ArticulatedAsset, joint_name: str) -> str:

@@ -4,9 +4,9 @@ A decomposition is keyed by the SHA-256 of the mesh (vertices relative to their 
 and in units of its largest extent, rounded to 1e-9, and faces) and of every CoACD parameter, so the
 same part decomposes once: on a second conversion, for identical parts at different places (the four
 handles of a cabinet), and for the same part at another scale (a benchmark case's ground truth in the
-benchmark frame, which the sim checks convert, and in metres, which the opener converts). CoACD
-normalizes its input to a unit box and its parameters are relative, so its hulls scale with the mesh
-(the same normalized output at scales 0.013, 1 and 7.3: ``tests/sim/test_scale_cache.py``). Results
+benchmark frame, which the sim checks convert, and in metres, which the opener converts). CoACD runs
+on the normalized mesh (:func:`normalized`), so a key's hulls, placed back by each mesh's own frame,
+do not depend on which copy was decomposed first (``tests/sim/test_scale_cache.py``). Results
 are stored normalized as ``<cache>/coacd/<key[:2]>/<key>.npz`` and written atomically, so concurrent
 conversions share one cache safely.
 

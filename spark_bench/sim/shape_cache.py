@@ -75,7 +75,7 @@ def _path(cache: Path, key: str) -> Path:
     return entry_path(Path(cache) / "links", key)
 
 
-def store_shapes(cache: Path, key: str, shapes: Sequence[CollisionShape], size: float = 1.0) -> None:
+def store_shapes(cache: Path, key: str, shapes: Sequence[CollisionShape], size: float) -> None:
     """Write ``shapes`` under ``key`` (atomically), in units of ``size`` (the object's)."""
     arrays: dict[str, np.ndarray] = {"methods": np.array(json.dumps([s.method for s in shapes]))}
     for k, shape in enumerate(scaled(s, 1.0 / size) for s in shapes):
@@ -88,7 +88,7 @@ def store_shapes(cache: Path, key: str, shapes: Sequence[CollisionShape], size: 
     atomic_savez(_path(cache, key), arrays)
 
 
-def load_shapes(cache: Path, key: str, size: float = 1.0) -> list[CollisionShape] | None:
+def load_shapes(cache: Path, key: str, size: float) -> list[CollisionShape] | None:
     """Shapes stored under ``key`` (scaled back by ``size``, the object's), or None when absent or unreadable."""
     shapes = load_npz(_path(cache, key), _unpack_shapes)
     return None if shapes is None else [scaled(s, size) for s in shapes]
@@ -111,7 +111,7 @@ def object_key(prepared) -> str:
     units of the object's size: the decisions are relative to it), and the options that decide
     exclusions and relief. The ``contacts-N`` tag is bumped whenever the rules (rest overlaps, hinge
     relief, phantom blockings) change."""
-    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-8".encode())
+    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-10".encode())
     options = prepared.options
     size = prepared.size
     digest.update(json.dumps([options.exclude_overlap, options.clearance, list(options.base_quat)]).encode())
@@ -145,7 +145,7 @@ def store_contacts(cache: Path, key: str, prepared) -> None:
     atomic_write_text(entry_path(Path(cache) / "objects", key, ".json"), json.dumps(entry))
 
 
-def load_contacts(cache: Path, key: str, size: float = 1.0):
+def load_contacts(cache: Path, key: str, size: float):
     """``(shapes, excluded, relief, phantom)`` stored under ``key``, scaled back by ``size`` (the
     object's), or None."""
     from spark_bench.sim.phantom import PhantomBlock

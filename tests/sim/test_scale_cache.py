@@ -35,7 +35,8 @@ def _normalized(hulls) -> np.ndarray:
 
 
 def test_coacd_hulls_scale_with_the_mesh():
-    # what makes a scale-invariant key right: CoACD normalizes its input, its parameters are relative
+    # decompose_many feeds CoACD the normalized mesh (rounded to 2^-30), so a scaled copy's hulls are the
+    # same hulls, scaled: what makes a scale-invariant key right
     ell = _l_shape()
     small, large = (decompose_many([(ell.vertices * s, ell.faces)], PARAMS, cache=None, workers=1)[0]
                     for s in (0.013, 7.3))
