@@ -13,7 +13,7 @@ robot acts on the object at its real size: a case's ground truth is stored in th
 ([-1, 1]^3), so it is scaled back to metres (:meth:`~spark_bench.data.case.BenchmarkCase.to_metres`).
 The predicted axis line is carried from the prediction's frame into the ground truth's: prediction world
 -> its benchmark frame (-> the ICP alignment, when the metrics aligned) -> ground-truth world -> metres.
-An unmatched joint counts as not opened. Continuous joints (knobs, caps) have no opening task and are
+A joint that is a test but was not matched counts as not opened. Continuous joints (knobs, caps) have no opening task and are
 left out.
 
 What it uses of other packages is their public face: :class:`~spark_bench.data.case.BenchmarkCase` and
@@ -93,29 +93,31 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
         if reason is not None:
             joints[joint.name] = {"success": None, "reason": reason}
             continue
-        pred_name = matched.get(joint.name)
-        if pred_name is None:
-            joints[joint.name] = {"success": False, "why": "no matched predicted joint"}
-            continue
-        axis, pivot, pred_type = axes[pred_name]
-        if pred_type not in ("prismatic", "revolute", "continuous"):
-            joints[joint.name] = {"success": False, "why": f"predicted joint is {pred_type}"}
-            continue
         try:
             env = make_env(env_id, asset=gt, joint=joint.name, max_episode_steps=max_steps)
         except InputError as exc:  # no task for this joint (the model does not compile...): not the method's fault
             joints[joint.name] = {"success": None, "reason": f"no opening task: {' '.join(str(exc).split())[:200]}"}
             continue
-        stuck = env.unwrapped.scene.grasp.reason  # no pull of the gripper opens it (too heavy, jammed): no test
-        if stuck is not None:
-            joints[joint.name] = {"success": None, "reason": stuck}
-            env.close()
-            continue
+        # whether the joint is a test at all comes first, for every method alike: a part no pull of the
+        # gripper opens (too heavy, jammed), or one the opener cannot open knowing the joint, is left out
+        # whether or not the prediction matched it
         try:
+            stuck = env.unwrapped.scene.grasp.reason
+            if stuck is not None:
+                joints[joint.name] = {"success": None, "reason": stuck}
+                continue
             reference = open_with_ground_truth(env, seed=seed, max_steps=max_steps)
-            if not reference.success:  # the opener cannot open it even knowing the joint: no test
+            if not reference.success:
                 joints[joint.name] = {"success": None, "reason": "the scripted opener fails with the ground-truth "
                                       f"joint too (max fraction {reference.max_fraction:.2f})"}
+                continue
+            pred_name = matched.get(joint.name)
+            if pred_name is None:
+                joints[joint.name] = {"success": False, "why": "no matched predicted joint"}
+                continue
+            axis, pivot, pred_type = axes[pred_name]
+            if pred_type not in ("prismatic", "revolute", "continuous"):
+                joints[joint.name] = {"success": False, "why": f"predicted joint is {pred_type}"}
                 continue
             result = open_with_joint(env, axis, pivot, pred_type, seed=seed, max_steps=max_steps)
         finally:

@@ -80,6 +80,30 @@ def test_unmatched_joint_counts_as_not_opened(gt_dir):
     assert result["success_rate"] == pytest.approx(1 - 1 / len(result["joints"]))
 
 
+def test_a_jammed_part_is_left_out_whether_or_not_the_prediction_matched_it(tmp_path):
+    """A drawer its collision shapes jam (a stop 15 mm before its front, as in the envs' test) opens for no
+    one: left out with the scene's reason, for a prediction that matched it and for one that did not; an
+    unmatched joint that can be opened still counts as not opened."""
+    from spark_bench.asset.model import Collision, Joint, Link
+
+    asset = procedural_cabinet(0)
+    pose = asset.link_poses()["link_0"]
+    front = pose[:3, :3] @ np.array([0.0, -0.25, -0.1]) + pose[:3, 3]
+    stop = np.eye(4)
+    stop[:3, 3] = np.linalg.inv(asset.link_poses()["base"])[:3] @ np.append(front + (-0.015, 0.0, 0.0), 1.0)
+    asset.links["stop"] = Link(name="stop", visuals=[], label="stop",
+                               collisions=[Collision(kind="box", origin=np.eye(4), size=np.array([0.01, 0.04, 0.02]))])
+    asset.joints["stop_joint"] = Joint("stop_joint", "fixed", "base", "stop", origin=stop)
+    gt_dir = BenchmarkCase(write_case(tmp_path / "bench", "jam0", asset)).gt_dir
+    gt = load_object(gt_dir)
+    matched = open_with_predicted_joints(gt_dir, gt_dir, identity_matching(gt))["joints"]
+    unmatched = open_with_predicted_joints(gt_dir, gt_dir, {"matching": []})["joints"]
+    for joints in (matched, unmatched):
+        assert joints["joint_0"]["success"] is None and "jammed" in joints["joint_0"]["reason"]
+    assert matched["joint_1"]["success"] is True
+    assert unmatched["joint_1"] == {"success": False, "why": "no matched predicted joint"}
+
+
 def test_bad_normalization_is_a_clear_error(case_dir, tmp_path):
     import shutil
 
@@ -123,7 +147,7 @@ def test_the_oracle_ground_truth_is_loaded_once(gt_dir, tmp_path, monkeypatch):
 
     monkeypatch.setattr(data, "load_object", counting_load)  # both names the loader goes by
     monkeypatch.setattr(readers, "load_object", counting_load)
-    no_matching = {"matching": []}  # every joint unmatched: no episode runs, only the loads and the planner
+    no_matching = {"matching": []}  # every joint unmatched: only the ground truth's own episodes run
     same = open_with_predicted_joints(gt_dir, gt_dir, no_matching)
     assert len(loaded) == 1
     loaded.clear()
