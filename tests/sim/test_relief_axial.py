@@ -18,15 +18,20 @@ def _lever_on_base(sink: float) -> ArticulatedAsset:
     """A 40 x 40 x 20 cm base and a 30 x 4 x 3 cm lever on top of it, turning 90 degrees about the
     vertical axis through the base's centre (a faucet lever); the lever's bottom is ``sink`` metres
     below the base's top (PartNet-Mobility meshes meet like this, a fraction of a millimetre off)."""
-    base_link = Link("body", visuals=[box_visual((0.40, 0.40, 0.20), (0.0, 0.0, 0.10))], label="base")
-    lever = Link("lever", visuals=[box_visual((0.30, 0.04, 0.03), (0.10, 0.0, 0.215 - sink))], label="lever")
-    joints = {
-        "root": Joint("root", "fixed", "base", "body"),
-        "joint_lever": Joint("joint_lever", "revolute", "body", "lever", axis=np.array([0.0, 0.0, 1.0]),
-                             lower=0.0, upper=np.pi / 2),
-    }
-    links = {link.name: link for link in (Link("base"), base_link, lever)}
-    return ArticulatedAsset("lever_on_base", links, joints, category="Faucet")
+    return _turning_on_body("lever_on_base", "Faucet", [box_visual((0.40, 0.40, 0.20), (0.0, 0.0, 0.10))],
+                            Link("lever", visuals=[box_visual((0.30, 0.04, 0.03), (0.10, 0.0, 0.215 - sink))],
+                                 label="lever"))
+
+
+def _turning_on_body(name: str, category: str, body_visuals: list, part: Link) -> ArticulatedAsset:
+    """A fixed body of ``body_visuals`` and ``part`` on it, turning 90 degrees about the vertical axis
+    through the origin (joint ``joint_<part name>``)."""
+    joint = f"joint_{part.name}"
+    joints = {"root": Joint("root", "fixed", "base", "body"),
+              joint: Joint(joint, "revolute", "body", part.name, axis=np.array([0.0, 0.0, 1.0]),
+                           lower=0.0, upper=np.pi / 2)}
+    links = {link.name: link for link in (Link("base"), Link("body", visuals=body_visuals, label="base"), part)}
+    return ArticulatedAsset(name, links, joints, category=category)
 
 
 def test_lever_sunk_into_its_base_turns_after_relief(isolated_home, monkeypatch):
@@ -57,16 +62,10 @@ def test_lever_clear_of_its_base_needs_no_relief(isolated_home):
 def _door_over_sill(sill_top: float) -> ArticulatedAsset:
     """A 40 x 2 x 50 cm door 3 cm above a floor plate, hinged on a vertical axis at its edge, and a sill
     ``sill_top`` high in its path (the door's bottom meets it from 36 % of its 90 degree range)."""
-    body = Link("body", visuals=[box_visual((0.6, 0.6, 0.02), (0.2, 0.2, -0.01)),
-                                 box_visual((0.2, 0.1, sill_top), (0.2, 0.25, sill_top / 2))], label="base")
-    door = Link("door", visuals=[box_visual((0.40, 0.02, 0.50), (0.2, 0.0, 0.28))], label="door")
-    joints = {
-        "root": Joint("root", "fixed", "base", "body"),
-        "joint_door": Joint("joint_door", "revolute", "body", "door", axis=np.array([0.0, 0.0, 1.0]),
-                            lower=0.0, upper=np.pi / 2),
-    }
-    links = {link.name: link for link in (Link("base"), body, door)}
-    return ArticulatedAsset("door_over_sill", links, joints, category="StorageFurniture")
+    return _turning_on_body("door_over_sill", "StorageFurniture",
+                            [box_visual((0.6, 0.6, 0.02), (0.2, 0.2, -0.01)),
+                             box_visual((0.2, 0.1, sill_top), (0.2, 0.25, sill_top / 2))],
+                            Link("door", visuals=[box_visual((0.40, 0.02, 0.50), (0.2, 0.0, 0.28))], label="door"))
 
 
 def test_door_swinging_into_a_low_sill_stays_blocked(isolated_home):
