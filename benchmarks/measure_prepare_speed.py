@@ -11,16 +11,17 @@ truth each wrote (every file under the case's ``gt`` folder) is compared byte fo
 CPU seconds are the number to compare on a shared machine: wall seconds depend on what else runs
 (the script says how loaded the machine was). Writes ``benchmarks/results/prepare_speed.md``.
 
-With ``--render-mesh source`` the checkout's run renders from the source meshes
-(:class:`~spark_bench.data.prepare.PrepareOptions`); the script then also measures how its images
-differ from the baseline's (whose renders are of the watertight ground truth): foreground-mask IoU,
-per-pixel part-label agreement and mean absolute RGB difference (0-255) of each rendered state.
+The checkout's run renders from the source meshes (the default of
+:class:`~spark_bench.data.prepare.PrepareOptions`, as SPARK renders; ``--render-mesh watertight`` for the
+remesh); the script also measures how its images differ from the baseline's (whose renders are of the
+watertight ground truth): foreground-mask IoU, per-pixel part-label agreement and mean absolute RGB
+difference (0-255) of each rendered state.
 
 The checkout's ``prepare_case`` runs with one BLAS thread; ``--baseline-blas-threads 1`` gives the
 baseline the same, to separate that from the rest of the speed-up.
 
 Run: ``nice -n 10 python benchmarks/measure_prepare_speed.py [--ids 47645 7179] [--baseline REV]
-[--render-mesh source] [--baseline-blas-threads 1] [--src FOLDER_OF_OBJECTS]``.
+[--render-mesh watertight] [--baseline-blas-threads 1] [--src FOLDER_OF_OBJECTS]``.
 """
 
 from __future__ import annotations
@@ -161,6 +162,7 @@ def main(argv=None) -> int:
                   f"render IoU {min(d['iou'] for d in row['renders'].values()):.4f}",
                   flush=True)
     load_after = os.getloadavg()[0]
+    from spark_bench.data.prepare import RENDER_MESHES
     stages = sorted({k for r in rows for k in r["now"]["stage_cpu"]})
     total_before = sum(r["before"]["cpu"] for r in rows)
     total_now = sum(r["now"]["cpu"] for r in rows)
@@ -174,7 +176,7 @@ def main(argv=None) -> int:
              f"({os.cpu_count()} cores) was shared with other work: load average {load_before:.1f} before, "
              f"{load_after:.1f} after, so wall seconds are inflated and only the CPU seconds compare. "
              f"Objects: `{args.src}`; the checkout renders from the "
-             f"`{args.render_mesh or 'default (watertight)'}` meshes. Renders: IoU of the foreground masks, "
+             f"`{args.render_mesh or 'default (' + RENDER_MESHES[0] + ')'}` meshes. Renders: IoU of the foreground masks, "
              f"share of pixels with the same part label, mean absolute RGB difference (0-255), now against "
              f"before, input/open state.", "",
              "| object | CPU s before | CPU s now | ratio | wall s before | wall s now | ground truth "

@@ -35,6 +35,7 @@ from spark_bench.asset.model import (
     Link,
     Visual,
 )
+from spark_bench.asset.obj_text import face_lines, vertex_lines
 from spark_bench.asset.transforms import transform_points
 from spark_bench.errors import InputError
 
@@ -363,12 +364,10 @@ def write_obj(path: Path, mesh: trimesh.Trimesh, rgba=None, material_name: str =
         mtl.write_text(f"newmtl {material_name}\nKd {_fmt(r)} {_fmt(g)} {_fmt(b)}\nKa 0 0 0\nKs 0.1 0.1 0.1\n"
                        f"d {_fmt(alpha)}\nillum 2\n")
         lines += [f"mtllib {mtl.name}", f"usemtl {material_name}"]
-    vertices, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces)
-    # one %-format call per block, not one f-string per number: the same text (``%.9g`` is
-    # :func:`_fmt`'s format) in a third of the time, which counted for R=200 remeshed parts
-    path.write_text("\n".join(lines) + "\n"
-                    + ("v %.9g %.9g %.9g\n" * len(vertices)) % tuple(vertices.ravel().tolist())
-                    + ("f %d %d %d\n" * len(faces)) % tuple((faces + 1).ravel().tolist()))
+    with open(path, "wb") as handle:
+        handle.write(("\n".join(lines) + "\n").encode())
+        handle.write(vertex_lines(np.asarray(mesh.vertices)))
+        handle.write(face_lines(np.asarray(mesh.faces)))
 
 
 def _y_geometry_of(col: Collision, mesh_file: str | None):

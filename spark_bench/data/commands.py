@@ -58,9 +58,10 @@ def _add_prepare_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--resolution", type=int, default=None,
                         help="watertight remesh voxels along a part's largest axis (default 200, as SPARK)")
     parser.add_argument("--seed", type=int, default=None, help="base seed of the camera views (default 0)")
-    parser.add_argument("--render-mesh", choices=("watertight", "source"), default=None,
-                        help="render the images from the watertight ground truth (default) or from the "
-                             "source meshes (faster scene build, same ground truth, slightly other images)")
+    parser.add_argument("--render-mesh", choices=("source", "watertight"), default=None,
+                        help="render the images from the source meshes (default, as SPARK does) or from the "
+                             "watertight ground truth (a slower scene build, same ground truth, slightly "
+                             "thicker thin parts)")
     parser.add_argument("--workers", type=int, default=1, help="processes (default 1)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 

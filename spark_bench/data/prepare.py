@@ -4,7 +4,8 @@ For each object (docs/formats.md, "Benchmark"): read it; merge each link's visua
 the area-weighted mean colour; make it watertight (SPARK appendix remesh); keep only convex collision
 shapes; normalize into the benchmark frame; write the ground truth (with the source's GAPartNet part
 classes, when it has them); render the input (rest) and open states with per-link masks from a seeded
-front view (or the fixed view of :class:`PrepareOptions`); write the camera and, last, the case record
+front view (or the fixed view of :class:`PrepareOptions`), of the source meshes as SPARK renders (or of the
+remesh, ``render_mesh="watertight"``); write the camera and, last, the case record
 (:class:`~spark_bench.data.case.BenchmarkCase` names the files). A case is built in a hidden temporary
 folder and renamed into place, so a case folder with a record is always complete and a killed run
 resumes where it stopped.
@@ -31,8 +32,11 @@ from spark_bench.errors import InputError, SparkBenchError
 #: Stages timed by :func:`prepare_case` (``benchmarks/measure_prepare.py`` reports them); the timer also
 #: holds ``render.scene``, the part of ``render`` spent building the MuJoCo scene.
 STAGES = ("load", "merge", "watertight", "normalize_write", "render")
-#: What :class:`PrepareOptions` may render the images from; the first is the default.
-RENDER_MESHES = ("watertight", "source")
+#: What :class:`PrepareOptions` may render the images from; the first is the default. ``source`` is what
+#: SPARK renders (``datasets/preprocess/render.py`` loads the object's ``textured_objs/*.obj``; its points
+#: come from the watertight ``voxel.glb``). Options stored without the key are of builds made before
+#: ``source`` became the default, which rendered the watertight remesh.
+RENDER_MESHES = ("source", "watertight")
 
 
 @dataclass
@@ -48,10 +52,12 @@ class PrepareOptions:
     :param azimuth_deg: a fixed camera azimuth for every case (degrees from +X towards +Y; 180: the
         object's front); None: a seeded view of the front hemisphere per case
     :param elevation_deg: the fixed camera elevation (degrees above the XY plane), given with ``azimuth_deg``
-    :param render_mesh: what the images are rendered from: ``"watertight"`` (the ground-truth remesh,
-        10^5-10^6 faces per link at R=200) or ``"source"`` (each link's merged source mesh with the same
-        colour, in the benchmark frame: the ground truth is unchanged, the scene builds about 10x faster,
-        the masks differ from the remesh's by about 1-2 % IoU; ``benchmarks/results/prepare_speed.md``)
+    :param render_mesh: what the images are rendered from: ``"source"`` (the default, as SPARK renders:
+        each link's merged source mesh with the ground truth's colour, in the benchmark frame) or
+        ``"watertight"`` (the ground-truth remesh, 10^5-10^6 faces per link at R=200, the default before
+        issue 12: a scene about 10x slower to build; the masks differ from the source meshes' by about
+        1-2 % IoU where the remesh thickens thin parts; ``benchmarks/results/prepare_speed.md``). The
+        ground truth is the remesh either way.
     """
 
     image_size: int = 512
@@ -62,7 +68,7 @@ class PrepareOptions:
     seed: int = 0
     azimuth_deg: float | None = None
     elevation_deg: float | None = None
-    render_mesh: str = "watertight"
+    render_mesh: str = RENDER_MESHES[0]
 
     def __post_init__(self):
         if self.render_mesh not in RENDER_MESHES:
@@ -78,8 +84,8 @@ class PrepareOptions:
         out = asdict(self)
         if self.azimuth_deg is None:
             del out["azimuth_deg"], out["elevation_deg"]
-        if self.render_mesh == RENDER_MESHES[0]:
-            del out["render_mesh"]  # the default: options of earlier builds read as they did
+        if self.render_mesh == "watertight":
+            del out["render_mesh"]  # how builds made before the key existed read (they rendered the remesh)
         return out
 
     def view(self, case_id: str):
@@ -323,7 +329,7 @@ def _prepare_case(src: Path, case_dir: Path, options: PrepareOptions, case_id: s
             "image_size": options.image_size, "view_seed": seed,
             "watertight": {"resolution": options.resolution, "n_min": options.n_min, "links": reports},
         }
-        if options.render_mesh != RENDER_MESHES[0]:
+        if options.render_mesh != "watertight":  # absent: a remesh render, as before the key existed
             record["render_mesh"] = options.render_mesh
         case.write_record(record)
         if case_dir.exists():

@@ -155,3 +155,29 @@ def test_not_a_folder(tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(InputError, match="has no mobility.urdf"):
         load_object(tmp_path / "empty")
+
+
+def test_obj_lines_are_the_text_of_plain_formatting_on_grid_and_scattered_vertices(tmp_path):
+    """The table path (a remesh: few distinct coordinates) and the plain path (distinct coordinates) both
+    write exactly ``%.9g`` / ``%d`` text, -0.0 included, and the file reads back to the same mesh."""
+    import trimesh
+
+    from spark_bench.asset.obj_text import face_lines, vertex_lines
+    from spark_bench.asset.urdf import write_obj
+
+    rng = np.random.default_rng(3)
+    grid = np.round(rng.random((5000, 3)) * 40) / 40 * 0.8765 - 0.3   # ~41 values per axis: table path
+    grid[0] = [-0.0, 0.0, 1e-12]
+    scattered = rng.normal(size=(300, 3)) * 1e3                         # all distinct: plain path
+    for vertices in (grid, scattered):
+        faces = rng.integers(0, len(vertices), (2 * len(vertices), 3))
+        assert vertex_lines(vertices) == (("v %.9g %.9g %.9g\n" * len(vertices))
+                                          % tuple(vertices.ravel().tolist())).encode()
+        assert face_lines(faces) == (("f %d %d %d\n" * len(faces)) % tuple((faces + 1).ravel().tolist())).encode()
+        write_obj(tmp_path / "m.obj", trimesh.Trimesh(vertices, faces, process=False))
+        back = trimesh.load(tmp_path / "m.obj", process=False, force="mesh")
+        # the triangles' corners (a reader drops vertices no face uses)
+        np.testing.assert_allclose(back.vertices[back.faces], vertices[faces], rtol=1e-8, atol=1e-12)
+    assert vertex_lines(np.zeros((0, 3))) == b"" and face_lines(np.zeros((0, 3), int)) == b""
+    with pytest.raises(ValueError, match="negative"):
+        face_lines(np.array([[0, -1, 2]]))

@@ -329,11 +329,12 @@ def test_render_from_source_meshes_keeps_ground_truth_and_close_masks(tmp_path):
 
     src = write_tiny_object(tmp_path / "objects" / "tiny").parent
     common = ["--image-size", "96", "--resolution", "24", "--no-progress"]
-    assert main(["data", "prepare", "--src", str(src), "--out", str(tmp_path / "wt"), *common]) == 0
-    assert main(["data", "prepare", "--src", str(src), "--out", str(tmp_path / "src"), *common,
-                 "--render-mesh", "source"]) == 0
+    assert main(["data", "prepare", "--src", str(src), "--out", str(tmp_path / "wt"), *common,
+                 "--render-mesh", "watertight"]) == 0
+    assert main(["data", "prepare", "--src", str(src), "--out", str(tmp_path / "src"), *common]) == 0
     default, source = case_of(tmp_path / "wt", "tiny"), case_of(tmp_path / "src", "tiny")
     assert _tree_bytes(default.gt_dir) == _tree_bytes(source.gt_dir)  # the ground truth is the remesh either way
+    # the remesh render is marked by the key's absence (how builds before the source default read)
     assert "render_mesh" not in default.record and source.record["render_mesh"] == "source"
     assert "render_mesh" not in read_manifest(tmp_path / "wt")["options"]
     assert read_manifest(tmp_path / "src")["options"]["render_mesh"] == "source"
@@ -375,4 +376,6 @@ def test_source_render_asset_is_the_source_in_the_benchmark_frame():
 def test_render_mesh_option_is_checked():
     with pytest.raises(SparkBenchError, match="render_mesh"):
         PrepareOptions(render_mesh="decimated")
-    assert "render_mesh" not in PrepareOptions().to_json()
+    assert PrepareOptions().render_mesh == "source"  # as SPARK renders (textured_objs), the default
+    assert PrepareOptions().to_json()["render_mesh"] == "source"
+    assert "render_mesh" not in PrepareOptions(render_mesh="watertight").to_json()
