@@ -79,7 +79,7 @@ def cut_hull(shape: CollisionShape, normal: np.ndarray, offset: float) -> tuple[
                           faces=np.asarray(hull.faces, np.int64)), removed
 
 
-def _radius(model, data, bodies: set[int], anchor: np.ndarray, axis: np.ndarray) -> float:
+def hinge_radius(model, data, bodies: set[int], anchor: np.ndarray, axis: np.ndarray) -> float:
     """Largest distance of the moving geoms' bounding spheres from the axis line."""
     best = 0.0
     for g in range(model.ngeom):
@@ -101,7 +101,7 @@ def find_cuts(model, data, asset, gap: float) -> list[tuple]:
             continue
         jid = model.joint(joint.name).id
         body = model.jnt_bodyid[jid]
-        moving = {b for b in range(model.nbody) if _under(model, b, body)}
+        moving = {b for b in range(model.nbody) if under(model, b, body)}
         span = joint.upper - joint.lower if joint.type != "continuous" else 2 * np.pi
         samples = max(8, int(abs(span) * SAMPLES_PER_RADIAN))
         # (moving body, other body) pairs in contact along the axis at rest and at every sample since
@@ -111,7 +111,7 @@ def find_cuts(model, data, asset, gap: float) -> list[tuple]:
             data.qpos[model.jnt_qposadr[jid]] = value
             mujoco.mj_forward(model, data)
             anchor, axis = data.xanchor[jid].copy(), data.xaxis[jid].copy()
-            radius = _radius(model, data, moving, anchor, axis)
+            radius = hinge_radius(model, data, moving, anchor, axis)
             found, axial = [], set()
             for contact in data.contact[: data.ncon]:
                 g1, g2 = contact.geom1, contact.geom2
@@ -144,7 +144,7 @@ def find_cuts(model, data, asset, gap: float) -> list[tuple]:
     return cuts
 
 
-def _under(model, body: int, ancestor: int) -> bool:
+def under(model, body: int, ancestor: int) -> bool:
     while body > 0:
         if body == ancestor:
             return True

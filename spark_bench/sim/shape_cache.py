@@ -111,7 +111,7 @@ def object_key(prepared) -> str:
     units of the object's size: the decisions are relative to it), and the options that decide
     exclusions and relief. The ``contacts-N`` tag is bumped whenever the rules (rest overlaps, hinge
     relief, phantom blockings) change."""
-    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-10".encode())
+    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-11".encode())
     options = prepared.options
     size = prepared.size
     digest.update(json.dumps([options.exclude_overlap, options.clearance, list(options.base_quat)]).encode())
