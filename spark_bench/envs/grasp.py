@@ -225,9 +225,11 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
         if not fitting:
             continue
         # a feature standing well out first (a knob, not a keyhole plate), then the best placed; one where an
-        # open pad would land on the object (a piece of a wide plate) only when no other is clear
+        # open pad would land on the object (a piece of a wide plate) only when no other is clear. A wide
+        # feature's further pieces (a stretch of a wheel's spoke beyond its hub) come after every first piece
+        # standing out as far
         ranked = sorted(fitting, key=lambda c: (c.base is not None and float(np.max(c.points @ n)) - c.base < FIRM_PROUD,
-                                                front.lateral_score(c.points)))
+                                                c.alternate, front.lateral_score(c.points)))
         first = None
         for candidate in ranked:
             grasp = _pinch_on(asset, joint, front, candidate, source, gripper)

@@ -10,8 +10,9 @@ pinchable piece:
   successively higher levels, clustered again (:func:`raised_piece`); the pads then reach down to that
   level, not to the front;
 - a *local* piece: the points within a radius of a seed point (a stretch of a wheel's rim), seeds tried
-  from the best placed (:func:`local_patch`); the radius is more than half the open fingers' span, so a
-  flat panel never counts.
+  from the best placed (:func:`local_patches`); the radius is more than half the open fingers' span, so a
+  flat panel never counts. Several such pieces are kept: the planner takes a further one where an open pad
+  would land on the feature's wider parts beside the first (a wheel's hub).
 
 A handle on a hinge of its own (a safe's lever, a spinning wheel) is held as close to that hinge's axis as
 it can be: a pull there does not turn it.
@@ -32,8 +33,12 @@ TIP_CLEARANCE = 0.0
 #: Room (m) kept between a handle and each open pad across the closing direction: a feature wider than
 #: the open fingers less twice this cannot be pinched.
 PINCH_MARGIN = 0.004
-#: Seed points tried when looking for a pinchable piece of a wide feature (:func:`local_patch`).
+#: Seed points tried when looking for a pinchable piece of a wide feature (:func:`local_patches`).
 MAX_PATCH_SEEDS = 12
+#: Pinchable pieces kept per wide feature: its first, and alternates tried when an open pad would land on
+#: the feature's own wider parts there (a wheel's hub beside the first piece; a stretch further out along a
+#: spoke is clear).
+MAX_PATCHES = 4
 #: Level step (m) of the search for a raised piece of a wide feature, and how far (m) the piece must stand
 #: out of the level it is cut at for the pads to hold it.
 RAISED_STEP = 0.004
@@ -50,12 +55,15 @@ class Candidate:
         feature stands free (nothing of the part around it)
     :param along: its long direction (world, in the front plane), when it is not that of its points (a
         piece cut out of a wider feature across its own long direction); None: from its points
+    :param alternate: a further piece of a wide feature (:func:`local_patches`), tried only after the
+        feature's first piece and every other feature's first piece standing out as far
     """
 
     points: np.ndarray
     center: np.ndarray | None
     base: float | None
     along: np.ndarray | None = None
+    alternate: bool = False
 
     def long_axis(self, front: Front) -> np.ndarray:
         """The long direction the fingers close across."""
@@ -122,19 +130,21 @@ def holding_level(candidate: Candidate, front: Front, gripper: GripperConfig) ->
     return None
 
 
-def local_patch(points: np.ndarray, order: np.ndarray, front: Front, span: float, radius: float,
-                gripper: GripperConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """A pinchable piece of a feature too wide to pinch whole (a safe's wheel: a stretch of a spoke): around
-    a seed point, tried in ``order`` (seeds at least ``radius`` apart, at most :data:`MAX_PATCH_SEEDS`), the
-    feature's points within ``radius`` (in the front plane) give the piece's long direction; the piece is
-    then everything of the feature inside the open pads' sweep there (the pads' height along it, their
-    reach across it), and it fits when that is narrower than ``span``: no other stretch of the feature
-    stands where a pad comes down. ``radius`` is larger than half the span, so a flat panel never fits.
-    Returns ``(piece, seed, long direction)`` or None."""
+def local_patches(points: np.ndarray, order: np.ndarray, front: Front, span: float, radius: float,
+                  gripper: GripperConfig, limit: int = MAX_PATCHES) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Pinchable pieces of a feature too wide to pinch whole (a safe's wheel: stretches of its spokes):
+    around a seed point, tried in ``order`` (seeds at least ``radius`` apart, at most
+    :data:`MAX_PATCH_SEEDS`), the feature's points within ``radius`` (in the front plane) give the piece's
+    long direction; the piece is then everything of the feature inside the open pads' sweep there (the
+    pads' height along it, their reach across it), and it fits when that is narrower than ``span``: no
+    other stretch of the feature stands where a pad comes down. ``radius`` is larger than half the span,
+    so a flat panel never fits. Returns up to ``limit`` pieces, in seed order, each
+    ``(piece, seed, long direction)``."""
     uv = points @ front.basis.T
     reach = gripper.max_opening + gripper.pad_thickness + PINCH_MARGIN
     half_height = 0.5 * gripper.pad_height + PINCH_MARGIN
     seeds: list[np.ndarray] = []
+    out = []
     for i in order:
         if any(np.linalg.norm(uv[i] - s) < radius for s in seeds):
             continue
@@ -146,10 +156,12 @@ def local_patch(points: np.ndarray, order: np.ndarray, front: Front, span: float
             rel = uv - uv[i]
             sweep = (np.abs(rel @ along) <= half_height) & (np.abs(rel @ across) <= reach)
             if sweep.sum() >= MIN_CLUSTER and np.ptp(rel[sweep] @ across) <= span:
-                return points[sweep], points[i], along @ front.basis
+                out.append((points[sweep], points[i], along @ front.basis))
+                if len(out) >= limit:
+                    break
         if len(seeds) >= MAX_PATCH_SEEDS:
             break
-    return None
+    return out
 
 
 def raised_piece(points: np.ndarray, front: Front, span: float) -> list[Candidate]:
@@ -196,10 +208,10 @@ def candidates(points: np.ndarray, groups: list[tuple], front: Front, gripper: G
                 out.extend(raised)
                 continue
             order = np.argsort(front.point_scores(points[g]))
-        patch = local_patch(points[g], order, front, span, radius, gripper)
-        if patch is not None:
-            out.append(Candidate(patch[0], patch[1] @ front.basis.T, base, patch[2]))
-        else:
+        patches = local_patches(points[g], order, front, span, radius, gripper)
+        out.extend(Candidate(piece, seed @ front.basis.T, base, along, alternate=k > 0)
+                   for k, (piece, seed, along) in enumerate(patches))
+        if not patches:
             widest = max(widest or 0.0, pinch_width(whole, front.outward, long_axis(whole, front.basis)))
     for candidate in out:  # a dome: pinch its cap above the steep foot, where the sides hold the pads
         level = holding_level(candidate, front, gripper)

@@ -1,5 +1,5 @@
 """The grasp planner on handles real objects have: a small knob on a large front, a knob's boss on a wide
-rosette, a lever on its own hinge, a shallow front with no handle (pinched by its edges), a front with
+rosette, a lever on its own hinge, a spoked wheel held by a spoke, a shallow front with no handle (pinched by its edges), a front with
 nothing to hold (declined, with a reason); the default joint; the fingers' closing speed. Then one real
 PartNet-Mobility drawer whose round knob the fingers used to close through."""
 
@@ -418,3 +418,59 @@ def test_the_drive_check_turns_a_door_with_the_pull_at_its_grasp_lever_arm():
     held = free_motion(scene, pull)
     assert held < 0.05
     assert free_motion(scene, pull, steps=10_000) == pytest.approx(held, abs=1e-3)  # stopped once still
+
+
+def _door_with_wheel():
+    """The procedural cabinet whose door has no bar but a spoked wheel on a hinge of its own (a safe's
+    handle, its axis out of the door) in the door's middle: a 90 mm hub standing 50 mm out, four 25 mm
+    spokes 40 mm out reaching 130 mm from the axis (102318's proportions)."""
+    asset = procedural_cabinet(0)
+    door = asset.links["link_1"]
+    door.visuals, door.collisions = door.visuals[:1], door.collisions[:1]
+    center = np.array([-0.02, 0.5 * door.collisions[0].size[1], 0.0])
+    parts = [_cylinder((0.0, 0.0, 0.0), 0.045, 0.05)]
+    for sign in (-1.0, 1.0):
+        parts.append(_box((-0.04, 0.0, sign * 0.085), (0.02, 0.025, 0.09)))
+        parts.append(_box((-0.04, sign * 0.085, 0.0), (0.02, 0.09, 0.025)))
+    asset.links["wheel"] = Link(name="wheel", visuals=[v for v, _ in parts], collisions=[c for _, c in parts],
+                                label="knob", semantic_joint="hinge")
+    origin = np.eye(4)
+    origin[:3, 3] = center
+    asset.joints["wheel_joint"] = Joint("wheel_joint", "continuous", "link_1", "wheel", origin=origin,
+                                        axis=np.array([-1.0, 0.0, 0.0]), lower=0.0, upper=0.0)
+    return asset, center
+
+
+def test_a_wheel_is_held_by_a_spoke_clear_of_its_hub():
+    """A spoked wheel is wider than the open fingers: its pinchable pieces are searched from its axis out.
+    The first one, beside the hub, would land an open pad on the hub (the hand stops on it, short of the
+    spoke: a real safe, 102318, whose planner then took a wedge-shaped pull the pads slid off). Further
+    pieces of the wheel are tried: the grasp is where a spoke leaves the hub, its open pads clear."""
+    from spark_bench.envs import make_env
+    from spark_bench.envs.grasp import _front_of, _pinch_on
+    from spark_bench.envs.gripper import GripperConfig
+    from spark_bench.envs.handle_search import handle_searches, on_handle
+    from spark_bench.envs.handles import candidates
+    from spark_bench.envs.rest_meshes import RestMeshes
+    from spark_bench.rl.scripted import open_with_ground_truth
+
+    asset, center = _door_with_wheel()
+    grasp = find_grasp(asset, "joint_1")
+    assert grasp.reason is None and grasp.source == "geometry" and not grasp.landing
+    axis_at = asset.link_poses()["link_1"] @ np.append(center, 1.0)
+    off = grasp.point - axis_at[:3]
+    radial = np.linalg.norm(off - (off @ grasp.outward) * grasp.outward)
+    assert 0.03 < radial < 0.13  # off the hub's middle (90 mm: no pinch there), where a spoke leaves it
+    # the wheel's first piece (the nearest its axis) is the landing one the alternates get around
+    rest, gripper = RestMeshes(asset), GripperConfig()
+    front = _front_of(rest, "joint_1", 0)
+    source, pts, groups = list(handle_searches(rest, "joint_1", front, 0))[-1]
+    fitting, _ = candidates(pts, groups, front, gripper, lambda p: on_handle(p, front.basis, front.origin, front.axis))
+    first = [c for c in fitting if not c.alternate]
+    assert first and all(_pinch_on(rest, "joint_1", front, c, source, gripper).landing for c in first)
+    assert any(c.alternate for c in fitting)
+    # and the scripted opener opens the door by that spoke (the wheel held at rest on its hinge)
+    env = make_env("SparkDoor-v0", asset=asset, joint="joint_1", max_episode_steps=100)
+    assert np.allclose(env.unwrapped.scene.grasp.point, grasp.point)
+    assert open_with_ground_truth(env, seed=0, max_steps=100).success
+    env.close()
