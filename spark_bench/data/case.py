@@ -24,6 +24,7 @@ asset; :meth:`BenchmarkCase.to_metres` takes a case's ``gt/`` back to its source
 
 from __future__ import annotations
 
+import hashlib
 import json
 from dataclasses import dataclass
 from functools import cached_property
@@ -194,6 +195,26 @@ class BenchmarkCase:
     @property
     def id(self) -> str:
         return str(self.record["id"])
+
+    def fingerprint(self) -> str:
+        """A hash of what a method sees of the case and what it is scored against: ``case.json`` without
+        its ``source`` path (which moves with the data; the record holds the normalization, the image
+        size, the view, the render mode and the remesh's report), the rendered states and the camera.
+        A benchmark prepared again with other settings gives its cases other fingerprints, so an
+        ``eval`` resumed on it scores them again instead of mixing the two builds; the same build moved
+        to another folder keeps them.
+
+        :raises InputError: naming ``case.json`` when the case is incomplete
+        """
+        digest = hashlib.sha256()
+        record = {key: value for key, value in self.record.items() if key != "source"}
+        digest.update(json.dumps(record, sort_keys=True).encode())
+        for name in (*(n for pair in STATE_FILES.values() for n in pair), CAMERA_FILE):
+            path = self.folder / name
+            digest.update(f"\0{name}\0".encode())
+            if path.is_file():
+                digest.update(path.read_bytes())
+        return digest.hexdigest()[:16]
 
     @property
     def category(self) -> str:

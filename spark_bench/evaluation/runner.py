@@ -28,6 +28,7 @@ from spark_bench.data.case import Benchmark, BenchmarkCase
 from spark_bench.data.readers import read_json
 from spark_bench.errors import InputError, SparkBenchError
 from spark_bench.evaluation.executors import EXECUTORS, run_local, run_ray, usable_cores
+from spark_bench.evaluation.resume import case_fingerprints, scored_on_this_build
 from spark_bench.evaluation.store import ResultsStore, config_hash, now
 from spark_bench.jsonio import plain, to_json_text
 from spark_bench.methods.base import GENERATION_MARKER, CaseInput, Generation, MethodSpec
@@ -102,6 +103,8 @@ class CaseTask:
     :param generation_dir: where this case's generation is cached
     :param options: what to measure
     :param threads: threads for the nearest-neighbour queries in this worker
+    :param case_fingerprint: :meth:`BenchmarkCase.fingerprint` of the case when the run was planned
+        (stored with the rows and the generation; empty: not checked)
     """
 
     case_id: str
@@ -111,6 +114,7 @@ class CaseTask:
     generation_dir: str
     options: EvalOptions
     threads: int = 1
+    case_fingerprint: str = ""
 
 
 @dataclass
@@ -186,7 +190,8 @@ class _Stages:
 def generate_cached(task: CaseTask, method) -> tuple[Generation, bool]:
     """The case's generation: read from the cache marker, or produced now and then marked.
 
-    A generation without its marker (a run killed mid-way) is discarded and redone. The method sees the
+    A generation without its marker (a run killed mid-way), or made from another build of the case (its
+    marker's ``case_fingerprint`` differs from the task's), is discarded and redone. The method sees the
     case through a :class:`~spark_bench.methods.base.CaseInput` that refuses every input it did not declare.
 
     :returns: ``(generation, was_cached)``
@@ -195,8 +200,10 @@ def generate_cached(task: CaseTask, method) -> tuple[Generation, bool]:
     marker = out_dir / GENERATION_MARKER
     if marker.is_file():
         try:
-            return Generation.from_json(read_json(marker)), True
-        except (InputError, OSError, ValueError):
+            stored = read_json(marker)
+            if not task.case_fingerprint or stored.get("case_fingerprint") == task.case_fingerprint:
+                return Generation.from_json(stored), True
+        except (InputError, OSError, ValueError, AttributeError):
             pass  # a damaged marker: generate again
     if out_dir.exists():
         shutil.rmtree(out_dir)
@@ -204,7 +211,7 @@ def generate_cached(task: CaseTask, method) -> tuple[Generation, bool]:
     case = CaseInput(BenchmarkCase(task.case_dir), frozenset(method.inputs))
     generation = Generation.from_result(method.generate(case, out_dir), out_dir)
     tmp = marker.with_suffix(".tmp")
-    tmp.write_text(to_json_text(generation.to_json()))
+    tmp.write_text(to_json_text({**generation.to_json(), "case_fingerprint": task.case_fingerprint}))
     os.replace(tmp, marker)  # atomic: the marker is either absent or complete
     return generation, False
 
@@ -336,13 +343,15 @@ def evaluate_case(task: CaseTask) -> list[dict]:
     for r in rows:
         r["timings"] = dict(stages.timings)
         r["finished_at"] = finished
-        r["info"] = {**r.get("info", {}), "host": socket.gethostname(), "pid": os.getpid()}
+        r["info"] = {**r.get("info", {}), "host": socket.gethostname(), "pid": os.getpid(),
+                     "case_fingerprint": task.case_fingerprint}
     return rows
 
 
 def _failed_rows(task: CaseTask, reason: str, stage: str = "worker") -> list[dict]:
     row = _base_row(task, "")
-    row.update(status="failed", stage=stage, reason=reason, finished_at=now())
+    row.update(status="failed", stage=stage, reason=reason, finished_at=now(),
+               info={"case_fingerprint": task.case_fingerprint})
     return [row]
 
 
@@ -374,16 +383,21 @@ def default_db() -> Path:
 
 
 def plan_tasks(bench_dir: Path, run: RunIdentity, spec: MethodSpec, options: EvalOptions, runs_root: Path,
-               done: set[str], threads: int = 1, cases: Iterable[str] | None = None) -> list[CaseTask]:
+               done: set[str], threads: int = 1, cases: Iterable[str] | None = None,
+               fingerprints: dict[str, str] | None = None) -> list[CaseTask]:
     """The tasks of the cases not yet done.
+
+    :param fingerprints: each case's :meth:`BenchmarkCase.fingerprint` (default: not checked)
 
     :raises InputError: for a case id that would leave the benchmark's cases folder
     """
     bench = Benchmark(bench_dir)
     gen_root = runs_root / _safe_name(run.bench) / f"{_safe_name(run.label)}-{run.generation_hash[:8]}"
     ids = list(cases) if cases is not None else bench.case_ids()
+    fingerprints = fingerprints or {}
     return [CaseTask(cid, str(bench.case_dir(cid)), spec, run, str(gen_root / _safe_name(cid)), options,
-                     threads) for cid in ids if cid not in done]
+                     threads, fingerprints.get(cid, "")) for cid in ids if cid not in done]
+
 
 
 def _progress():
@@ -427,9 +441,10 @@ def run_eval(spec: MethodSpec, bench: str | None = None, options: EvalOptions | 
     for case_id in all_ids:  # an unsafe id is refused before anything is written
         bench_folder.case_dir(case_id)
     start = time.perf_counter()
+    fingerprints = case_fingerprints(bench_folder, all_ids)
     with ResultsStore(db or default_db()) as store:
-        done = store.done_cases(run.bench, run.label, run.config_hash)
-        tasks = plan_tasks(bench_dir, run, spec, options, Path(runs_root), done, threads, all_ids)
+        done = scored_on_this_build(store, run, fingerprints)
+        tasks = plan_tasks(bench_dir, run, spec, options, Path(runs_root), done, threads, all_ids, fingerprints)
         failed = [0]
 
         with _maybe_progress(progress) as bar:

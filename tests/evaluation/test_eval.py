@@ -334,3 +334,37 @@ def test_unsafe_case_id_in_the_manifest_is_refused(tiny_bench, tmp_path, case_id
         run_eval(MethodSpec.create("oracle"), str(tiny_bench), FAST, db=tmp_path / "r.sqlite", workers=0,
                  runs_root=tmp_path / "runs", progress=False)
     assert not (tmp_path / "runs").exists() and not (tmp_path / "r.sqlite").exists()
+
+
+def test_a_case_prepared_again_is_scored_again_and_an_unchanged_one_is_not(tiny_bench, tmp_path):
+    """Rows and generations carry the case's fingerprint: a resumed run skips the cases scored on the
+    present build, and scores again (from a fresh generation) a case whose images changed since (a
+    benchmark prepared again with another render mode), replacing its row instead of keeping a row of
+    the other build; moving the benchmark to another folder changes nothing."""
+    from spark_bench.evaluation.render import default_camera, render_asset
+
+    kwargs = dict(db=tmp_path / "r.sqlite", workers=0, runs_root=tmp_path / "runs", progress=False)
+    first = run_eval(MethodSpec.create("oracle"), str(tiny_bench), FAST, **kwargs)
+    assert first.n_skipped == 0 and first.n_failed == 0
+    with ResultsStore(tmp_path / "r.sqlite") as store:
+        rows = {r["case_id"]: r for r in store.rows(label="oracle")}
+    case = Benchmark(tiny_bench).case("cab1")
+    assert rows["cab1"]["info"]["case_fingerprint"] == case.fingerprint()
+    assert len({r["info"]["case_fingerprint"] for r in rows.values()}) == 3
+
+    assert run_eval(MethodSpec.create("oracle"), str(tiny_bench), FAST, **kwargs).n_skipped == 3
+
+    # cab1's input image rendered again at another size: another build of that case
+    render_asset(case.load_gt(), default_camera(48), size=48).save(case.input_image)
+    again = run_eval(MethodSpec.create("oracle"), str(tiny_bench), FAST, **kwargs)
+    assert again.n_skipped == 2
+    with ResultsStore(tmp_path / "r.sqlite") as store:
+        rows = {r["case_id"]: r for r in store.rows(label="oracle")}
+    assert len(rows) == 3  # replaced, not added
+    assert rows["cab1"]["info"]["case_fingerprint"] == Benchmark(tiny_bench).case("cab1").fingerprint()
+    assert rows["cab1"]["info"]["generation_cached"] is False  # its cached generation was of the other build
+
+    moved = tmp_path / "elsewhere" / "tiny"
+    moved.parent.mkdir()
+    tiny_bench.rename(moved)
+    assert run_eval(MethodSpec.create("oracle"), str(moved), FAST, **kwargs).n_skipped == 3
