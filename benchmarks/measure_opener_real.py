@@ -17,9 +17,10 @@ the way: :func:`spark_bench.envs.scene.stuck_reason`) is declined by the scene w
 for the gripper, or jammed by its collision shapes) and counted among the declined, as *stuck*; a failed
 joint also reports how far it opens driven so (:func:`free_motion`).
 
-Failures are written as small MP4 videos (first episode, a close view of the grasp) into ``--videos``
-(default ``benchmarks/results/opener_failures``) with a PNG contact sheet of their frames, and the report
-as ``opener_real.md`` (``--results``). A per-joint JSON goes to ``--out``.
+Failures are written as small MP4 videos (the first episode that fails, run again with its seed: a close
+view of the grasp) into ``--videos`` (default ``benchmarks/results/opener_failures``) with a PNG contact
+sheet of their frames, and the report as ``opener_real.md`` (``--results``), with each episode's outcome
+(seed, opened or not, largest opening) for every joint not opened in all of them. A per-joint JSON goes to ``--out``.
 
 Run: ``nice -n 10 python benchmarks/measure_opener_real.py [--ids 24644,7304] [--episodes 2]``.
 
@@ -81,10 +82,10 @@ def _close_camera(env, distance: float = 0.6):
 
 def run_joint(asset, object_id: str, row: dict, episodes: int, max_steps: int, video_dir: Path | None) -> dict:
     """One joint of ``asset`` (loaded once per object: its joints' environments share its prepared
-    collision shapes): the planner's verdict, then ``episodes`` scripted episodes (frames of the first
-    kept when ``video_dir`` is given and it fails)."""
+    collision shapes): the planner's verdict, then ``episodes`` scripted episodes (seeds 0..; the first
+    that fails is filmed when ``video_dir`` is given)."""
     from spark_bench.rl.policies import ScriptedPolicy
-    from spark_bench.rl.rollout import run_episodes
+    from spark_bench.rl.rollout import run_episode
 
     start = time.perf_counter()
     try:
@@ -100,16 +101,16 @@ def run_joint(asset, object_id: str, row: dict, episodes: int, max_steps: int, v
         jam = env.unwrapped.scene.free_fraction
         return {**out, "reason": grasp.reason, "success_rate": None,
                 **({"free_fraction": jam, "stuck": True} if jam is not None and jam < TARGET else {})}
-    frames: list = []
-    if video_dir:
-        _close_camera(env, 0.25 + 0.5 * float(np.linalg.norm(np.ptp(env.unwrapped.scene.workspace, axis=0))) / 3)
-    stats = run_episodes(env, ScriptedPolicy(), 1, seed=0, frames=frames if video_dir else None)
-    if episodes > 1:
-        more = run_episodes(env, ScriptedPolicy(), episodes - 1, seed=1)
-        stats.successes += more.successes
-    out.update(success_rate=float(np.mean(stats.successes)), max_fraction=stats.mean_max_fraction,
+    runs = [run_episode(env, ScriptedPolicy(), seed) for seed in range(episodes)]
+    successes = [r["success"] for r in runs]
+    out.update(success_rate=float(np.mean(successes)), max_fraction=float(np.mean([r["max_fraction"] for r in runs])),
+               successes=successes, max_fractions=[r["max_fraction"] for r in runs],
                episodes=episodes, run_s=time.perf_counter() - start - build)
+    frames: list = []
     if out["success_rate"] < 1.0:  # the opener's fault, or a part the simulation does not let move or reach?
+        if video_dir:  # the first failed episode again (an episode is a function of its seed), filmed
+            _close_camera(env, 0.25 + 0.5 * float(np.linalg.norm(np.ptp(env.unwrapped.scene.workspace, axis=0))) / 3)
+            run_episode(env, ScriptedPolicy(), successes.index(False), frames=frames)
         out["free_fraction"] = free_motion(env)
         out["hull_gap"] = hull_gap(env)
     env.close()
@@ -245,6 +246,12 @@ def summarize(rows: list[dict]) -> list[dict]:
     return out
 
 
+def _per_seed(row: dict) -> str:
+    """``seed: opened / largest opening`` for each episode of a row."""
+    return ", ".join(f"{seed}: {'opened' if ok else 'not opened'} {best:.2f}"
+                     for seed, (ok, best) in enumerate(zip(row["successes"], row["max_fractions"])))
+
+
 def _pct(value) -> str:
     return "-" if value is None else f"{100 * value:.0f} %"
 
@@ -286,6 +293,7 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
     lines += ["", "## Not opened", ""]
     lines += [f"- {r['object']} {r['joint']} ({r['category']} {r['label']}, grasp {r.get('grasp')}): success "
               f"{r.get('success_rate', 0.0):.2f}, largest opening {r.get('max_fraction', 0.0):.2f} of the range"
+              + (f" (per seed: {_per_seed(r)})" if len(r.get("successes", [])) > 1 else "")
               + (f"; {r['error']}" if r.get("error") else "")
               + (f"; **stuck**: driven directly it reaches {r['free_fraction']:.2f}" if jammed(r) else "")
               + (f"; the collision shapes stand {1000 * r['hull_gap']:.0f} mm in front of the visual surface on "

@@ -54,6 +54,21 @@ STALL_PROGRESS = 0.002
 #: pre-grasp in front of where it now is, at most :data:`MAX_REGRASPS` times an episode.
 REGRASP_DISTANCE = 0.05
 MAX_REGRASPS = 3
+#: Re-grasping a door (a part on a hinge) that slipped out of the fingers part-way open, where nothing holds
+#: it but its own damping and the hand must not swing it shut: the hand first backs out along the door's
+#: outward direction to :data:`PREGRASP_OFFSET` (the swing left it beside the handle, the fingers over the
+#: face), waits at the pre-grasp while the door still moves by more than :data:`PUSH_GUARD` (m) a step,
+#: comes in by at most :data:`REGRASP_STEP` (m) a step, and stops there and closes as soon as a pad's touch
+#: reading (the observation's, force / 10 N) passes :data:`REGRASP_TOUCH` or the door is knocked towards
+#: closing (it moves so by more than :data:`PUSH_GUARD` and faster than the step before: swinging shut by
+#: itself it only slows down). A door within :data:`AJAR_DISTANCE` (m) of rest, against its stop, is
+#: approached as at first. A drawer's re-grasp is the first approach again: its hand ran on along the pull,
+#: in front of the handle and square to it (a guarded approach lost a real table's drawer whose handle
+#: the full-speed approach seats deeper).
+PUSH_GUARD = 0.001
+REGRASP_STEP = 0.01
+REGRASP_TOUCH = 0.05
+AJAR_DISTANCE = 0.01
 
 
 def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
@@ -65,7 +80,8 @@ def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: 
 
 class ScriptedOpener:
     """A four-phase controller: pre-grasp, approach, close, open along the given joint (and back to the
-    pre-grasp when the handle slips out of the fingers while opening, :data:`REGRASP_DISTANCE`).
+    pre-grasp when the handle slips out of the fingers while opening, :data:`REGRASP_DISTANCE`; a door's
+    re-grasp backs out, waits and comes in guarded so as not to swing it shut, :data:`PUSH_GUARD`).
 
     With ``inside_grip`` (a finger-pull notch instead of a handle) the fingers close *before* the
     approach, enter the notch, the hand presses towards the notch's inner wall (``press``) and the
@@ -107,6 +123,8 @@ class ScriptedOpener:
         self.phase, self.phase_steps, self.radius, self.rest_grasp = "pregrasp", 0, None, None
         self._distances: list[float] = []
         self.regrasps = 0
+        self._last_grasp: np.ndarray | None = None
+        self._cleared, self._hold, self._closing = True, None, 0.0
 
     def _next(self, phase: str) -> None:
         self.phase, self.phase_steps, self._distances = phase, 0, []
@@ -116,6 +134,15 @@ class ScriptedOpener:
         self._distances.append(float(distance))
         return (len(self._distances) > STALL_STEPS
                 and self._distances[-1 - STALL_STEPS] - self._distances[-1] < STALL_PROGRESS)
+
+    def _opening_direction(self, grasp: np.ndarray) -> np.ndarray:
+        """The direction in which the grasp point moves when the part opens (the axis for a drawer, the
+        tangent of its circle about the planned axis for a door)."""
+        if not self.rotational:
+            return self.axis
+        tangent = np.cross(self.axis, grasp - self.pivot)
+        norm = float(np.linalg.norm(tangent))
+        return tangent / norm if norm > 1e-6 else self._turned(self.outward, grasp)
 
     def _turned(self, direction: np.ndarray, grasp: np.ndarray) -> np.ndarray:
         """``direction`` (at rest) turned with the part: by the angle the grasp point has swung about the
@@ -154,6 +181,10 @@ class ScriptedOpener:
         tcp, grasp = obs[0:3].astype(float), obs[8:11].astype(float)
         if self.rest_grasp is None:
             self.rest_grasp = grasp
+        last, self._last_grasp = self._last_grasp, grasp
+        # how far the part moved towards closing in the last step, and in the step before
+        closing = 0.0 if last is None else -float((grasp - last) @ self._opening_direction(grasp))
+        closing_before, self._closing = self._closing, closing
         self.phase_steps += 1
         # an inside grip travels with closed fingers and grips by opening them
         travel, hold = (1.0, -1.0) if self.inside_grip else (-1.0, 1.0)
@@ -163,25 +194,44 @@ class ScriptedOpener:
         if self.phase == "pregrasp":
             outward = self._turned(self.outward, grasp)
             target = grasp + PREGRASP_OFFSET * outward
-            error = target - tcp
-            if aligned:  # on the approach line, not just near the waypoint
-                error = error - np.dot(error, outward) * outward
-            tolerance = self.lateral_tolerance if aligned else WAYPOINT_TOLERANCE
-            distance = float(np.linalg.norm(error))
-            if distance < tolerance or self.phase_steps > PREGRASP_STEPS or self._stalled(distance):
-                self._next("approach")
+            if not self._cleared:  # a door's re-grasp: straight out first, away from its face
+                depth = float((tcp - grasp) @ outward)
+                if depth < PREGRASP_OFFSET - WAYPOINT_TOLERANCE and self.phase_steps <= PREGRASP_STEPS // 2:
+                    target = tcp + (PREGRASP_OFFSET - depth) * outward
+                else:
+                    self._cleared, self._distances = True, []
+            if self._cleared:
+                error = target - tcp
+                if aligned:  # on the approach line, not just near the waypoint
+                    error = error - np.dot(error, outward) * outward
+                tolerance = self.lateral_tolerance if aligned else WAYPOINT_TOLERANCE
+                distance = float(np.linalg.norm(error))
+                if self.regrasps and self.rotational and abs(closing) > PUSH_GUARD:
+                    self._distances = []  # a door still swinging: wait for it to come to rest
+                elif distance < tolerance or self.phase_steps > PREGRASP_STEPS or self._stalled(distance):
+                    self._next("approach")
         elif self.phase == "approach":
             target = self._aligned_target(tcp, grasp, self._turned(self.outward, grasp)) if aligned else grasp
+            ajar = (self.regrasps > 0 and self.rotational
+                    and float(np.linalg.norm(grasp - self.rest_grasp)) > AJAR_DISTANCE)
+            if ajar:  # a door's re-grasp: slowly
+                step = target - tcp
+                target = tcp + step * min(1.0, REGRASP_STEP / max(float(np.linalg.norm(step)), 1e-9))
             limit = ALIGNED_APPROACH_STEPS if aligned else APPROACH_STEPS
             distance = float(np.linalg.norm(grasp - tcp))
-            if distance < WAYPOINT_TOLERANCE or self.phase_steps > limit or self._stalled(distance):
+            knocked = closing > PUSH_GUARD and closing > closing_before + 0.5 * PUSH_GUARD
+            pushed = ajar and (knocked or float(np.max(obs[16:18])) > REGRASP_TOUCH)
+            if pushed:  # close where the hand is, and stay there (not following the door)
+                target = self._hold = tcp
+            if (distance < WAYPOINT_TOLERANCE or self.phase_steps > limit or self._stalled(distance)
+                    or pushed):
                 self._next("press" if self.inside_grip else "close")
         elif self.phase == "press":
             target = grasp + press
             if self.phase_steps >= PRESS_STEPS:
                 self._next("close")
         elif self.phase == "close":
-            target, grip = grasp + press, hold
+            target, grip = (grasp + press if self._hold is None else self._hold), hold
             if aligned:  # close gradually: thin pads slamming shut from beside a thin lip can pass through it
                 grip = grip + (self.approach_grip - grip) * (1.0 - self.phase_steps / CLOSE_STEPS)
             if self.phase_steps >= CLOSE_STEPS:
@@ -190,8 +240,11 @@ class ScriptedOpener:
             # the handle slipped out of the fingers: open them and go back in front of it
             self.regrasps += 1
             self._next("pregrasp")
-            self.radius = None
-            target = grasp + PREGRASP_OFFSET * self._turned(self.outward, grasp)
+            self.radius, self._cleared, self._hold = None, not self.rotational, None
+            outward = self._turned(self.outward, grasp)
+            target = grasp + PREGRASP_OFFSET * outward
+            if not self._cleared:
+                target = tcp + max(PREGRASP_OFFSET - float((tcp - grasp) @ outward), 0.0) * outward
         else:
             target, grip = self._open_target(tcp, press), hold
         action = np.empty(4, dtype=np.float32)
