@@ -58,6 +58,12 @@ class SparkDoorEnv(SparkArticulationEnv):
     Entries 25-31 describe the simulated asset's own joint, or ``joint_estimate=(axis, pivot, type)``
     (world frame at rest) when given: a prediction's joint, reported while acting on the real object.
 
+    Of the part's shape a policy may read, beyond the observation, what a robot's perception would give:
+    the scene's grasp (``env.unwrapped.scene.grasp``: point, outward direction, grip) and the part's surface
+    at rest (:func:`~spark_bench.envs.scene.part_points`); the scripted opener reads the door's free edge and
+    thickness from it to push a door that slipped out of the fingers open from inside
+    (:func:`~spark_bench.rl.scripted.door_edge`).
+
     **Rewards** (``reward_type="dense"``, in [0, 1]): ``(reach + grasp + 2 progress + success) / 5`` with
     ``reach = 1 - tanh(10 d)`` (d: TCP to grasp point, m), ``grasp = 1`` when both pads touch and
     ``d < 0.03``, ``progress = min(fraction / target_fraction, 1)``, ``success = 1`` when

@@ -233,6 +233,24 @@ def plan_grasp(asset: ArticulatedAsset, joint: str, gripper: GripperConfig | Non
     return _memo("grasp", asset, (joint, repr(gripper)), compute)
 
 
+def part_points(asset: ArticulatedAsset, joint: str, n: int = 20000) -> np.ndarray:
+    """``n`` points sampled (seed 0) on the visual surface of the part moved by ``joint``, world frame at rest,
+    memoized per asset: what a policy reads of the part's shape (a door's width and thickness,
+    :func:`~spark_bench.rl.scripted.door_edge`). Empty when the part has no faces.
+
+    :param asset: the object
+    :param joint: a movable joint's name
+    :param n: number of samples
+    """
+    from spark_bench.asset.mesh import sample_surface
+
+    def compute():
+        part = _memo("rest", asset, None, lambda: RestMeshes(asset)).mesh(links=asset.part_of_joint(joint))
+        return sample_surface(part, n, seed=0) if len(part.faces) else np.zeros((0, 3))
+
+    return _memo("part", asset, (joint, n), compute)
+
+
 def prepared_object(asset: ArticulatedAsset):
     """The object as prepared for MuJoCo (:func:`spark_bench.sim.prepare`: collision shapes, masses, joint
     dynamics), memoized per asset: the same for every joint's environment."""

@@ -1,4 +1,5 @@
-"""The scripted opener: grasp the handle, then pull along the joint's axis or swing along its arc.
+"""The scripted opener: grasp the handle, then pull along the joint's axis or swing along its arc (and
+push a door that slipped out of the fingers far open from inside, round its free edge).
 
 It plans from *given* joint parameters (a world-frame axis direction, a point on the axis, a type), so
 the same controller measures two things:
@@ -8,7 +9,8 @@ the same controller measures two things:
   predicted articulation is good enough to act on (a wrong axis drags the handle sideways, a wrong
   pivot tears it out of the grasp).
 
-It sees what a robot would see in the environment's observation: the TCP and the grasp point.
+It sees what a robot would see in the environment's observation: the TCP and the grasp point; of the
+part's shape, what the grasp planner read from it and the door's free edge and thickness (:func:`door_edge`).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from spark_bench.asset.transforms import unit
 from spark_bench.envs.base import MAX_STEP
 from spark_bench.envs.gripper import grip_command
 from spark_bench.envs.registration import make_env
+from spark_bench.envs.scene import part_points
 from spark_bench.errors import InputError
 
 #: Distance (m) in front of the grasp point where the approach starts.
@@ -69,6 +72,28 @@ PUSH_GUARD = 0.001
 REGRASP_STEP = 0.01
 REGRASP_TOUCH = 0.05
 AJAR_DISTANCE = 0.01
+#: Pushing a door open from inside (:func:`door_edge`): when a door's handle slips out of the fingers with the
+#: door open so far that the hand fits behind its free edge, the hand does not re-grasp the handle (a passive
+#: wrist sprung back leaves the fingers far off square to a door swung past a right angle) but closes its
+#: fingers, backs out to :data:`PREGRASP_OFFSET` in front of the door, goes round its free edge
+#: (:data:`EDGE_CLEARANCE` (m) past it), behind its inside face (:data:`INSIDE_CLEARANCE` (m) from it), in to
+#: :data:`PUSH_INSET` (m) from the free edge, and then swings along the opening arc, pushing the inside face.
+#: The door fits the hand when the waypoints behind it stand at least :data:`FIT_CLEARANCE` (m) in front of
+#: the plane of the closed door's inside face (the body's front): the hand's reach from the TCP (its palm,
+#: 12 cm wide, lies 4-6 cm behind the TCP: its corners 8.6 cm from it). A waypoint counts as reached within
+#: :data:`AROUND_TOLERANCE` (m), after :data:`AROUND_STEPS` steps, or when the travel stalls; the last (in
+#: behind the door) also as soon as the hand touches the door or knocks it towards closing (as the re-grasp's
+#: guarded approach), and the push starts from there.
+EDGE_CLEARANCE = 0.08
+INSIDE_CLEARANCE = 0.05
+PUSH_INSET = 0.05
+FIT_CLEARANCE = 0.09
+AROUND_TOLERANCE = 0.015
+AROUND_STEPS = 15
+#: Surface points within this distance (m) of the grasp's height along the hinge define the door's free edge and
+#: its inside face there (:func:`door_edge`); the inside face is read within :data:`EDGE_BAND` (m) of the edge.
+HEIGHT_BAND = 0.1
+EDGE_BAND = 0.1
 
 
 def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
@@ -78,10 +103,55 @@ def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: 
     return pivot + v * c + np.cross(axis, v) * s + axis * np.dot(axis, v) * (1 - c)
 
 
+@dataclass
+class DoorEdge:
+    """A door's free edge at the grasp's height, world frame at rest, as the push from inside needs it.
+
+    :param point: on the free edge, at the grasp point's height along the hinge and its level along ``outward``
+    :param depth: how far (m) behind the grasp point (against ``outward``) the door's inside face lies near
+        its free edge
+    """
+
+    point: np.ndarray
+    depth: float
+
+
+def door_edge(points: np.ndarray, grasp, outward, axis, pivot) -> DoorEdge | None:
+    """The free edge of a door (:class:`DoorEdge`) from its surface at rest and a planned hinge: the point
+    farthest from the hinge, in the direction from the hinge to the grasp, among the surface points within
+    :data:`HEIGHT_BAND` of the grasp's height; None when there are none or the door has no thickness there.
+
+    :param points: points on the part's surface, world frame at rest
+    :param grasp: the grasp point at rest
+    :param outward: the part's outward direction at rest
+    :param axis: the planned hinge's direction
+    :param pivot: a point on the planned hinge
+    """
+    points = np.asarray(points, float).reshape(-1, 3)
+    grasp, n, axis = np.asarray(grasp, float), unit(outward), unit(axis)
+    radial = grasp - np.asarray(pivot, float)
+    radial = radial - (radial @ axis) * axis
+    if len(points) == 0 or np.linalg.norm(radial) < 1e-6:
+        return None
+    u = unit(radial)
+    rel = points - grasp
+    band = np.abs(rel @ axis) < HEIGHT_BAND
+    if not band.any():
+        return None
+    r, h = rel[band] @ u, rel[band] @ n
+    reach = float(r.max())
+    depth = -float(h[r > reach - EDGE_BAND].min())
+    if depth <= 0:
+        return None
+    return DoorEdge(point=grasp + reach * u, depth=depth)
+
+
 class ScriptedOpener:
     """A four-phase controller: pre-grasp, approach, close, open along the given joint (and back to the
     pre-grasp when the handle slips out of the fingers while opening, :data:`REGRASP_DISTANCE`; a door's
-    re-grasp backs out, waits and comes in guarded so as not to swing it shut, :data:`PUSH_GUARD`).
+    re-grasp backs out, waits and comes in guarded so as not to swing it shut, :data:`PUSH_GUARD`; a door
+    open so far that the hand fits behind it is instead pushed open from inside, round its free edge,
+    :data:`EDGE_CLEARANCE`).
 
     With ``inside_grip`` (a finger-pull notch instead of a handle) the fingers close *before* the
     approach, enter the notch, the hand presses towards the notch's inner wall (``press``) and the
@@ -98,11 +168,13 @@ class ScriptedOpener:
     :param approach_grip: the gripper command (the action's last entry) while travelling to the grasp;
         None: fully open (closed for an inside grip)
     :param lateral_tolerance: aligned approach (see above) with this tolerance, m; None: direct approach
+    :param edge: a door's free edge (:func:`door_edge`): a door that slips out of the fingers open far enough
+        for the hand to fit behind it is pushed open from inside (:data:`EDGE_CLEARANCE`); None: re-grasped
     """
 
     def __init__(self, axis, pivot, joint_type: str, outward, pull_step: float = PULL_STEP,
                  inside_grip: bool = False, press=None, approach_grip: float | None = None,
-                 lateral_tolerance: float | None = None):
+                 lateral_tolerance: float | None = None, edge: DoorEdge | None = None):
         if joint_type not in ("prismatic", "revolute", "continuous"):
             raise ValueError(f"cannot open a {joint_type!r} joint")
         self.axis = unit(axis)
@@ -116,6 +188,7 @@ class ScriptedOpener:
         self.press = unit(press) if self.inside_grip else np.zeros(3)
         self.approach_grip = None if approach_grip is None else float(np.clip(approach_grip, -1.0, 1.0))
         self.lateral_tolerance = None if lateral_tolerance is None else float(lateral_tolerance)
+        self.edge = edge if self.rotational else None
         self.reset()
 
     def reset(self) -> None:
@@ -125,6 +198,7 @@ class ScriptedOpener:
         self.regrasps = 0
         self._last_grasp: np.ndarray | None = None
         self._cleared, self._hold, self._closing = True, None, 0.0
+        self._around: list[np.ndarray] = []
 
     def _next(self, phase: str) -> None:
         self.phase, self.phase_steps, self._distances = phase, 0, []
@@ -144,15 +218,40 @@ class ScriptedOpener:
         norm = float(np.linalg.norm(tangent))
         return tangent / norm if norm > 1e-6 else self._turned(self.outward, grasp)
 
+    def _angle(self, grasp: np.ndarray) -> float:
+        """The angle the grasp point has swung about the planned axis since the episode began."""
+        a, b = self.rest_grasp - self.pivot, grasp - self.pivot
+        a, b = a - np.dot(a, self.axis) * self.axis, b - np.dot(b, self.axis) * self.axis
+        return float(np.arctan2(np.dot(self.axis, np.cross(a, b)), np.dot(a, b)))
+
     def _turned(self, direction: np.ndarray, grasp: np.ndarray) -> np.ndarray:
         """``direction`` (at rest) turned with the part: by the angle the grasp point has swung about the
         planned axis since the episode began (unchanged for a prismatic joint)."""
         if not self.rotational:
             return direction
-        a, b = self.rest_grasp - self.pivot, grasp - self.pivot
-        a, b = a - np.dot(a, self.axis) * self.axis, b - np.dot(b, self.axis) * self.axis
-        angle = np.arctan2(np.dot(self.axis, np.cross(a, b)), np.dot(a, b))
-        return rotate_about(direction, np.zeros(3), self.axis, angle)
+        return rotate_about(direction, np.zeros(3), self.axis, self._angle(grasp))
+
+    def _push_path(self, tcp: np.ndarray, grasp: np.ndarray) -> list[np.ndarray] | None:
+        """The waypoints (door frame: at rest) of the way round a door's free edge to behind its inside face
+        (:data:`EDGE_CLEARANCE`), from the hand at ``tcp``; None when the door is not open far enough for
+        the hand to fit behind it there, or its edge is unknown."""
+        if self.edge is None:
+            return None
+        angle = self._angle(grasp)
+        n, edge = self.outward, self.edge.point
+        u = unit(edge - self.rest_grasp) if np.linalg.norm(edge - self.rest_grasp) > 1e-6 else None
+        if u is None:
+            return None
+        back = -(self.edge.depth + INSIDE_CLEARANCE) * n
+        out = rotate_about(tcp, self.pivot, self.axis, -angle)  # the hand, in the door's frame at rest
+        out = out + max(PREGRASP_OFFSET - float((out - self.rest_grasp) @ n), 0.0) * n
+        path = [out, edge + EDGE_CLEARANCE * u + PREGRASP_OFFSET * n, edge + EDGE_CLEARANCE * u + back,
+                edge - PUSH_INSET * u + back]
+        front = float(self.rest_grasp @ n) - self.edge.depth  # the closed door's inside face: the body's front
+        behind = [rotate_about(p, self.pivot, self.axis, angle) for p in path[2:]]
+        if min(float(p @ n) for p in behind) < front + FIT_CLEARANCE:
+            return None
+        return path
 
     def _open_target(self, tcp: np.ndarray, press: np.ndarray) -> np.ndarray:
         """The next TCP target while opening: ``pull_step`` along the planned line or arc, plus ``press``."""
@@ -236,6 +335,27 @@ class ScriptedOpener:
                 grip = grip + (self.approach_grip - grip) * (1.0 - self.phase_steps / CLOSE_STEPS)
             if self.phase_steps >= CLOSE_STEPS:
                 self._next("open")
+        elif self.phase == "around":  # round a door's free edge, fingers closed
+            angle = self._angle(grasp)
+            target = rotate_about(self._around[0], self.pivot, self.axis, angle)
+            grip = -1.0 if len(self._around) == 4 else 1.0  # open while backing out, then closed
+            distance = float(np.linalg.norm(target - tcp))
+            knocked = closing > PUSH_GUARD and closing > closing_before + 0.5 * PUSH_GUARD
+            behind = len(self._around) == 1 and (knocked or float(np.max(obs[16:18])) > REGRASP_TOUCH)
+            if (distance < AROUND_TOLERANCE or self.phase_steps > AROUND_STEPS or self._stalled(distance)
+                    or behind):  # behind the door, touching it: push from here (chasing the waypoint shuts it)
+                self._around.pop(0)
+                self._next("around" if self._around else "push")
+                self.radius = None
+        elif self.phase == "push":  # along the opening arc, pressing on the door's inside face
+            target, grip = self._open_target(tcp, np.zeros(3)), 1.0
+        elif (np.linalg.norm(grasp - tcp) > REGRASP_DISTANCE and self.regrasps < MAX_REGRASPS
+              and self.rotational and (path := self._push_path(tcp, grasp)) is not None):
+            # a door's handle slipped out with the door open far enough: push it open from inside
+            self.regrasps += 1
+            self._around = path
+            self._next("around")
+            target, grip = rotate_about(path[0], self.pivot, self.axis, self._angle(grasp)), -1.0
         elif np.linalg.norm(grasp - tcp) > REGRASP_DISTANCE and self.regrasps < MAX_REGRASPS:
             # the handle slipped out of the fingers: open them and go back in front of it
             self.regrasps += 1
@@ -288,8 +408,12 @@ def opener_for(env: gym.Env, axis, pivot, joint_type: str, pull_step: float = PU
     if grasp.opening is not None and not grasp.inside_grip:
         approach_grip = grip_command(scene.gripper.config, grasp.opening)
         lateral_tolerance = 0.5 * grasp.clearance
+    edge = None
+    if joint_type != "prismatic":
+        edge = door_edge(part_points(scene.asset, scene.joint.name), grasp.point, grasp.outward, axis, pivot)
     return ScriptedOpener(axis, pivot, joint_type, grasp.outward, pull_step, inside_grip=grasp.inside_grip,
-                          press=grasp.press, approach_grip=approach_grip, lateral_tolerance=lateral_tolerance)
+                          press=grasp.press, approach_grip=approach_grip, lateral_tolerance=lateral_tolerance,
+                          edge=edge)
 
 
 def open_with_joint(env: gym.Env, axis, pivot, joint_type: str, seed: int | None = None,
