@@ -319,26 +319,33 @@ def test_approach_blocked_finds_what_stands_in_the_way_in():
     assert approach_blocked(asset(far=far, beyond=beyond), grasp, gripper, 0.5) is None
 
 
+def _bare_door_with(name: str, parts, at: np.ndarray, fin=None):
+    """The procedural cabinet whose door has no bar but ``parts`` (``(Visual, Collision)`` pairs) as one
+    link ``name`` on a continuous hinge of its own, its axis out of the door, at ``at`` in the door's
+    frame (a safe's dial or wheel); ``fin``: a further piece of the door itself."""
+    asset = procedural_cabinet(0)
+    door = asset.links["link_1"]
+    door.visuals, door.collisions = door.visuals[:1], door.collisions[:1]
+    if fin is not None:
+        door.visuals.append(fin[0])
+        door.collisions.append(fin[1])
+    asset.links[name] = Link(name=name, visuals=[v for v, _ in parts], collisions=[c for _, c in parts],
+                             label="knob", semantic_joint="hinge")
+    origin = np.eye(4)
+    origin[:3, 3] = at
+    asset.joints[f"{name}_joint"] = Joint(f"{name}_joint", "continuous", "link_1", name, origin=origin,
+                                          axis=np.array([-1.0, 0.0, 0.0]), lower=0.0, upper=0.0)
+    return asset
+
+
 def _door_with_hinged_knob():
     """The procedural cabinet whose door has no bar but a 20 mm knob on a hinge of its own (a safe's dial,
     its axis out of the door) near the free edge, and, 30 mm towards the hinge, a thin fin of the door's own
     (a dial's index mark) standing in the open fingers' sweep."""
-    asset = procedural_cabinet(0)
-    door = asset.links["link_1"]
-    door.visuals, door.collisions = door.visuals[:1], door.collisions[:1]
-    width = door.collisions[0].size[1]
+    width = procedural_cabinet(0).links["link_1"].collisions[0].size[1]
     knob_at = np.array([-0.02, width - 0.08, 0.05])  # on the door's front (x = -0.02 in the door's frame)
     fin = _box(knob_at + (-0.012, -0.03, 0.0), (0.024, 0.004, 0.04))
-    door.visuals.append(fin[0])
-    door.collisions.append(fin[1])
-    knob = _cylinder((0.0, 0.0, 0.0), 0.01, 0.03)
-    asset.links["knob"] = Link(name="knob", visuals=[knob[0]], collisions=[knob[1]], label="knob",
-                               semantic_joint="hinge")
-    origin = np.eye(4)
-    origin[:3, 3] = knob_at
-    asset.joints["knob_joint"] = Joint("knob_joint", "continuous", "link_1", "knob", origin=origin,
-                                       axis=np.array([-1.0, 0.0, 0.0]), lower=0.0, upper=0.0)
-    return asset, knob_at
+    return _bare_door_with("knob", [_cylinder((0.0, 0.0, 0.0), 0.01, 0.03)], knob_at, fin), knob_at
 
 
 def test_a_knob_on_its_own_hinge_is_the_handle_not_an_obstacle_beside_the_door():
@@ -424,21 +431,12 @@ def _door_with_wheel():
     """The procedural cabinet whose door has no bar but a spoked wheel on a hinge of its own (a safe's
     handle, its axis out of the door) in the door's middle: a 90 mm hub standing 50 mm out, four 25 mm
     spokes 40 mm out reaching 130 mm from the axis (102318's proportions)."""
-    asset = procedural_cabinet(0)
-    door = asset.links["link_1"]
-    door.visuals, door.collisions = door.visuals[:1], door.collisions[:1]
-    center = np.array([-0.02, 0.5 * door.collisions[0].size[1], 0.0])
+    center = np.array([-0.02, 0.5 * procedural_cabinet(0).links["link_1"].collisions[0].size[1], 0.0])
     parts = [_cylinder((0.0, 0.0, 0.0), 0.045, 0.05)]
     for sign in (-1.0, 1.0):
         parts.append(_box((-0.04, 0.0, sign * 0.085), (0.02, 0.025, 0.09)))
         parts.append(_box((-0.04, sign * 0.085, 0.0), (0.02, 0.09, 0.025)))
-    asset.links["wheel"] = Link(name="wheel", visuals=[v for v, _ in parts], collisions=[c for _, c in parts],
-                                label="knob", semantic_joint="hinge")
-    origin = np.eye(4)
-    origin[:3, 3] = center
-    asset.joints["wheel_joint"] = Joint("wheel_joint", "continuous", "link_1", "wheel", origin=origin,
-                                        axis=np.array([-1.0, 0.0, 0.0]), lower=0.0, upper=0.0)
-    return asset, center
+    return _bare_door_with("wheel", parts, center), center
 
 
 def test_a_wheel_is_held_by_a_spoke_clear_of_its_hub():
