@@ -62,7 +62,7 @@ class SparkDoorEnv(SparkArticulationEnv):
     the scene's grasp (``env.unwrapped.scene.grasp``: point, outward direction, grip) and the part's surface
     at rest (:func:`~spark_bench.envs.scene.part_points`); the scripted opener reads the door's free edge and
     thickness from it to push a door that slipped out of the fingers open from inside
-    (:func:`~spark_bench.rl.scripted.door_edge`).
+    (:func:`~spark_bench.rl.door_geometry.door_edge`).
 
     **Rewards** (``reward_type="dense"``, in [0, 1]): ``(reach + grasp + 2 progress + success) / 5`` with
     ``reach = 1 - tanh(10 d)`` (d: TCP to grasp point, m), ``grasp = 1`` when both pads touch and

@@ -236,7 +236,7 @@ def plan_grasp(asset: ArticulatedAsset, joint: str, gripper: GripperConfig | Non
 def part_points(asset: ArticulatedAsset, joint: str, n: int = 20000) -> np.ndarray:
     """``n`` points sampled (seed 0) on the visual surface of the part moved by ``joint``, world frame at rest,
     memoized per asset: what a policy reads of the part's shape (a door's width and thickness,
-    :func:`~spark_bench.rl.scripted.door_edge`). Empty when the part has no faces.
+    :func:`~spark_bench.rl.door_geometry.door_edge`). Empty when the part has no faces.
 
     :param asset: the object
     :param joint: a movable joint's name

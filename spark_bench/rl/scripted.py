@@ -26,6 +26,7 @@ from spark_bench.envs.gripper import grip_command
 from spark_bench.envs.registration import make_env
 from spark_bench.envs.scene import part_points
 from spark_bench.errors import InputError
+from spark_bench.rl.door_geometry import DoorEdge, door_edge, turns_in_place
 
 #: Distance (m) in front of the grasp point where the approach starts.
 PREGRASP_OFFSET = 0.06
@@ -90,10 +91,7 @@ PUSH_INSET = 0.05
 FIT_CLEARANCE = 0.09
 AROUND_TOLERANCE = 0.015
 AROUND_STEPS = 15
-#: Surface points within this distance (m) of the grasp's height along the hinge define the door's free edge and
-#: its inside face there (:func:`door_edge`); the inside face is read within :data:`EDGE_BAND` (m) of the edge.
-HEIGHT_BAND = 0.1
-EDGE_BAND = 0.1
+
 
 
 def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
@@ -101,49 +99,6 @@ def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: 
     v = point - pivot
     c, s = np.cos(angle), np.sin(angle)
     return pivot + v * c + np.cross(axis, v) * s + axis * np.dot(axis, v) * (1 - c)
-
-
-@dataclass
-class DoorEdge:
-    """A door's free edge at the grasp's height, world frame at rest, as the push from inside needs it.
-
-    :param point: on the free edge, at the grasp point's height along the hinge and its level along ``outward``
-    :param depth: how far (m) behind the grasp point (against ``outward``) the door's inside face lies near
-        its free edge
-    """
-
-    point: np.ndarray
-    depth: float
-
-
-def door_edge(points: np.ndarray, grasp, outward, axis, pivot) -> DoorEdge | None:
-    """The free edge of a door (:class:`DoorEdge`) from its surface at rest and a planned hinge: the point
-    farthest from the hinge, in the direction from the hinge to the grasp, among the surface points within
-    :data:`HEIGHT_BAND` of the grasp's height; None when there are none or the door has no thickness there.
-
-    :param points: points on the part's surface, world frame at rest
-    :param grasp: the grasp point at rest
-    :param outward: the part's outward direction at rest
-    :param axis: the planned hinge's direction
-    :param pivot: a point on the planned hinge
-    """
-    points = np.asarray(points, float).reshape(-1, 3)
-    grasp, n, axis = np.asarray(grasp, float), unit(outward), unit(axis)
-    radial = grasp - np.asarray(pivot, float)
-    radial = radial - (radial @ axis) * axis
-    if len(points) == 0 or np.linalg.norm(radial) < 1e-6:
-        return None
-    u = unit(radial)
-    rel = points - grasp
-    band = np.abs(rel @ axis) < HEIGHT_BAND
-    if not band.any():
-        return None
-    r, h = rel[band] @ u, rel[band] @ n
-    reach = float(r.max())
-    depth = -float(h[r > reach - EDGE_BAND].min())
-    if depth <= 0:
-        return None
-    return DoorEdge(point=grasp + reach * u, depth=depth)
 
 
 class ScriptedOpener:
@@ -170,11 +125,13 @@ class ScriptedOpener:
     :param lateral_tolerance: aligned approach (see above) with this tolerance, m; None: direct approach
     :param edge: a door's free edge (:func:`door_edge`): a door that slips out of the fingers open far enough
         for the hand to fit behind it is pushed open from inside (:data:`EDGE_CLEARANCE`); None: re-grasped
+    :param in_place: a rotational part that turns in place about an axis through itself (a cap, a dial:
+        :func:`turns_in_place`): re-grasped as a drawer is, never pushed
     """
 
     def __init__(self, axis, pivot, joint_type: str, outward, pull_step: float = PULL_STEP,
                  inside_grip: bool = False, press=None, approach_grip: float | None = None,
-                 lateral_tolerance: float | None = None, edge: DoorEdge | None = None):
+                 lateral_tolerance: float | None = None, edge: DoorEdge | None = None, in_place: bool = False):
         if joint_type not in ("prismatic", "revolute", "continuous"):
             raise ValueError(f"cannot open a {joint_type!r} joint")
         self.axis = unit(axis)
@@ -189,7 +146,13 @@ class ScriptedOpener:
         self.approach_grip = None if approach_grip is None else float(np.clip(approach_grip, -1.0, 1.0))
         self.lateral_tolerance = None if lateral_tolerance is None else float(lateral_tolerance)
         self.edge = edge if self.rotational else None
+        self.in_place = bool(in_place)
         self.reset()
+
+    @property
+    def swinging(self) -> bool:
+        """Whether the part swings like a door (rotational and not turning in place, :func:`turns_in_place`)."""
+        return self.rotational and not self.in_place
 
     def reset(self) -> None:
         """Back to the first phase (call at each episode start)."""
@@ -305,13 +268,13 @@ class ScriptedOpener:
                     error = error - np.dot(error, outward) * outward
                 tolerance = self.lateral_tolerance if aligned else WAYPOINT_TOLERANCE
                 distance = float(np.linalg.norm(error))
-                if self.regrasps and self.rotational and abs(closing) > PUSH_GUARD:
+                if self.regrasps and self.swinging and abs(closing) > PUSH_GUARD:
                     self._distances = []  # a door still swinging: wait for it to come to rest
                 elif distance < tolerance or self.phase_steps > PREGRASP_STEPS or self._stalled(distance):
                     self._next("approach")
         elif self.phase == "approach":
             target = self._aligned_target(tcp, grasp, self._turned(self.outward, grasp)) if aligned else grasp
-            ajar = (self.regrasps > 0 and self.rotational
+            ajar = (self.regrasps > 0 and self.swinging
                     and float(np.linalg.norm(grasp - self.rest_grasp)) > AJAR_DISTANCE)
             if ajar:  # a door's re-grasp: slowly
                 step = target - tcp
@@ -350,7 +313,7 @@ class ScriptedOpener:
         elif self.phase == "push":  # along the opening arc, pressing on the door's inside face
             target, grip = self._open_target(tcp, np.zeros(3)), 1.0
         elif (np.linalg.norm(grasp - tcp) > REGRASP_DISTANCE and self.regrasps < MAX_REGRASPS
-              and self.rotational and (path := self._push_path(tcp, grasp)) is not None):
+              and self.swinging and (path := self._push_path(tcp, grasp)) is not None):
             # a door's handle slipped out with the door open far enough: push it open from inside
             self.regrasps += 1
             self._around = path
@@ -360,7 +323,7 @@ class ScriptedOpener:
             # the handle slipped out of the fingers: open them and go back in front of it
             self.regrasps += 1
             self._next("pregrasp")
-            self.radius, self._cleared, self._hold = None, not self.rotational, None
+            self.radius, self._cleared, self._hold = None, not self.swinging, None
             outward = self._turned(self.outward, grasp)
             target = grasp + PREGRASP_OFFSET * outward
             if not self._cleared:
@@ -408,12 +371,14 @@ def opener_for(env: gym.Env, axis, pivot, joint_type: str, pull_step: float = PU
     if grasp.opening is not None and not grasp.inside_grip:
         approach_grip = grip_command(scene.gripper.config, grasp.opening)
         lateral_tolerance = 0.5 * grasp.clearance
-    edge = None
+    edge, in_place = None, False
     if joint_type != "prismatic":
-        edge = door_edge(part_points(scene.asset, scene.joint.name), grasp.point, grasp.outward, axis, pivot)
+        points = part_points(scene.asset, scene.joint.name)
+        in_place = turns_in_place(points, grasp.point, axis, pivot)
+        edge = None if in_place else door_edge(points, grasp.point, grasp.outward, axis, pivot)
     return ScriptedOpener(axis, pivot, joint_type, grasp.outward, pull_step, inside_grip=grasp.inside_grip,
                           press=grasp.press, approach_grip=approach_grip, lateral_tolerance=lateral_tolerance,
-                          edge=edge)
+                          edge=edge, in_place=in_place)
 
 
 def open_with_joint(env: gym.Env, axis, pivot, joint_type: str, seed: int | None = None,
