@@ -75,8 +75,8 @@ REGRASP_TOUCH = 0.05
 AJAR_DISTANCE = 0.01
 #: Pushing a door open from inside (:func:`door_edge`): when a door's handle slips out of the fingers with the
 #: door open so far that the hand fits behind its free edge, the hand does not re-grasp the handle (a passive
-#: wrist sprung back leaves the fingers far off square to a door swung past a right angle) but closes its
-#: fingers, backs out to :data:`PREGRASP_OFFSET` in front of the door, goes round its free edge
+#: wrist sprung back leaves the fingers far off square to a door swung past a right angle) but backs out
+#: to :data:`PREGRASP_OFFSET` in front of the door with its fingers open, closes them, goes round its free edge
 #: (:data:`EDGE_CLEARANCE` (m) past it), behind its inside face (:data:`INSIDE_CLEARANCE` (m) from it), in to
 #: :data:`PUSH_INSET` (m) from the free edge, and then swings along the opening arc, pushing the inside face.
 #: The door fits the hand when the waypoints behind it stand at least :data:`FIT_CLEARANCE` (m) in front of
@@ -268,8 +268,9 @@ class ScriptedOpener:
                     error = error - np.dot(error, outward) * outward
                 tolerance = self.lateral_tolerance if aligned else WAYPOINT_TOLERANCE
                 distance = float(np.linalg.norm(error))
-                if self.regrasps and self.swinging and abs(closing) > PUSH_GUARD:
-                    self._distances = []  # a door still swinging: wait for it to come to rest
+                swinging = self.regrasps and self.swinging and abs(closing) > PUSH_GUARD
+                if swinging and self.phase_steps <= 2 * PREGRASP_STEPS:
+                    self._distances = []  # a door still swinging: wait for it to come to rest (not for ever)
                 elif distance < tolerance or self.phase_steps > PREGRASP_STEPS or self._stalled(distance):
                     self._next("approach")
         elif self.phase == "approach":

@@ -95,9 +95,11 @@ class RestContact:
     pair: tuple[str, str]
 
     def explains(self, delta: float, margin: float) -> bool:
-        """Whether a joint motion of ``delta`` only takes the part out of this overlap: in the direction
-        that opens it, and no farther than its depth plus ``margin``."""
-        return self.rate * delta > 0 and abs(self.rate * delta) <= self.depth + margin
+        """Whether a joint motion of ``delta`` is the part coming out of this overlap: in the direction that
+        opens it, by at least half its depth (a contact the motion hardly opens, near the axis or across
+        it, explains nothing) and no farther than its depth plus ``margin``."""
+        opened = self.rate * delta
+        return opened >= 0.5 * self.depth and opened <= self.depth + margin
 
 
 def rest_contacts(model, data, joint_name: str) -> list[RestContact]:
@@ -135,7 +137,8 @@ def check_rest_stability(model, joints: list[SweptJoint], size: float, seconds: 
     :data:`PENETRATION_TOLERANCE` of the object's size, it is still within its joint's range (with the
     floor as margin) and at rest at the end (slower than the drift floor per second). A hasp hanging
     against a box whose hull fills the staple's recess settles 8 mm out and stays there (``settled`` in
-    the details); a part that moves farther than the overlap needs, was never in one, or is pushed past
+    the details); a part that moves farther than the overlap needs, opens it by less than half its depth
+    (a sagging part with an overlap next to its axis), was never in one, or is pushed past
     its own stop (microwave 7263's buttons, 3.4 mm inside the panel's hulls at their outer stop and
     pushed 3.3 mm beyond it: the overlap fights the joint's limit) still drifts.
     """

@@ -96,14 +96,17 @@ def test_no_listed_object_or_none_prepared_is_an_error(tmp_path, capsys):
     assert main(["data", "prepare", "--src", str(broken)]) == 2  # no --out without a listed --bench
 
 
-def test_named_benchmark_from_the_cache(tmp_path, isolated_home):
+def test_named_benchmark_from_the_cache(tmp_path, isolated_home, caplog):
     with pytest.raises(SparkBenchError, match="spark-bench data prepare --src PARTNET_MOBILITY_DIR --bench spark-test"):
         ensure_benchmark("spark-test")
     src = write_download(tmp_path / "download", ["10090"])
     result = prepare_listed(BENCHMARKS["spark-test"], src, options=PrepareOptions(
         image_size=64, resolution=24, azimuth_deg=180.0, elevation_deg=0.0), progress=False)
     assert result.folder == benchmark_dir("spark-test") and result.prepared == ["10090"]
-    assert ensure_benchmark("spark-test") == benchmark_dir("spark-test")
+    with caplog.at_level("WARNING", logger="spark_bench.data.benchmarks"):
+        assert ensure_benchmark("spark-test") == benchmark_dir("spark-test")
+    # prepared with other options than the spec's (64 px, R=24): used, and said
+    assert "prepared with other options" in caplog.text and "--overwrite" in caplog.text
     with pytest.raises(SparkBenchError, match="generated, not listed"):
         prepare_listed(BENCHMARKS["synth-v1"], src)
     with pytest.raises(SparkBenchError, match="azimuth_deg and elevation_deg"):

@@ -126,3 +126,18 @@ def test_a_door_let_go_half_open_is_not_pushed_shut_by_the_hand_coming_back():
         assert opener.regrasps >= 1, "the opener did not notice that it let go"
         assert min(fractions) >= released - 0.05, (seed, released, min(fractions))
     env.close()
+
+
+def test_the_wait_for_a_swinging_door_ends():
+    """A door that never comes to rest (a hand nudging it, a part oscillating on its joint) is waited for at
+    most twice the pre-grasp's step budget; then the approach starts."""
+    from spark_bench.rl.scripted import PREGRASP_STEPS
+
+    opener, grasp, tcp, outward, _ = _slipped_door_opener((-0.05, 0.0, 0.0))
+    pre = PREGRASP_OFFSET * outward
+    for step in range(4 * PREGRASP_STEPS):
+        moving = grasp + (0.003 if step % 2 else -0.003) * outward  # 6 mm back and forth every step
+        opener(_obs(moving + pre, moving))
+        if opener.phase != "pregrasp":
+            break
+    assert opener.phase == "approach" and PREGRASP_STEPS < step <= 2 * PREGRASP_STEPS + 1

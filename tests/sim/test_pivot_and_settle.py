@@ -129,6 +129,11 @@ def test_rest_contact_explains_only_motion_out_of_it():
     assert not contact.explains(0.041, 0.001)  # farther than the overlap needs
     assert not contact.explains(-0.01, 0.001)  # into the neighbour, not out of it
     assert not RestContact(0.003, -0.1, ("a", "b")).explains(0.02, 0.001)
+    # a contact the motion hardly opens (next to the axis: 0.014 m per rad) explains no sag: a plank sagging
+    # 0.044 rad clears 0.6 mm of a 3 mm overlap there, well within "depth + margin" but not the overlap's doing
+    near_axis = RestContact(depth=0.003, rate=0.014, pair=("a", "b"))
+    assert not near_axis.explains(0.044, 0.001)
+    assert near_axis.explains(0.2, 0.001)  # 2.8 mm: the part did come out of it
 
 
 def _button_on_panel(proud: float) -> ArticulatedAsset:
