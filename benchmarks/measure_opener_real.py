@@ -260,18 +260,22 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
                  sheet: Path | None) -> Path:
     """``opener_real.md``: rates per category, the issue's per-object number, every failure and every
     declined part with its reason, and the time taken."""
+    from spark_bench.envs.gripper import GripperConfig, largest_pull
+    from spark_bench.envs.scene import OVERLOAD
+
     lines = ["# The scripted opener on real objects", "",
              f"Produced by `python benchmarks/measure_opener_real.py` on {os.cpu_count()} CPU cores shared with "
              f"other jobs: every drawer, door and lid (by the part's `semantics.txt` label) of the "
              f"PartNet-Mobility objects in `{args.root.name}/`, opened by the scripted opener with the "
              f"ground-truth joint, {args.episodes} episodes of at most {args.max_steps} steps each (seeds 0..), "
-             "success = the joint passes 75 % of its range. A joint counts as opened when every episode opens it. "
+             f"success = the joint passes {100 * TARGET:.0f} % of its range. A joint counts as opened when every episode opens it. "
              "*Declined*: the planner says, before any episode, why a parallel gripper cannot pull the part "
              f"(that line is the rollout's `reason`). Total time {seconds:.0f} s.", "",
              "*Stuck*: a joint that does not reach the success fraction when driven directly with the gripper's "
-             "largest pull (104 N at the grasp point's lever arm, nothing in the way, until it stands still: "
-             "`spark_bench.envs.scene.stuck_reason`): no policy of this hand can open it, whatever it does; the "
-             "reason says whether 4 times that force opens it (too heavy for the gripper) or not (jammed by its "
+             f"largest pull ({largest_pull(GripperConfig()):.0f} N at the grasp point's lever arm, nothing in the "
+             "way, until it stands still: `spark_bench.envs.scene.stuck_reason`): no policy of this hand can open "
+             f"it, whatever it does; the reason says whether {OVERLOAD:g} times that force opens it (too heavy for "
+             "the gripper) or not (jammed by its "
              "collision shapes). The scene checks this when it is built and declines such a part with that reason "
              "(counted under *declined*).",
              "",

@@ -19,6 +19,7 @@ import numpy as np
 from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.envs.grasp import GraspTarget, find_grasp, part_name
 from spark_bench.envs.gripper import GripperConfig, GripperHandles, add_gripper, largest_pull
+from spark_bench.envs.handle_search import N_SAMPLES
 from spark_bench.envs.rest_meshes import RestMeshes
 from spark_bench.errors import InputError
 from spark_bench.mujoco_gl import mujoco_module
@@ -233,10 +234,11 @@ def plan_grasp(asset: ArticulatedAsset, joint: str, gripper: GripperConfig | Non
     return _memo("grasp", asset, (joint, repr(gripper)), compute)
 
 
-def part_points(asset: ArticulatedAsset, joint: str, n: int = 20000) -> np.ndarray:
+def part_points(asset: ArticulatedAsset, joint: str, n: int = N_SAMPLES) -> np.ndarray:
     """``n`` points sampled (seed 0) on the visual surface of the part moved by ``joint``, world frame at rest,
-    memoized per asset: what a policy reads of the part's shape (a door's width and thickness,
-    :func:`~spark_bench.rl.door_geometry.door_edge`). Empty when the part has no faces.
+    memoized per asset (read-only: shared by the joint's environments): what a policy reads of the part's
+    shape (a door's width and thickness, :func:`~spark_bench.rl.door_geometry.door_edge`); by default the
+    grasp planner's own samples of the part. Empty when the part has no faces.
 
     :param asset: the object
     :param joint: a movable joint's name
@@ -246,7 +248,9 @@ def part_points(asset: ArticulatedAsset, joint: str, n: int = 20000) -> np.ndarr
 
     def compute():
         part = _memo("rest", asset, None, lambda: RestMeshes(asset)).mesh(links=asset.part_of_joint(joint))
-        return sample_surface(part, n, seed=0) if len(part.faces) else np.zeros((0, 3))
+        points = sample_surface(part, n, seed=0) if len(part.faces) else np.zeros((0, 3))
+        points.setflags(write=False)
+        return points
 
     return _memo("part", asset, (joint, n), compute)
 

@@ -93,6 +93,19 @@ AROUND_TOLERANCE = 0.015
 AROUND_STEPS = 15
 
 
+def _met(obs: np.ndarray, closing: float, closing_before: float) -> bool:
+    """Whether the hand, coming in on a door (the re-grasp's guarded approach, the way in behind it), has met
+    it: a pad's touch reading passes :data:`REGRASP_TOUCH`, or the door is knocked towards closing (it moved
+    so by more than :data:`PUSH_GUARD` in the last step and faster than in the step before: swinging shut by
+    itself it only slows down).
+
+    :param obs: the environment's observation (pads' touch readings at 16-17)
+    :param closing: how far (m) the grasp point moved towards closing in the last step
+    :param closing_before: the same in the step before
+    """
+    knocked = closing > PUSH_GUARD and closing > closing_before + 0.5 * PUSH_GUARD
+    return knocked or float(np.max(obs[16:18])) > REGRASP_TOUCH
+
 
 def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
     """``point`` rotated by ``angle`` about the line through ``pivot`` along unit ``axis`` (Rodrigues)."""
@@ -202,9 +215,9 @@ class ScriptedOpener:
             return None
         angle = self._angle(grasp)
         n, edge = self.outward, self.edge.point
-        u = unit(edge - self.rest_grasp) if np.linalg.norm(edge - self.rest_grasp) > 1e-6 else None
-        if u is None:
+        if np.linalg.norm(edge - self.rest_grasp) <= 1e-6:
             return None
+        u = unit(edge - self.rest_grasp)
         back = -(self.edge.depth + INSIDE_CLEARANCE) * n
         out = rotate_about(tcp, self.pivot, self.axis, -angle)  # the hand, in the door's frame at rest
         out = out + max(PREGRASP_OFFSET - float((out - self.rest_grasp) @ n), 0.0) * n
@@ -282,8 +295,7 @@ class ScriptedOpener:
                 target = tcp + step * min(1.0, REGRASP_STEP / max(float(np.linalg.norm(step)), 1e-9))
             limit = ALIGNED_APPROACH_STEPS if aligned else APPROACH_STEPS
             distance = float(np.linalg.norm(grasp - tcp))
-            knocked = closing > PUSH_GUARD and closing > closing_before + 0.5 * PUSH_GUARD
-            pushed = ajar and (knocked or float(np.max(obs[16:18])) > REGRASP_TOUCH)
+            pushed = ajar and _met(obs, closing, closing_before)
             if pushed:  # close where the hand is, and stay there (not following the door)
                 target = self._hold = tcp
             if (distance < WAYPOINT_TOLERANCE or self.phase_steps > limit or self._stalled(distance)
@@ -304,8 +316,7 @@ class ScriptedOpener:
             target = rotate_about(self._around[0], self.pivot, self.axis, angle)
             grip = -1.0 if len(self._around) == 4 else 1.0  # open while backing out, then closed
             distance = float(np.linalg.norm(target - tcp))
-            knocked = closing > PUSH_GUARD and closing > closing_before + 0.5 * PUSH_GUARD
-            behind = len(self._around) == 1 and (knocked or float(np.max(obs[16:18])) > REGRASP_TOUCH)
+            behind = len(self._around) == 1 and _met(obs, closing, closing_before)
             if (distance < AROUND_TOLERANCE or self.phase_steps > AROUND_STEPS or self._stalled(distance)
                     or behind):  # behind the door, touching it: push from here (chasing the waypoint shuts it)
                 self._around.pop(0)
@@ -313,22 +324,21 @@ class ScriptedOpener:
                 self.radius = None
         elif self.phase == "push":  # along the opening arc, pressing on the door's inside face
             target, grip = self._open_target(tcp, np.zeros(3)), 1.0
-        elif (np.linalg.norm(grasp - tcp) > REGRASP_DISTANCE and self.regrasps < MAX_REGRASPS
-              and self.swinging and (path := self._push_path(tcp, grasp)) is not None):
-            # a door's handle slipped out with the door open far enough: push it open from inside
-            self.regrasps += 1
-            self._around = path
-            self._next("around")
-            target, grip = rotate_about(path[0], self.pivot, self.axis, self._angle(grasp)), -1.0
         elif np.linalg.norm(grasp - tcp) > REGRASP_DISTANCE and self.regrasps < MAX_REGRASPS:
-            # the handle slipped out of the fingers: open them and go back in front of it
+            # the handle slipped out of the fingers
             self.regrasps += 1
-            self._next("pregrasp")
-            self.radius, self._cleared, self._hold = None, not self.swinging, None
-            outward = self._turned(self.outward, grasp)
-            target = grasp + PREGRASP_OFFSET * outward
-            if not self._cleared:
-                target = tcp + max(PREGRASP_OFFSET - float((tcp - grasp) @ outward), 0.0) * outward
+            path = self._push_path(tcp, grasp) if self.swinging else None
+            if path is not None:  # a door open far enough: push it open from inside
+                self._around = path
+                self._next("around")
+                target, grip = rotate_about(path[0], self.pivot, self.axis, self._angle(grasp)), -1.0
+            else:  # open the fingers and go back in front of the handle
+                self._next("pregrasp")
+                self.radius, self._cleared, self._hold = None, not self.swinging, None
+                outward = self._turned(self.outward, grasp)
+                target = grasp + PREGRASP_OFFSET * outward
+                if not self._cleared:
+                    target = tcp + max(PREGRASP_OFFSET - float((tcp - grasp) @ outward), 0.0) * outward
         else:
             target, grip = self._open_target(tcp, press), hold
         action = np.empty(4, dtype=np.float32)
