@@ -36,7 +36,7 @@ from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.converter import load_source
 from spark_bench.sim.options import ConvertOptions
-from spark_bench.sim.relief import summarize_relief, under
+from spark_bench.sim.relief import joint_bodies, summarize_relief
 from spark_bench.sim.results import CheckReport, CheckResult
 from spark_bench.sim.sweep import (
     SweptJoint,
@@ -97,16 +97,25 @@ class RestContact:
     def explains(self, delta: float, margin: float) -> bool:
         """Whether a joint motion of ``delta`` is the part coming out of this overlap: in the direction that
         opens it, by at least half its depth (a contact the motion hardly opens, near the axis or across
-        it, explains nothing) and no farther than its depth plus ``margin``."""
+        it, explains nothing) and no farther than its depth plus ``margin``.
+
+        :param delta: the joint's motion from its rest value (rad or m)
+        :param margin: how far beyond the overlap's depth the part may have moved (m)
+        """
         opened = self.rate * delta
         return opened >= 0.5 * self.depth and opened <= self.depth + margin
 
 
 def rest_contacts(model, data, joint_name: str) -> list[RestContact]:
     """The penetrating contacts, at ``data``'s current state, between the bodies that joint
-    ``joint_name`` moves and every other body."""
+    ``joint_name`` moves and every other body.
+
+    :param model: the compiled ``MjModel``
+    :param data: its ``MjData``, after ``mj_forward``
+    :param joint_name: a hinge or slide of ``model``
+    """
     jid = model.joint(joint_name).id
-    moving = {b for b in range(model.nbody) if under(model, b, int(model.jnt_bodyid[jid]))}
+    moving = joint_bodies(model, jid)
     anchor, axis = data.xanchor[jid], data.xaxis[jid]
     hinge = int(model.jnt_type[jid]) == 3  # mjJNT_HINGE
     out = []
@@ -156,15 +165,16 @@ def check_rest_stability(model, joints: list[SweptJoint], size: float, seconds: 
             finite = False
             break
     floor = REST_DRIFT_FLOOR * size
-    drift, moved, settled = {}, {}, {}
+    drift, moved, settled, bad = {}, {}, {}, {}
     for joint in joints:
         jid = model.joint(joint.name).id
         span = (joint.upper - joint.lower) if joint.upper > joint.lower else 1.0
         value = float(data.qpos[model.jnt_qposadr[jid]])
         signed = value - joint.rest
-        delta = abs(signed)
-        drift[joint.name] = delta / span
-        moved[joint.name] = delta * radius[joint.name]
+        drift[joint.name] = abs(signed) / span
+        moved[joint.name] = abs(signed) * radius[joint.name]
+        if not (drift[joint.name] > REST_DRIFT_TOLERANCE and moved[joint.name] > floor):
+            continue
         speed = abs(float(data.qvel[model.jnt_dofadr[jid]])) * radius[joint.name]
         out_of = [c for c in started_in[joint.name] if c.explains(signed, floor)]
         slack = floor / max(radius[joint.name], 1e-9)  # the floor in joint units
@@ -172,14 +182,14 @@ def check_rest_stability(model, joints: list[SweptJoint], size: float, seconds: 
         if out_of and in_range and moved[joint.name] <= PENETRATION_TOLERANCE * size and speed <= floor:
             deepest = max(out_of, key=lambda c: c.depth)
             settled[joint.name] = {"depth": round(deepest.depth, 6), "pair": list(deepest.pair)}
-    bad = {k: v for k, v in drift.items()
-           if v > REST_DRIFT_TOLERANCE and moved[k] > floor and k not in settled}
+        else:
+            bad[joint.name] = drift[joint.name]
     worst = max(drift.values(), default=0.0) if finite else float("inf")
     warnings = _warnings(data)
     passed = finite and not warnings and not bad
     details = {"seconds": seconds, "drift": {k: round(v, 5) for k, v in drift.items()},
                "displacement": {k: round(v, 6) for k, v in moved.items()}, "warnings": warnings,
-               "settled": {k: v for k, v in settled.items() if drift[k] > REST_DRIFT_TOLERANCE and moved[k] > floor}}
+               "settled": settled}
     if not finite:
         details["reason"] = "NaN or infinite state"
     elif warnings:

@@ -35,7 +35,7 @@ from scipy.spatial import ConvexHull, QhullError
 from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.contacts import geometric_parents
-from spark_bench.sim.relief import HINGE_ZONE, MAX_DEPTH, hinge_radius, under
+from spark_bench.sim.relief import HINGE_ZONE, MAX_DEPTH, hinge_radius, joint_bodies
 
 #: Joint values tried per range (at least; hinges get one per ``1 / STEPS_PER_RADIAN`` rad).
 STEPS = 12
@@ -260,10 +260,10 @@ def trace(prepared, model, joint: Joint, moving: str, other: str, tolerance: flo
     mujoco = mujoco_module()
     data = mujoco.MjData(model)
     body_o, body_m = model.body(other).id, model.body(moving).id
-    qadr = model.jnt_qposadr[model.joint(joint.name).id]
-    steps = joint_steps(joint)
     jid = model.joint(joint.name).id
-    turning = {b for b in range(model.nbody) if under(model, b, int(model.jnt_bodyid[jid]))}
+    qadr = model.jnt_qposadr[jid]
+    steps = joint_steps(joint)
+    turning = joint_bodies(model, jid)
     poses, depths, zones = [], [], []
     for value in steps:
         mujoco.mj_resetData(model, data)

@@ -100,8 +100,7 @@ def find_cuts(model, data, asset, gap: float) -> list[tuple]:
         if not joint.is_rotational:
             continue
         jid = model.joint(joint.name).id
-        body = model.jnt_bodyid[jid]
-        moving = {b for b in range(model.nbody) if under(model, b, body)}
+        moving = joint_bodies(model, jid)
         span = joint.upper - joint.lower if joint.type != "continuous" else 2 * np.pi
         samples = max(8, int(abs(span) * SAMPLES_PER_RADIAN))
         # (moving body, other body) pairs in contact along the axis at rest and at every sample since
@@ -145,11 +144,27 @@ def find_cuts(model, data, asset, gap: float) -> list[tuple]:
 
 
 def under(model, body: int, ancestor: int) -> bool:
+    """Whether ``body`` is ``ancestor`` or one of its descendants (never true of the world body 0).
+
+    :param model: the compiled ``MjModel``
+    :param body: a body id
+    :param ancestor: a body id
+    """
     while body > 0:
         if body == ancestor:
             return True
         body = model.body_parentid[body]
     return False
+
+
+def joint_bodies(model, jid: int) -> set[int]:
+    """The bodies that joint ``jid`` moves: its body and every descendant.
+
+    :param model: the compiled ``MjModel``
+    :param jid: a joint id
+    """
+    body = int(model.jnt_bodyid[jid])
+    return {b for b in range(model.nbody) if under(model, b, body)}
 
 
 def relieve(prepared, compile_model, gap: float) -> list[ReliefCut]:

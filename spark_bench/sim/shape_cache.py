@@ -60,7 +60,8 @@ def scaled(shape: CollisionShape, factor: float) -> CollisionShape:
 
 
 def _hash_values(digest, array) -> None:
-    """Hash float values rounded to 1e-9 (a nanometre for lengths), so float noise does not change a key."""
+    """Hash float values rounded to 1e-9 (lengths are in units of the object's size: 1e-9 of it), so
+    float noise does not change a key."""
     digest.update(np.round(np.asarray(array, np.float64) * 1e9).astype(np.int64).tobytes())
 
 

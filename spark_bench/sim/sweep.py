@@ -17,6 +17,7 @@ import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.sim.relief import joint_bodies
 from spark_bench.sim.results import CheckResult
 
 SWEEP_REACH = 0.9
@@ -145,7 +146,7 @@ def sweep_joint(model, data, joints: list[SweptJoint], index: int, open_first: t
     joint = joints[index]
     jid = model.joint(joint.name).id
     qadr, dof = model.jnt_qposadr[jid], model.jnt_dofadr[jid]
-    moving = {b for b in range(model.nbody) if _is_descendant(model, b, model.jnt_bodyid[jid])}
+    moving = joint_bodies(model, jid)
     acts = {j.name: model.actuator(f"sweep_{j.name}").id for j in joints}
     by_name = {j.name: j for j in joints}
     dt = model.opt.timestep
@@ -177,14 +178,6 @@ def _with_shortfall(result: dict, full: float) -> dict:
     return result
 
 
-def _is_descendant(model, body: int, ancestor: int) -> bool:
-    while body > 0:
-        if body == ancestor:
-            return True
-        body = model.body_parentid[body]
-    return ancestor == 0
-
-
 def _owner_joint(model, body_name: str, names: set[str]) -> str | None:
     """The swept joint that moves body ``body_name`` (None for the fixed base)."""
     body = int(model.body(body_name).id)
@@ -205,11 +198,11 @@ def part_radius(model, data, jid: int) -> float:
     """
     if model.jnt_type[jid] != 3:  # mjJNT_HINGE
         return 1.0
-    body = model.jnt_bodyid[jid]
+    moving = joint_bodies(model, jid)
     anchor, axis = data.xanchor[jid], data.xaxis[jid]
     best = 0.0
     for g in range(model.ngeom):
-        if not _is_descendant(model, int(model.geom_bodyid[g]), int(body)):
+        if int(model.geom_bodyid[g]) not in moving:
             continue
         mesh = int(model.geom_dataid[g]) if model.geom_type[g] == 7 else -1  # mjGEOM_MESH
         if mesh >= 0:
