@@ -50,7 +50,7 @@ def _cleanup(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS, keep_large
              fix_normals: bool = True) -> tuple[trimesh.Trimesh, bool | None]:
     """:func:`cleanup`, and whether the result is watertight where that came for free (else None)."""
     mesh = mesh.copy()
-    mesh.merge_vertices(digits_vertex=max(0, int(-np.log10(weld_radius))))
+    mesh.merge_vertices(digits_vertex=_weld_digits(weld_radius))
     if _min_height(mesh) <= 100 * trimesh.tol.merge:  # else no face is degenerate: skip the slow test
         mesh.update_faces(mesh.nondegenerate_faces())
     # a watertight mesh in one piece repeats no face (two copies of a face would be a closed piece of
@@ -72,6 +72,14 @@ def _cleanup(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS, keep_large
         trimesh.repair.fix_normals(mesh)
         watertight = None
     return mesh, watertight
+
+
+def _weld_digits(weld_radius: float) -> int:
+    """The decimals that :func:`_cleanup`'s weld rounds vertices to (trimesh's ``digits_vertex``).
+
+    :param weld_radius: the weld radius
+    """
+    return max(0, int(-np.log10(weld_radius)))
 
 
 def _min_height(mesh: trimesh.Trimesh) -> float:
@@ -199,7 +207,7 @@ def _shell_cleanup(mesh: trimesh.Trimesh, spacing: float) -> tuple[trimesh.Trime
     :returns: ``(mesh, True)``: the cleaned shell, watertight, or None
     """
     vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
-    quantum = 10.0 ** -max(0, int(-np.log10(WELD_RADIUS)))  # what trimesh's merge_vertices rounds to
+    quantum = 10.0 ** -_weld_digits(WELD_RADIUS)  # what _cleanup's merge_vertices rounds to
     if len(faces) <= 2 or not spacing > 2.0 * quantum:
         return None
     used = np.zeros(len(vertices), dtype=bool)

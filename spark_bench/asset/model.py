@@ -315,6 +315,13 @@ class ArticulatedAsset:
         points = np.concatenate([m.vertices for m in meshes])
         return np.stack([points.min(0), points.max(0)])
 
-    def copy(self) -> ArticulatedAsset:
-        """A deep copy (meshes included)."""
-        return copy.deepcopy(self)
+    def copy(self, visuals: bool = True) -> ArticulatedAsset:
+        """A deep copy (meshes included).
+
+        :param visuals: False: the copy's links have no visuals (for a caller that gives them new ones: the
+            meshes are not copied only to be replaced)
+        """
+        if visuals:
+            return copy.deepcopy(self)
+        memo = {id(link.visuals): [] for link in self.links.values()}  # each visuals list copies to a new []
+        return copy.deepcopy(self, memo)

@@ -13,9 +13,13 @@ def scale_asset(asset: ArticulatedAsset, scale: float) -> ArticulatedAsset:
     Uniform scaling commutes with rigid motions, so scaling every translation (mesh vertices, joint
     origins, collision shapes, prismatic limits) scales the world geometry at every configuration.
     """
+    _check_scale(scale)
+    return _scale_in_place(asset.copy(), scale)
+
+
+def _check_scale(scale: float) -> None:
     if not np.isfinite(scale) or scale <= 0:
         raise ValueError(f"scale must be positive and finite, got {scale}")
-    return _scale_in_place(asset.copy(), scale)
 
 
 def _scale_in_place(out: ArticulatedAsset, scale: float) -> ArticulatedAsset:
@@ -108,11 +112,15 @@ def normalization(asset: ArticulatedAsset, q=None) -> tuple[np.ndarray, float]:
     return bounds.mean(0), 2.0 / extent
 
 
-def to_benchmark_frame(asset: ArticulatedAsset, center, scale: float, copy: bool = True) -> ArticulatedAsset:
+def apply_normalization(asset: ArticulatedAsset, center, scale: float, copy: bool = True) -> ArticulatedAsset:
     """``asset`` mapped by ``p_bench = (p_world - center) * scale`` (:func:`normalization`'s map).
 
+    :param asset: the object (world frame)
+    :param center: the world point that maps to 0
+    :param scale: the uniform scale (> 0)
     :param copy: False maps ``asset`` itself (a caller that owns it saves a deep copy of every mesh)
     """
+    _check_scale(float(scale))
     shift = np.eye(4)
     shift[:3, 3] = -np.asarray(center, dtype=float)
     return _scale_in_place(_move_in_place(asset.copy() if copy else asset, shift), float(scale))
@@ -127,6 +135,6 @@ def normalize_asset(asset: ArticulatedAsset, copy: bool = True) -> tuple[Articul
     :returns: ``(normalized asset, center, scale)`` with ``p_bench = (p_world - center) * scale``
     """
     center, scale = normalization(asset)
-    out = to_benchmark_frame(asset, center, scale, copy=copy)
+    out = apply_normalization(asset, center, scale, copy=copy)
     out.meta = {**out.meta, "normalization": {"center": center.tolist(), "scale": scale}}
     return out, center, scale

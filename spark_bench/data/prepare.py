@@ -137,15 +137,6 @@ def link_color(link: Link) -> tuple[float, float, float, float]:
     return tuple(float(c) for c in np.average(colors, axis=0, weights=weights))
 
 
-def _copy_without_visuals(asset: ArticulatedAsset) -> ArticulatedAsset:
-    """A deep copy of ``asset`` whose links have no visuals yet (the caller gives them new ones): the
-    source meshes are not copied only to be replaced."""
-    import copy
-
-    memo = {id(link.visuals): [] for link in asset.links.values()}  # each visuals list copies to a new []
-    return copy.deepcopy(asset, memo)
-
-
 def ground_truth_asset(asset: ArticulatedAsset, resolution: int = 200, n_min: int = 3,
                        timer: StageTimer | None = None) -> tuple[ArticulatedAsset, dict[str, dict]]:
     """The asset with one watertight mesh per link, its mean colour and only convex collisions.
@@ -159,7 +150,7 @@ def ground_truth_asset(asset: ArticulatedAsset, resolution: int = 200, n_min: in
     from spark_bench.asset.mesh import make_watertight
 
     timer = timer or StageTimer()
-    out = _copy_without_visuals(asset)
+    out = asset.copy(visuals=False)
     reports: dict[str, dict] = {}
     for name, link in out.links.items():
         original = asset.links[name]
@@ -185,15 +176,15 @@ def source_render_asset(source: ArticulatedAsset, center: np.ndarray, scale: flo
     """The source asset as :func:`ground_truth_asset` colours it, one merged mesh per link, not remeshed,
     moved into the benchmark frame by the ground truth's normalization (``p = (p_world - center) * scale``).
     """
-    from spark_bench.asset.ops import to_benchmark_frame
+    from spark_bench.asset.ops import apply_normalization
 
-    out = _copy_without_visuals(source)
+    out = source.copy(visuals=False)
     for name, link in out.links.items():
         original = source.links[name]
         merged = original.merged_mesh() if original.has_geometry else None
         link.visuals = [Visual(mesh=merged, rgba=link_color(original))] if merged is not None else []
         link.collisions = []
-    return to_benchmark_frame(out, center, scale, copy=False)  # out is this function's own
+    return apply_normalization(out, center, scale, copy=False)  # out is this function's own
 
 
 def _joint_label(asset: ArticulatedAsset, joint_name: str) -> str:

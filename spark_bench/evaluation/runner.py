@@ -399,7 +399,6 @@ def plan_tasks(bench_dir: Path, run: RunIdentity, spec: MethodSpec, options: Eva
                      threads, fingerprints.get(cid, "")) for cid in ids if cid not in done]
 
 
-
 def _progress():
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn

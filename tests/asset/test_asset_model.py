@@ -136,3 +136,16 @@ def test_similarity_moves_geometry_joints_and_collisions_and_undoes_normalizatio
     np.testing.assert_allclose(back.mesh(q).vertices, asset.mesh(q).vertices, atol=1e-12)
     with pytest.raises(ValueError, match="similarity"):
         similarity_asset(asset, np.diag([1.0, 2.0, 1.0, 1.0]))
+
+
+def test_copy_without_visuals_copies_everything_else():
+    asset = tiny_cabinet()
+    bare = asset.copy(visuals=False)
+    assert all(link.visuals == [] for link in bare.links.values())
+    assert all(link.visuals for link in asset.links.values() if link.has_geometry)  # the original keeps its own
+    assert set(bare.links) == set(asset.links) and set(bare.joints) == set(asset.joints)
+    assert bare.links["door"] is not asset.links["door"]
+    bare.links["door"].visuals.append("x")  # a new list per link, not shared with the original or another link
+    assert "x" not in asset.links["door"].visuals
+    assert sum(len(link.visuals) for link in bare.links.values()) == 1
+    np.testing.assert_array_equal(bare.joints["joint_door"].origin, asset.joints["joint_door"].origin)

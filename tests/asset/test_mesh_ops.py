@@ -347,3 +347,24 @@ def test_mark_points_marks_what_mark_of_coordinates_marks():
         reused.mark_points(w0, w1, w2, c[:, :, 0], c[:, :, 1], c[:, :, 2])
     assert reference.occupancy.sum() > 100
     np.testing.assert_array_equal(reused.occupancy, reference.occupancy)
+
+
+def test_make_watertight_gives_the_same_mesh_when_the_shell_shortcut_declines(monkeypatch):
+    """make_watertight's fallback (``_cleanup`` where ``_shell_cleanup`` declines) gives the shortcut's
+    mesh: a torn box with a floating speck (two pieces, the largest kept)."""
+    import spark_bench.asset.mesh as mesh_module
+
+    a = trimesh.creation.box(extents=(1, 0.6, 0.4))
+    speck = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    speck.apply_translation((1.5, 0, 0))
+    torn = merge_meshes([trimesh.Trimesh(a.vertices, a.faces[1:]), speck])
+    taken = []
+    shortcut = mesh_module._shell_cleanup
+    monkeypatch.setattr(mesh_module, "_shell_cleanup", lambda *args: taken.append(shortcut(*args)) or taken[-1])
+    fast, _ = make_watertight(torn, resolution=40)
+    assert taken and taken[0] is not None  # the shortcut ran and was used
+    monkeypatch.setattr(mesh_module, "_shell_cleanup", lambda *args: None)
+    slow, report = make_watertight(torn, resolution=40)
+    assert report.method == "voxel" and slow.is_watertight
+    np.testing.assert_array_equal(fast.vertices, slow.vertices)
+    np.testing.assert_array_equal(fast.faces, slow.faces)
