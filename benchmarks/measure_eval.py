@@ -133,7 +133,7 @@ def measure_rl(args, cores: list[int]) -> int:
                                runs_root=Path(tmp) / "runs", progress=False, cases=cases)
             cpu = time.process_time() - cpu
             with ResultsStore(db) as store:
-                for row in store.rows(label=summary.run.label, where=[("variant", "")]):  # not ours' prior rows
+                for row in store.rows(label=summary.run.label, where=[("variant", "")]):  # the case rows, not a variant's
                     rl = row["checks"].get("rl", {})
                     rows.append({"case": row["case_id"], "finetune_steps": steps, "rl_stage_s": row["timings"].get("rl"),
                                  "rl_cpu_s": rl.get("cpu_s"),

@@ -8,13 +8,12 @@ ground-truth parameters tests the opener, not the prediction: it is left out (``
 one-line ``reason``, the planner's own when it declines the part before any episode (no handle, knob,
 notch or tab: a flush lid, a button), the scene's when the part driven directly by the gripper's largest
 pull does not open (too heavy for the gripper, or jammed by its collision shapes), or the ground-truth
-run's failure. The
-robot acts on the object at its real size: a case's ground truth is stored in the benchmark frame
-([-1, 1]^3), so it is scaled back to metres (:meth:`~spark_bench.data.case.BenchmarkCase.to_metres`).
-The predicted axis line is carried from the prediction's frame into the ground truth's: prediction world
--> its benchmark frame (-> the ICP alignment, when the metrics aligned) -> ground-truth world -> metres.
-A joint that is a test but was not matched counts as not opened. Continuous joints (knobs, caps) have no opening task and are
-left out.
+run's failure. The robot acts on the object at its real size: a case's ground truth is stored in the
+benchmark frame ([-1, 1]^3), so it is scaled back to metres
+(:meth:`~spark_bench.data.case.BenchmarkCase.to_metres`). The predicted axis line is carried from the
+prediction's frame into the ground truth's: prediction world -> its benchmark frame (-> the ICP alignment,
+when the metrics aligned) -> ground-truth world -> metres. A joint that is a test but was not matched
+counts as not opened. Continuous joints (knobs, caps) have no opening task and are left out.
 
 What it uses of other packages is their public face: :class:`~spark_bench.data.case.BenchmarkCase` and
 :func:`~spark_bench.data.case.prediction_to_gt_world` for the case and its frames, :func:`spark_bench.envs.make_env`

@@ -153,7 +153,11 @@ def run_episode(env: gym.Env, policy, seed: int, max_steps: int = EPISODE_STEPS,
 
 
 def run_episodes(env: gym.Env, policy, episodes: int, seed: int) -> rollout.RolloutStats:
-    """``episodes`` episodes of :func:`run_episode` (seeds ``seed + k``)."""
+    """``episodes`` episodes of :func:`run_episode` (seeds ``seed + k``).
+
+    :param policy: ``reset(env)``, ``__call__(obs)``
+    :param seed: the first episode's reset seed
+    """
     return rollout.run_episodes(env, policy, episodes, seed, max_steps=EPISODE_STEPS, stop_on_success=True)
 
 
@@ -213,7 +217,11 @@ def success_rate(rows: list[dict], kind: str | None = None) -> float | None:
 
 
 def rate_by(rows: list[dict], key: str) -> dict:
-    """Success rate and count of ``rows`` grouped by ``key`` (``grasp``, ``category``, ``part``)."""
+    """Success rate and count of ``rows`` grouped by ``key``.
+
+    :param rows: :func:`evaluate` / :func:`evaluate_teacher` rows
+    :param key: the row field to group by (``grasp``, ``category``, ``part``)
+    """
     groups: dict = {}
     for r in rows:
         groups.setdefault(r[key], []).append(r["success_rate"])

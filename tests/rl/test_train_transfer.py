@@ -126,3 +126,32 @@ def test_a_prediction_without_a_task_to_finetune_on_fails_the_finetuned_column(c
     assert row["success"] == 0.0 and row["why"] == "the prediction gives no opening task to fine-tune on"
     assert "joint_2" in result["finetune"]["drawer"]["skipped"] and result["finetune"]["drawer"]["steps"] == 0
     assert "zero_shot_max_fraction" in row
+
+
+def test_the_oracle_ground_truth_is_loaded_once(cabinet, tmp_path, monkeypatch):
+    """The oracle's prediction folder is the ground-truth folder: one load, not two (0.6 s CPU on a
+    52k-vertex PartNet object); a prediction in another folder is still loaded from its own files.
+    Nothing matched: no episode runs, only the loads."""
+    import spark_bench.data as data
+    import spark_bench.data.readers as readers
+    from spark_bench.asset.urdf import write_object_folder
+
+    copy = tmp_path / "copy"
+    write_object_folder(readers.load_object(cabinet), copy)
+    loaded = []
+    real_load = readers.load_object
+
+    def counting_load(folder, *args, **kwargs):
+        loaded.append(str(folder))
+        return real_load(folder, *args, **kwargs)
+
+    monkeypatch.setattr(data, "load_object", counting_load)  # both names the loader goes by
+    monkeypatch.setattr(readers, "load_object", counting_load)
+    same = rl_transfer_score(cabinet, cabinet, matching(), finetune_steps=0)
+    assert len(loaded) == 1
+    loaded.clear()
+    other = rl_transfer_score(copy, cabinet, matching(), finetune_steps=0)
+    assert len(loaded) == 2 and loaded[1] == str(copy)
+    assert same["success_rate"] == other["success_rate"] == 0.0
+    assert same["assets"]["prediction"] == same["assets"]["ground_truth"]
+    assert other["assets"]["prediction"]["path"] == str(copy)
