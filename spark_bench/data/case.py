@@ -87,7 +87,7 @@ def prediction_to_gt_world(pred, gt, alignment=None) -> np.ndarray:
     return np.linalg.inv(benchmark_frame(gt)) @ align @ benchmark_frame(pred)
 
 
-def ground_truth_in_metres(gt_folder: str | Path):
+def ground_truth_in_metres(gt_folder: str | Path, stored=None):
     """``(ground truth as stored, ground truth in metres, 4x4 from the first to the second)``.
 
     A benchmark case's ground truth comes back from the benchmark frame to its source's size and place
@@ -95,10 +95,12 @@ def ground_truth_in_metres(gt_folder: str | Path):
     folder is used as it is, with the identity.
 
     :param gt_folder: the ground-truth object folder (a case's ``gt/``, or any object folder)
+    :param stored: that folder's object if the caller already loaded it (not modified; a real case's R=200
+        remesh takes ~0.6 s CPU to load)
     """
     from spark_bench.data.readers import load_object
 
-    stored = load_object(gt_folder)
+    stored = load_object(gt_folder) if stored is None else stored
     case = BenchmarkCase.of_gt_folder(gt_folder)
     if case is None:
         return stored, stored, np.eye(4)

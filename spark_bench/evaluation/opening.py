@@ -56,7 +56,7 @@ def predicted_axes_in_gt_frame(pred, gt, alignment=None, gt_to_world=None
 
 
 def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, seed: int = 0,
-                               max_steps: int = 200) -> dict:
+                               max_steps: int = 200, gt_stored=None) -> dict:
     """Open every ground-truth drawer and door with the matched predicted joint.
 
     :param pred_folder: the predicted object folder
@@ -64,6 +64,7 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     :param metrics: :meth:`MetricsResult.to_dict` of the prediction (its ``matching`` and ``alignment``)
     :param seed: environment reset seed
     :param max_steps: step limit per episode
+    :param gt_stored: the object of ``gt_folder`` if the caller already loaded it (not modified)
     :returns: ``{"success_rate": fraction opened (None when nothing can be opened), "joints": {...}}``; a
         joint left out has ``success`` None and a one-line ``reason`` (the planner's: no handle, a flush lid;
         the scene's: a part too heavy for the gripper or jammed by its collision shapes, driven directly; or
@@ -74,7 +75,7 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     from spark_bench.envs.scene import plan_grasp
     from spark_bench.rl import open_with_ground_truth, open_with_joint
 
-    gt_files, gt, to_source = ground_truth_in_metres(gt_folder)
+    gt_files, gt, to_source = ground_truth_in_metres(gt_folder, gt_stored)
     # the oracle's prediction is the ground-truth folder itself: loaded once (a real object takes seconds)
     same_folder = Path(pred_folder).resolve() == Path(gt_folder).resolve()
     pred = gt_files if same_folder else load_object(pred_folder)

@@ -248,17 +248,18 @@ def _sim_checks(pred_folder: Path) -> dict:
     return out
 
 
-def _scripted_open(pred_folder: Path, gt_folder: Path, metrics: dict, seed: int) -> dict:
+def _scripted_open(pred_folder: Path, gt_folder: Path, metrics: dict, seed: int, gt=None) -> dict:
     from spark_bench.evaluation.opening import open_with_predicted_joints
 
-    return open_with_predicted_joints(pred_folder, gt_folder, metrics, seed=seed)
+    return open_with_predicted_joints(pred_folder, gt_folder, metrics, seed=seed, gt_stored=gt)
 
 
-def _rl_transfer(pred_folder: Path, gt_folder: Path, metrics: dict, out_dir: Path, options: EvalOptions) -> dict:
+def _rl_transfer(pred_folder: Path, gt_folder: Path, metrics: dict, out_dir: Path, options: EvalOptions,
+                 gt=None) -> dict:
     from spark_bench.rl.transfer import rl_transfer_score
 
     return rl_transfer_score(pred_folder, gt_folder, metrics, out_dir=out_dir, finetune_steps=options.rl_finetune_steps,
-                             seed=options.seed, video=out_dir / RL_VIDEO)
+                             seed=options.seed, video=out_dir / RL_VIDEO, gt_stored=gt)
 
 
 def _success_rate(result: dict) -> float | None:
@@ -316,12 +317,12 @@ def evaluate_case(task: CaseTask) -> list[dict]:
             checks["sim"] = _check_stage(stages, "sim", _sim_checks, generation.folder)
             row["sim_pass"] = checks["sim"].get("passed")
             checks["open"] = _check_stage(stages, "open", _scripted_open, generation.folder, gt_folder, metrics,
-                                          task.options.seed)
+                                          task.options.seed, gt)  # the stored gt, loaded once above
             row["open_success"] = _success_rate(checks["open"])
         if task.options.rl:
             checks["rl"] = _check_stage(stages, "rl", _rl_transfer, generation.folder, gt_folder, metrics,
                                         Path(task.generation_dir).with_name(Path(task.generation_dir).name + ".rl"),
-                                        task.options)
+                                        task.options, gt)
             row["rl_success"] = _success_rate(checks["rl"])
         row.update(checks=checks, status="ok")
         rows = [row]

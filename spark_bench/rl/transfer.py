@@ -159,7 +159,7 @@ def record_episode(kind: str, asset, joint: str, policy, path: str | Path, joint
 def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: dict,
                       out_dir: str | Path | None = None, finetune_steps: int = FINETUNE_STEPS, seed: int = 0,
                       episodes: int = EPISODES, weights: str | Path | None = None,
-                      video: str | Path | None = None) -> dict:
+                      video: str | Path | None = None, gt_stored=None) -> dict:
     """Score a prediction by the generalist policy's success on the ground truth (see the module docstring).
 
     :param pred_folder: the predicted object folder
@@ -173,6 +173,7 @@ def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: d
     :param weights: a folder of generalist weights (default: the shipped ones)
     :param video: write the fine-tuned policy's episode on the first ground-truth joint it was run on there
         (``.gif`` / ``.mp4``)
+    :param gt_stored: the object of ``gt_folder`` if the caller already loaded it (not modified)
     :returns: ``{"success_rate", "zero_shot_success_rate", "holdable_success_rate", "joints", "finetune",
         "policy", "assets", ...}``; the rates are None when the ground truth has no drawer or door; the
         holdable rates are over the joints a parallel gripper can hold
@@ -185,12 +186,13 @@ def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: d
     torch.set_num_threads(1)  # small MLPs: one thread is faster than several contending for the cores
     try:
         return _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, seed, episodes, weights,
-                               video)
+                               video, gt_stored)
     finally:
         torch.set_num_threads(threads)
 
 
-def _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, seed, episodes, weights, video) -> dict:
+def _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, seed, episodes, weights, video,
+                    gt_stored=None) -> dict:
     from spark_bench.asset.ops import similarity_asset
     from spark_bench.data import load_object
     from spark_bench.rl.records import asset_content_hash
@@ -198,7 +200,7 @@ def _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, se
     t0, cpu0 = time.perf_counter(), time.process_time()
     record = weights_record(weights)
     gt_folder, pred_folder = Path(gt_folder), Path(pred_folder)
-    gt_stored, gt, to_metres = ground_truth_in_metres(gt_folder)
+    gt_stored, gt, to_metres = ground_truth_in_metres(gt_folder, gt_stored)
     # the oracle's prediction is the ground-truth folder itself: loaded once (0.6 s CPU for a 52k-vertex PartNet object)
     pred_stored = gt_stored if pred_folder.resolve() == gt_folder.resolve() else load_object(pred_folder)
     pred = similarity_asset(pred_stored, prediction_to_gt_metres(pred_stored, gt_stored, metrics.get("alignment"),

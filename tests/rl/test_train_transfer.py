@@ -155,3 +155,34 @@ def test_the_oracle_ground_truth_is_loaded_once(cabinet, tmp_path, monkeypatch):
     assert same["success_rate"] == other["success_rate"] == 0.0
     assert same["assets"]["prediction"] == same["assets"]["ground_truth"]
     assert other["assets"]["prediction"]["path"] == str(copy)
+
+
+def test_a_ground_truth_the_caller_loaded_is_not_loaded_again(cabinet, tmp_path, monkeypatch):
+    """``eval`` loads a case's ground truth once (its metrics stage) and hands it to the opening and RL
+    stages: with ``gt_stored`` neither reads the ground-truth folder again (a real case's R=200 remesh is
+    ~0.6 s CPU a load); the prediction in its own folder is still read."""
+    import spark_bench.data as data
+    import spark_bench.data.readers as readers
+    from spark_bench.asset.urdf import write_object_folder
+    from spark_bench.evaluation.opening import open_with_predicted_joints
+
+    copy = tmp_path / "copy"
+    write_object_folder(readers.load_object(cabinet), copy)
+    stored = readers.load_object(cabinet)
+    loaded = []
+    real_load = readers.load_object
+
+    def counting_load(folder, *args, **kwargs):
+        loaded.append(str(folder))
+        return real_load(folder, *args, **kwargs)
+
+    monkeypatch.setattr(data, "load_object", counting_load)
+    monkeypatch.setattr(readers, "load_object", counting_load)
+    rl_transfer_score(copy, cabinet, matching(), finetune_steps=0, gt_stored=stored)
+    assert loaded == [str(copy)]
+    loaded.clear()
+    open_with_predicted_joints(copy, cabinet, matching(), gt_stored=stored)
+    assert loaded == [str(copy)]
+    loaded.clear()
+    open_with_predicted_joints(copy, cabinet, matching())  # without it: both folders
+    assert sorted(loaded) == sorted([str(cabinet), str(copy)])
