@@ -28,3 +28,21 @@ def isolated_home(tmp_path, monkeypatch) -> Path:
     home = tmp_path / "spark-home"
     monkeypatch.setenv("SPARK_BENCH_HOME", str(home))
     return home
+
+
+@pytest.fixture
+def object_loads(monkeypatch) -> list[str]:
+    """The folders ``load_object`` reads from here on, in order (both names the loader goes by are watched)."""
+    import spark_bench.data as data
+    import spark_bench.data.readers as readers
+
+    loaded: list[str] = []
+    real_load = readers.load_object
+
+    def counting_load(folder, *args, **kwargs):
+        loaded.append(str(folder))
+        return real_load(folder, *args, **kwargs)
+
+    monkeypatch.setattr(data, "load_object", counting_load)
+    monkeypatch.setattr(readers, "load_object", counting_load)
+    return loaded

@@ -132,21 +132,10 @@ def test_a_part_the_planner_declines_is_left_out_with_its_reason(tmp_path):
     assert result["success_rate"] == 1.0  # the door alone is judged
 
 
-def test_the_oracle_ground_truth_is_loaded_once(gt_dir, tmp_path, monkeypatch):
+def test_the_oracle_ground_truth_is_loaded_once(gt_dir, tmp_path, object_loads):
     """The oracle's prediction folder is the ground-truth folder: one load, not two (seconds on a real
     object); a prediction in another folder is still loaded from its own files."""
-    import spark_bench.data as data
-    import spark_bench.data.readers as readers
-
-    loaded = []
-    real_load = readers.load_object
-
-    def counting_load(folder, *args, **kwargs):
-        loaded.append(str(folder))
-        return real_load(folder, *args, **kwargs)
-
-    monkeypatch.setattr(data, "load_object", counting_load)  # both names the loader goes by
-    monkeypatch.setattr(readers, "load_object", counting_load)
+    loaded = object_loads
     no_matching = {"matching": []}  # every joint unmatched: only the ground truth's own episodes run
     same = open_with_predicted_joints(gt_dir, gt_dir, no_matching)
     assert len(loaded) == 1

@@ -128,25 +128,17 @@ def test_a_prediction_without_a_task_to_finetune_on_fails_the_finetuned_column(c
     assert "zero_shot_max_fraction" in row
 
 
-def test_the_oracle_ground_truth_is_loaded_once(cabinet, tmp_path, monkeypatch):
+def test_the_oracle_ground_truth_is_loaded_once(cabinet, tmp_path, object_loads):
     """The oracle's prediction folder is the ground-truth folder: one load, not two (0.6 s CPU on a
     52k-vertex PartNet object); a prediction in another folder is still loaded from its own files.
     Nothing matched: no episode runs, only the loads."""
-    import spark_bench.data as data
-    import spark_bench.data.readers as readers
     from spark_bench.asset.urdf import write_object_folder
+    from spark_bench.data.readers import load_object
 
     copy = tmp_path / "copy"
-    write_object_folder(readers.load_object(cabinet), copy)
-    loaded = []
-    real_load = readers.load_object
-
-    def counting_load(folder, *args, **kwargs):
-        loaded.append(str(folder))
-        return real_load(folder, *args, **kwargs)
-
-    monkeypatch.setattr(data, "load_object", counting_load)  # both names the loader goes by
-    monkeypatch.setattr(readers, "load_object", counting_load)
+    write_object_folder(load_object(cabinet), copy)
+    loaded = object_loads
+    loaded.clear()
     same = rl_transfer_score(cabinet, cabinet, matching(), finetune_steps=0)
     assert len(loaded) == 1
     loaded.clear()
@@ -157,27 +149,19 @@ def test_the_oracle_ground_truth_is_loaded_once(cabinet, tmp_path, monkeypatch):
     assert other["assets"]["prediction"]["path"] == str(copy)
 
 
-def test_a_ground_truth_the_caller_loaded_is_not_loaded_again(cabinet, tmp_path, monkeypatch):
+def test_a_ground_truth_the_caller_loaded_is_not_loaded_again(cabinet, tmp_path, object_loads):
     """``eval`` loads a case's ground truth once (its metrics stage) and hands it to the opening and RL
     stages: with ``gt_stored`` neither reads the ground-truth folder again (a real case's R=200 remesh is
     ~0.6 s CPU a load); the prediction in its own folder is still read."""
-    import spark_bench.data as data
-    import spark_bench.data.readers as readers
     from spark_bench.asset.urdf import write_object_folder
+    from spark_bench.data.readers import load_object
     from spark_bench.evaluation.opening import open_with_predicted_joints
 
     copy = tmp_path / "copy"
-    write_object_folder(readers.load_object(cabinet), copy)
-    stored = readers.load_object(cabinet)
-    loaded = []
-    real_load = readers.load_object
-
-    def counting_load(folder, *args, **kwargs):
-        loaded.append(str(folder))
-        return real_load(folder, *args, **kwargs)
-
-    monkeypatch.setattr(data, "load_object", counting_load)
-    monkeypatch.setattr(readers, "load_object", counting_load)
+    write_object_folder(load_object(cabinet), copy)
+    stored = load_object(cabinet)
+    loaded = object_loads
+    loaded.clear()
     rl_transfer_score(copy, cabinet, matching(), finetune_steps=0, gt_stored=stored)
     assert loaded == [str(copy)]
     loaded.clear()
