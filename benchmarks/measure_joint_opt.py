@@ -71,7 +71,7 @@ def code_version() -> str:
     """A hash of the SPARK package's sources and the torch FK, and the metrics' convention version: a
     cached case is stale when they change."""
     import spark_bench.asset.torch_fk as torch_fk
-    import spark_bench.spark as spark
+    import spark_bench.methods.ours as spark
     from spark_bench import CONVENTION_VERSION
 
     digest = hashlib.sha256(CONVENTION_VERSION.encode())
@@ -90,10 +90,10 @@ def run_case(case_dir: str, out: str, overrides: list[str], n_samples: int, code
     torch.set_num_threads(1)
     from spark_bench.data import load_object
     from spark_bench.data.case import BenchmarkCase
-    from spark_bench.methods.ours import ours_case
+    from spark_bench.methods.ours import SparkConfig, run_ours
+    from spark_bench.methods.ours.method import ours_case
     from spark_bench.metrics import compute_metrics
     from spark_bench.metrics.report import joint_errors
-    from spark_bench.spark import SparkConfig, run_ours
 
     case_dir, out = Path(case_dir), Path(out)
     cached = out / "table4.json"
@@ -148,7 +148,7 @@ def cached_results(tasks: list[tuple], console: Console) -> dict[tuple, dict]:
     """``--cached``: the rows of ``tasks`` already under ``--work`` with the task's configuration and
     scores, whatever SPARK sources made them (each row names its ``code``; the report lists them), so
     that a long run can be reported after another edit of the sources; nothing runs."""
-    from spark_bench.spark import SparkConfig
+    from spark_bench.methods.ours import SparkConfig
 
     results = {}
     for key, _, out, overrides, n_samples, score_prior in tasks:
@@ -335,10 +335,10 @@ def view_only_errors(cases: list[Path]) -> dict:
     """The annotation prior's errors without noise (name-matched): what the camera-frame snapping of the
     axes alone costs."""
     from spark_bench.data.case import BenchmarkCase
-    from spark_bench.spark.assemble import joint_summary
-    from spark_bench.spark.diagnostics import joint_errors, mean_errors
-    from spark_bench.spark.geometry import annotation_geometry
-    from spark_bench.spark.prior import NoiseModel, annotation_prior, assemble_prior, camera_axis_frame
+    from spark_bench.methods.ours.assemble import joint_summary
+    from spark_bench.methods.ours.diagnostics import joint_errors, mean_errors
+    from spark_bench.methods.ours.geometry import annotation_geometry
+    from spark_bench.methods.ours.prior import NoiseModel, annotation_prior, assemble_prior, camera_axis_frame
 
     clean = NoiseModel(p_type=0.0, p_axis=0.0, p_sign=0.0, sigma_origin=0.0, p_range=0.0)
     per_object = []
@@ -362,8 +362,8 @@ def bench_main(args, console: Console) -> int:
         from dataclasses import asdict
 
         from spark_bench.data.case import BenchmarkCase
-        from spark_bench.spark.diagnostics import calibrate_noise
-        from spark_bench.spark.prior import NoiseModel, camera_axis_frame
+        from spark_bench.methods.ours.diagnostics import calibrate_noise
+        from spark_bench.methods.ours.prior import NoiseModel, camera_axis_frame
 
         gts = [(c.name, BenchmarkCase(c).load_gt(), camera_axis_frame(BenchmarkCase(c).read_camera()["camera_to_world"]))
                for c in cases]
@@ -372,7 +372,7 @@ def bench_main(args, console: Console) -> int:
         overrides += [f"prior.noise.{k}={v}" for k, v in asdict(noise).items() if k in ("p_axis", "p_type", "sigma_origin")]
         notes.append(f"Noise model calibrated in this run: {asdict(noise)}; name-matched prior errors "
                      f"{ {k: round(v, 4) for k, v in measured.items()} }.")
-    from spark_bench.spark.config import SparkConfig
+    from spark_bench.methods.ours.config import SparkConfig
 
     noise = SparkConfig().with_overrides(overrides).prior.noise
     clean = view_only_errors(cases)
@@ -411,17 +411,17 @@ def bench_main(args, console: Console) -> int:
 def toy_main(args, console: Console) -> int:
     """Each method on toy cabinets with noisy priors: seconds and errors before -> after."""
     import torch
+    from helpers_toy import toy_cabinet, toy_camera
 
-    from spark_bench.spark.assemble import assemble_asset, joint_summary
-    from spark_bench.spark.config import SparkFitConfig
-    from spark_bench.spark.diagnostics import joint_errors, mean_errors
-    from spark_bench.spark.geometry import annotation_geometry
-    from spark_bench.spark.optimize import OpenStateScene
-    from spark_bench.spark.prior import NoiseModel, annotation_prior
-    from spark_bench.spark.refine import RefineSettings, refine
-    from spark_bench.spark.render import rasterize_mask
-    from spark_bench.spark.spark_fit import spark_fit
-    from spark_bench.spark.toy import toy_cabinet, toy_camera
+    from spark_bench.methods.ours.assemble import assemble_asset, joint_summary
+    from spark_bench.methods.ours.config import SparkFitConfig
+    from spark_bench.methods.ours.diagnostics import joint_errors, mean_errors
+    from spark_bench.methods.ours.geometry import annotation_geometry
+    from spark_bench.methods.ours.optimize import OpenStateScene
+    from spark_bench.methods.ours.prior import NoiseModel, annotation_prior
+    from spark_bench.methods.ours.refine import RefineSettings, refine
+    from spark_bench.methods.ours.render import rasterize_mask
+    from spark_bench.methods.ours.spark_fit import spark_fit
 
     torch.set_num_threads(args.threads)
     rng = np.random.default_rng(0)

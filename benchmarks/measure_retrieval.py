@@ -37,8 +37,13 @@ def cpu_seconds() -> float:
 
 def measure_build(workers: int) -> tuple[list[str], object]:
     """Generate and index the default gallery from scratch in a temporary folder."""
-    from spark_bench.retrieval.gallery import DEFAULT_GALLERY, Gallery, GalleryObject, build_synth_gallery
-    from spark_bench.retrieval.index import build_index, index_path
+    from spark_bench.methods.retrieval.gallery import (
+        DEFAULT_GALLERY,
+        Gallery,
+        GalleryObject,
+        build_synth_gallery,
+    )
+    from spark_bench.methods.retrieval.index import build_index, index_path
 
     lines = ["## Gallery build and index (from scratch)", ""]
     load = os.getloadavg()
@@ -134,9 +139,9 @@ def main(argv=None) -> int:
     os.environ.setdefault("MUJOCO_GL", "egl")
 
     from spark_bench.data.benchmarks import ensure_benchmark
-    from spark_bench.methods.retrieval import RetrievalMethod
-    from spark_bench.retrieval.gallery import open_gallery
-    from spark_bench.retrieval.index import gallery_index
+    from spark_bench.methods.retrieval.gallery import open_gallery
+    from spark_bench.methods.retrieval.index import gallery_index
+    from spark_bench.methods.retrieval.method import RetrievalMethod
 
     lines = ["# Retrieval (`--method retrieval`, gallery synth-gallery-v1)", ""]
     if not args.skip_build:

@@ -4,7 +4,7 @@ For each kind: synth training tasks (every drawer / door of every synth category
 validation tasks (``--val-seeds``: the learning curve and the choice of the kept model) and held-out test
 tasks (``--test-seeds``: scored once, at the end), then the real objects of ``--real`` (PartNet-Mobility
 folders, default ``../shared/partnet_dev``). Stages: demonstrations of the scripted opener + behaviour
-cloning, DAgger, PPO (:mod:`spark_bench.rl.generalist_train`). The scripted opener with the ground-truth
+cloning, DAgger, PPO (:mod:`generalist_train`). The scripted opener with the ground-truth
 joint is scored on the same test and real tasks, as the reference.
 
 Prints the learning curve as it goes; writes the weights (``<kind>.zip``) and the record of the run
@@ -27,9 +27,10 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+from generalist_train import POLICY_KWARGS, PPO_SETTINGS, StageSettings, train_kind
+
 from spark_bench.data.synth import GENERATOR_VERSION
 from spark_bench.rl.generalist import EPISODE_STEPS, FEATURE_VERSION, RECORD_NAME, WEIGHTS_DIR, weights_path
-from spark_bench.rl.generalist_train import POLICY_KWARGS, PPO_SETTINGS, StageSettings, train_kind
 from spark_bench.rl.tasks import (
     build_tasks,
     evaluate,

@@ -1,12 +1,8 @@
 """The ``spark-bench`` command.
 
-Each subpackage contributes its sub-commands through a ``commands`` module with an
+Each package contributes its sub-commands through a ``commands`` module with an
 ``add_commands(subparsers)`` function, so this file never grows with the features and
-``spark-bench --help`` stays fast (heavy imports happen inside each command). A module may add
-sub-commands to a group that an earlier module registered (``spark-bench data export-images``, from
-``spark_bench.spark_output.commands``): every parser is a :class:`CommandParser`, which keeps the
-sub-command action it creates as :attr:`CommandParser.subcommands`, so
-``subparsers.choices["data"].subcommands.add_parser(...)`` reaches the group through public API only.
+``spark-bench --help`` stays fast (heavy imports happen inside each command).
 """
 
 from __future__ import annotations
@@ -19,10 +15,11 @@ from collections.abc import Sequence
 from spark_bench import __version__
 from spark_bench.errors import SparkBenchError
 
-#: In registration order: a module that extends another's group comes after it.
+#: The modules that add sub-commands, in the order ``spark-bench --help`` lists them.
 COMMAND_MODULES = (
     "spark_bench.data.commands",
-    "spark_bench.spark_output.commands",
+    "spark_bench.formats.commands",
+    "spark_bench.methods.ours.commands",
     "spark_bench.metrics.commands",
     "spark_bench.sim.commands",
     "spark_bench.rl.commands",
@@ -30,27 +27,9 @@ COMMAND_MODULES = (
 )
 
 
-class CommandParser(argparse.ArgumentParser):
-    """An argument parser that keeps its sub-command action (argparse itself keeps no public handle on
-    it), so that a later ``commands`` module can add a sub-command to an existing group.
-
-    Sub-parsers are of this class too (``add_subparsers`` makes them of the parent parser's class).
-    """
-
-    subcommands: argparse.Action | None = None
-
-    def add_subparsers(self, **kwargs):
-        """``argparse.ArgumentParser.add_subparsers``, remembered as :attr:`subcommands`.
-
-        :param kwargs: as for ``argparse.ArgumentParser.add_subparsers``
-        """
-        self.subcommands = super().add_subparsers(**kwargs)
-        return self.subcommands
-
-
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser, with every sub-command that is installed."""
-    parser = CommandParser(
+    parser = argparse.ArgumentParser(
         prog="spark-bench",
         description="Benchmark single-image articulated-object reconstruction: accuracy and sim-readiness.",
     )

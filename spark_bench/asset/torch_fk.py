@@ -9,7 +9,7 @@ origin change:
 - ``pivot_offsets`` (SPARK semantics, paper section 3.3): the *axis line* moves by the offset (parent
   frame) but the child stays where it is at rest, ``T_child = T_parent @ O' @ motion(q) @ O'^-1 @ O``
   with ``O'`` the origin shifted by the offset. This is what refining a hinge under fixed geometry means;
-  :func:`spark_bench.spark.assemble.apply_pivot_offset` writes the result back as a plain URDF.
+  :func:`spark_bench.methods.ours.assemble.apply_pivot_offset` writes the result back as a plain URDF.
 
 Everything is plain torch, so autograd gives gradients with respect to all of these.
 """

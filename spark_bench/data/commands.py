@@ -52,6 +52,15 @@ def add_commands(subparsers) -> None:
     sheet.add_argument("--thumb", type=int, default=192, help="image size in the sheet (default 192)")
     sheet.set_defaults(func=run_sheet)
 
+    export = sub.add_parser("export-images", help="write each case's input image as DIR/<case id>.png (SPARK's image/)",
+                            description="Copy every case's input image to DIR/<case id>.png, ready to be SPARK's "
+                                        "image/ folder: run.py names each run <case id>_<timestamp>, which "
+                                        "`spark-bench import spark` maps back to the case.")
+    export.add_argument("bench", type=Path, help="the benchmark folder")
+    export.add_argument("--out", type=Path, required=True, help="the folder to write (e.g. SPARK/image)")
+    export.add_argument("--cases", help="comma-separated case ids (default: every case)")
+    export.set_defaults(func=run_export_images)
+
 
 def _add_prepare_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--image-size", type=int, default=None, help="render size in pixels (default 512)")
@@ -151,3 +160,17 @@ def _usage(message: str):
     from spark_bench.errors import SparkBenchError
 
     return SparkBenchError(message)
+
+
+def run_export_images(args) -> int:
+    from spark_bench.data.export import export_images
+
+    written, missing = export_images(args.bench, args.out, _case_list(args.cases))
+    print(f"wrote {len(written)} images into {args.out}")
+    for line in missing:
+        print(f"  skipped {line}")
+    return 0 if written else 1
+
+
+def _case_list(text: str | None) -> list[str] | None:
+    return [c.strip() for c in text.split(",") if c.strip()] if text else None

@@ -4,7 +4,7 @@ Both share one layout (a ``mobility.urdf`` beside its meshes, any mesh format tr
 included); what differs is the side files: ``semantics.txt`` and ``meta.json`` (PartNet-Mobility),
 ``link_annotation_gapartnet.json`` and ``semantics_gapartnet.txt`` (GAPartNet). SPARK's run folders are
 not object folders (their URDF points where no mesh is, their frame is SPARK's):
-:mod:`spark_bench.spark_output.reader` converts them.
+:mod:`spark_bench.formats.spark.reader` converts them.
 """
 
 from __future__ import annotations

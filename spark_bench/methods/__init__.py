@@ -7,10 +7,10 @@ per built-in method.
   :func:`available_methods`, :func:`make_method`;
 - :mod:`.oracle`, :mod:`.geometry`, :mod:`.predictions` (and the one reader of a predictions folder),
   :mod:`.command` (methods files, external programs per case), :mod:`.ours` (the SPARK pipeline of
-  :mod:`spark_bench.spark`);
+  :mod:`spark_bench.methods.ours`);
 - :mod:`.process`: the one runner of external programs (no shell, process group killed on timeout).
 
-Imports run one way: ``base`` <- the method modules <- ``registry``; :mod:`spark_bench.spark` uses
+Imports run one way: ``base`` <- the method modules <- ``registry``; :mod:`spark_bench.methods.ours` uses
 ``base``, ``process`` and ``predictions`` and is used by ``ours`` only. The names below are loaded on
 first use.
 """

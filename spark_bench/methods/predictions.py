@@ -5,7 +5,7 @@ conventions). :func:`prediction_folder` is how every user finds a case's folder 
 ``predictions`` method and the ``predictions`` geometry backend of the SPARK pipeline. A case folder
 written by ``spark-bench import spark`` holds ``import.json``; its results row then says which SPARK run,
 which URDF of it (``mobility_optimized.urdf``...) and which alignment it came from
-(:func:`spark_bench.spark_output.reader.row_fields`).
+(:func:`spark_bench.formats.spark.reader.row_fields`).
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ class PredictionsFolder:
         """The case's folder of predictions (nothing is copied into ``out_dir``); its info names the folder
         and, for an imported SPARK run, what the import read (``spark_run``, ``spark_urdf``,
         ``spark_urdf_kind``, ``spark_alignment``)."""
-        from spark_bench.spark_output.reader import read_import_record, row_fields
+        from spark_bench.formats.spark.reader import read_import_record, row_fields
 
         folder = prediction_folder(self.folder, case.case_id)
         return Generation(folder, {"source": str(folder), **row_fields(read_import_record(folder))})

@@ -48,14 +48,14 @@ def _command(options: dict) -> Method:
 
 
 def _ours(options: dict) -> Method:
-    from spark_bench.methods.ours import OursMethod
+    from spark_bench.methods.ours.method import OursMethod
 
     return OursMethod.from_options(options)
 
 
 #: The built-in methods (always registered under these names).
 def _retrieval(options: dict) -> Method:
-    from spark_bench.methods.retrieval import RetrievalMethod
+    from spark_bench.methods.retrieval.method import RetrievalMethod
 
     return RetrievalMethod.from_options(options)
 

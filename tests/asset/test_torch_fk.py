@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 import torch
 from helpers_real import real_object_path
+from helpers_toy import toy_cabinet
 
 from spark_bench.asset.torch_fk import link_poses_torch
-from spark_bench.spark.assemble import apply_pivot_offset
-from spark_bench.spark.toy import toy_cabinet
+from spark_bench.methods.ours.assemble import apply_pivot_offset
 
 
 def _random_q(asset, rng):

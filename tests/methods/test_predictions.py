@@ -51,10 +51,11 @@ def test_predictions_method_refuses_unsafe_case_ids(tmp_path):
 
 def test_spark_predictions_backend_refuses_unsafe_case_ids(tmp_path):
     pytest.importorskip("torch", reason="the SPARK pipeline is not installed")
-    from spark_bench.methods.ours import ours_case
-    from spark_bench.spark import SparkConfig, run_ours
-    from spark_bench.spark.geometry import predictions_geometry
-    from spark_bench.spark.toy import write_toy_case
+    from helpers_toy import write_toy_case
+
+    from spark_bench.methods.ours import SparkConfig, run_ours
+    from spark_bench.methods.ours.geometry import predictions_geometry
+    from spark_bench.methods.ours.method import ours_case
 
     preds = tmp_path / "preds"
     (preds / "a" / "b").mkdir(parents=True)

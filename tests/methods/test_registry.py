@@ -102,7 +102,7 @@ def test_entry_point_methods(monkeypatch):
 
 
 def test_ours_label_and_regime_say_what_was_simulated(tmp_path):
-    pytest.importorskip("spark_bench.spark.config", reason="the SPARK pipeline is not installed")
+    pytest.importorskip("spark_bench.methods.ours.config", reason="the SPARK pipeline is not installed")
     ours = make_method("ours")
     assert ours.label().startswith("ours (prior=annotation,")
     # the default (SPARK's recipe) fits the whole open-state silhouette: no part masks, every gt stage named

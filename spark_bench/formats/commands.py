@@ -1,0 +1,46 @@
+"""``spark-bench import FORMAT``: another program's output -> a predictions folder (one object folder per
+case). Today's format: ``spark`` (SPARK's run folders, :mod:`spark_bench.formats.spark`)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+
+def add_commands(subparsers) -> None:
+    """Register ``import`` and its formats (``import spark``)."""
+    imp = subparsers.add_parser("import", help="import another method's output as a predictions folder")
+    isub = imp.add_subparsers(dest="import_command", required=True, metavar="SOURCE")
+    p = isub.add_parser("spark", help="SPARK's run folders (SPARK/output) -> PRED/<case id>/",
+                        description="Map SPARK's output/<case id>_<YYYYmmdd_HHMMSS>/ folders to the benchmark's "
+                                    "cases (newest wins), read each into the benchmark frame and write "
+                                    "PRED/<case id>/ with its import.json. Exit 0 when at least one run was "
+                                    "imported, 1 when none could be, 2 on bad arguments.")
+    p.add_argument("--runs", type=Path, required=True, help="SPARK's output folder (SPARK/output)")
+    p.add_argument("--bench", type=Path, required=True, help="the benchmark folder the images came from")
+    p.add_argument("--out", type=Path, required=True, help="the predictions folder to write")
+    p.add_argument("--tag", default=None, help="inference tag, inference/<tag>/ (default: FT5_G1_0, else the only one)")
+    p.add_argument("--align", choices=("icp", "camera"), default="icp",
+                   help="icp (default): leave the turn about the up axis and the scale to `eval --align icp`; "
+                        "camera: turn SPARK's +Z (towards its camera) to face the case camera")
+    p.add_argument("--cases", help="comma-separated case ids (default: every case)")
+    p.add_argument("--json", action="store_true", help="print the report as JSON")
+    p.set_defaults(func=run_import_spark)
+
+
+def _cases(text: str | None) -> list[str] | None:
+    return [c.strip() for c in text.split(",") if c.strip()] if text else None
+
+
+def run_import_spark(args) -> int:
+    from spark_bench.formats.spark.importer import import_runs
+
+    report = import_runs(args.runs, args.bench, args.out, tag=args.tag, alignment=args.align, cases=_cases(args.cases))
+    if args.json:
+        print(json.dumps(report.to_dict(), indent=1))
+    else:
+        print("\n".join(report.lines()))
+    if not report.imported:
+        print("spark-bench: no SPARK run could be imported", file=sys.stderr)
+    return report.exit_code
