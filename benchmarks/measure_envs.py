@@ -85,7 +85,7 @@ def speed(env_id: str, n: int = 3000, rounds: int = 5) -> dict:
 def scripted_study(n_synth: int, out: Path) -> tuple[list[dict], list[dict]]:
     """Ground-truth scripted opener on every drawer and door of the synth and real objects."""
     from spark_bench.data.synth import generate_dataset
-    from spark_bench.rl.scripted import open_every_joint
+    from spark_bench.rl.scoring import open_every_joint
 
     folders = generate_dataset(out / "synth", n_synth, seed=0, categories=["StorageFurniture"])
     synth = []

@@ -6,7 +6,7 @@ Importing the package registers the gymnasium environments ``SparkDrawer-v0`` an
 
 __version__ = "0.2.0"
 
-#: Version of the metric definitions (DESIGN.md "Benchmark frame", "Shape metrics",
+#: Version of the metric definitions (docs/conventions.md "The benchmark frame", "Shape metrics",
 #: "Articulation metrics"), written into every results row. conv-2 (issue #16): PivotErr for every matched
 #: ground-truth revolute joint whatever the predicted type (FreeArt3D's rule); the mean over all joints
 #: (``joint_mean``) and the GAPartNet part class per joint are stored beside the per-object means.

@@ -127,7 +127,7 @@ def apply_normalization(asset: ArticulatedAsset, center, scale: float, copy: boo
 
 
 def normalize_asset(asset: ArticulatedAsset, copy: bool = True) -> tuple[ArticulatedAsset, np.ndarray, float]:
-    """The asset in the benchmark frame (DESIGN.md): rest pose, box centered at 0, fitting [-1, 1]^3.
+    """The asset in the benchmark frame (docs/conventions.md): rest pose, box centered at 0, fitting [-1, 1]^3.
 
     :param asset: the object (world frame)
     :param copy: False normalizes ``asset`` itself (a caller that made it and needs only the result saves a

@@ -13,6 +13,9 @@ ENVIRONMENTS = {
     "SparkDoor-v0": "spark_bench.envs.door:SparkDoorEnv",
 }
 MAX_EPISODE_STEPS = 100
+#: The environment that opens a joint of each type: a drawer (prismatic) is pulled, a door (revolute) and
+#: a part turning without limit (continuous: a knob, a cap) are swung. The one table of it.
+ENV_OF_JOINT_TYPE = {"prismatic": "SparkDrawer-v0", "revolute": "SparkDoor-v0", "continuous": "SparkDoor-v0"}
 
 
 def register_envs() -> None:

@@ -2,7 +2,7 @@
 
 - Shape metrics (CD, F-Scores): mean over the ``ok`` cases whose shape metrics are valid; None (shown
   as n/a) when no case has valid shape metrics (a method that reuses the ground-truth geometry).
-- Articulation metrics: mean over the ``ok`` cases that have the value (DESIGN.md: mean over joints
+- Articulation metrics: mean over the ``ok`` cases that have the value (docs/conventions.md: mean over joints
   per object, then over objects); ``joint_mean`` beside them: ``axis_err``, ``pivot_err``, ``type_err``
   averaged over every joint of the ``ok`` cases (from each row's stored per-joint errors).
 - Rates (sim pass, scripted opening): over every case of the run where the stage ran, a failed case

@@ -31,7 +31,7 @@ from spark_bench.evaluation.executors import EXECUTORS, run_local, run_ray, usab
 from spark_bench.evaluation.resume import case_fingerprints, scored_on_this_build
 from spark_bench.evaluation.store import ResultsStore, config_hash, now
 from spark_bench.jsonio import plain, to_json_text
-from spark_bench.methods.base import GENERATION_MARKER, CaseInput, Generation, MethodSpec
+from spark_bench.methods.base import GENERATION_MARKER, CaseInput, Generation, MethodSpec, prepare_method
 from spark_bench.methods.registry import make_method
 from spark_bench.metrics.names import METRIC_COLUMNS
 from spark_bench.rl import FINETUNE_STEPS
@@ -363,8 +363,10 @@ def _safe_name(text: str) -> str:
 
 
 def run_identity(bench: str, spec: MethodSpec, options: EvalOptions) -> RunIdentity:
-    """Resolve the method once: its label, regime, version and configuration hashes."""
+    """Resolve the method once: prepare it (its heavy one-time work, before any worker starts), then its
+    label, regime, version and configuration hashes."""
     method = make_method(spec)
+    prepare_method(method)
     method_config = plain(method.config())
     full = {"method": spec.name, "method_config": method_config, "version": str(method.version),
             "eval": options.identity()}

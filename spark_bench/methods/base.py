@@ -254,15 +254,33 @@ class Method(Protocol):
     def label(self) -> str:
         """The display label of this method and configuration (a leaderboard row name)."""
 
+    def prepare(self) -> None:
+        """Do the heavy one-time work before any case (build a gallery and its index, load weights); the
+        runner calls it once, in its own process, before :meth:`config`. Optional for third-party methods
+        (:func:`prepare_method`); calling it again does nothing."""
+
     def config(self) -> dict:
-        """The JSON-serializable configuration; its hash keys the cache and the results."""
+        """The JSON-serializable configuration; its hash keys the cache and the results. Only returns data:
+        what needs work to know (a gallery's content hash) is known after :meth:`prepare`."""
 
     def generate(self, case: CaseInput, out_dir: Path) -> Generation | dict | None:
         """Write the predicted object folder for ``case`` (into ``out_dir``, created and empty)."""
 
 
-#: The attributes :func:`spark_bench.methods.registry.make_method` checks on a third-party method.
+#: The attributes :func:`spark_bench.methods.registry.make_method` checks on a third-party method
+#: (``prepare`` is optional: :func:`prepare_method`).
 METHOD_ATTRIBUTES = ("name", "version", "inputs", "regime", "label", "config", "generate")
+
+
+def prepare_method(method) -> None:
+    """Call ``method.prepare()`` where the method has one (a third-party method may not)."""
+    prepare = getattr(method, "prepare", None)
+    if callable(prepare):
+        prepare()
+
+
+class NotPreparedError(SparkBenchError):
+    """``config()`` was asked for what only :meth:`Method.prepare` establishes."""
 
 
 @dataclass(frozen=True)

@@ -103,6 +103,9 @@ class CommandMethod:
     def label(self) -> str:
         return self.template.name
 
+    def prepare(self) -> None:
+        """Nothing to prepare."""
+
     def config(self) -> dict:
         return {"argv": self.template.argv, "inputs": list(self.inputs), "cwd": self.template.cwd,
                 "env": self.template.env}

@@ -382,6 +382,9 @@ class GeometryBaseline:
     def label(self) -> str:
         return "geometry (AnyMesh-style)"
 
+    def prepare(self) -> None:
+        """Nothing to prepare."""
+
     def config(self) -> dict:
         return asdict(self.options)
 

@@ -24,6 +24,9 @@ class Oracle:
     def label(self) -> str:
         return "oracle"
 
+    def prepare(self) -> None:
+        """Nothing to prepare."""
+
     def config(self) -> dict:
         return {}
 

@@ -55,6 +55,9 @@ class PredictionsFolder:
     def label(self) -> str:
         return self._label
 
+    def prepare(self) -> None:
+        """Nothing to prepare."""
+
     def config(self) -> dict:
         return {"predictions": str(self.folder)}
 

@@ -1,5 +1,5 @@
 """Accuracy metrics: shape (Chamfer distance, F-Score) and articulation (AxisErr, PivotErr, TypeErr)
-with Hungarian part matching, in the benchmark frame of DESIGN.md.
+with Hungarian part matching, in the benchmark frame (docs/conventions.md).
 
 The public names are loaded on first use, so that ``spark-bench --help`` (which imports
 :mod:`spark_bench.metrics.commands`) does not pay for SciPy.

@@ -95,7 +95,7 @@ def compute_metrics(pred: ArticulatedAsset, gt: ArticulatedAsset, n_samples: int
                     align: str = "none", thresholds: Sequence[float] = FSCORE_THRESHOLDS,
                     n_match_samples: int = 10_000, n_align_samples: int = 3_000, workers: int = -1
                     ) -> MetricsResult:
-    """Shape and articulation metrics of ``pred`` against ``gt`` (DESIGN.md definitions).
+    """Shape and articulation metrics of ``pred`` against ``gt`` (the definitions of docs/conventions.md).
 
     :param pred: predicted asset (any frame: it is normalized here)
     :param gt: ground-truth asset (any frame: it is normalized here)

@@ -4,7 +4,7 @@
 articulation errors with the joint matching that produced them, the alignment used, and the units and
 convention version of the definitions. :func:`mean_over_objects` gives the per-benchmark numbers.
 
-Two averages of the articulation errors are kept (DESIGN.md, "Articulation metrics"): per object (mean
+Two averages of the articulation errors are kept (docs/conventions.md, "Articulation metrics"): per object (mean
 over its joints, then over objects: ``axis_err``, ``pivot_err``, ``type_err``, the leaderboard's
 numbers) and over joints (every joint of every object weighs the same: ``joint_mean``).
 :func:`joint_errors` reads the per-joint errors back from a stored metrics dict, so both averages, and

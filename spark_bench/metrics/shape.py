@@ -22,7 +22,7 @@ from functools import cache
 import numpy as np
 from pykdtree.kdtree import KDTree
 
-#: F-Score thresholds of the benchmark (DESIGN.md "Shape metrics"), in benchmark-frame units.
+#: F-Score thresholds of the benchmark (docs/conventions.md "Shape metrics"), in benchmark-frame units.
 FSCORE_THRESHOLDS = (0.1, 0.5)
 #: Leaf size of the k-d trees (measured on 1e5 surface samples: 32 is the fastest of 8-64).
 LEAF_SIZE = 32

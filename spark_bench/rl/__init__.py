@@ -28,7 +28,7 @@ _EXPORTS = {
     "OpenResult": "spark_bench.rl.scripted",
     "ScriptedOpener": "spark_bench.rl.scripted",
     "ground_truth_joint": "spark_bench.rl.scripted",
-    "open_every_joint": "spark_bench.rl.scripted",
+    "open_every_joint": "spark_bench.rl.scoring",
     "open_with_ground_truth": "spark_bench.rl.scripted",
     "open_with_joint": "spark_bench.rl.scripted",
     "ModelPolicy": "spark_bench.rl.policies",

@@ -62,7 +62,7 @@ import numpy as np
 from gymnasium import spaces
 
 from spark_bench.envs.base import FRAME_OBS_SIZE
-from spark_bench.envs.registration import make_env
+from spark_bench.envs.registration import ENV_OF_JOINT_TYPE, make_env
 from spark_bench.errors import InputError
 
 #: Bumped whenever :func:`features` or the action's meaning changes (shipped weights name the version
@@ -72,7 +72,7 @@ N_FEATURES = 39
 N_MEMORY = 8
 FEATURE_BOUND = 10.0
 #: Environment per policy kind, and the kind that opens a joint type.
-KINDS = {"drawer": "SparkDrawer-v0", "door": "SparkDoor-v0"}
+KINDS = {"drawer": ENV_OF_JOINT_TYPE["prismatic"], "door": ENV_OF_JOINT_TYPE["revolute"]}
 KIND_OF_TYPE = {"prismatic": "drawer", "revolute": "door", "continuous": "door"}
 #: Time limit of an episode (control steps, 25 Hz): long enough for a 0.8 m door arc after the approach.
 EPISODE_STEPS = 150

@@ -7,7 +7,7 @@ import sys
 import time
 
 import pytest
-from fake_spark import write_fake_checkout, write_fake_run
+from helpers_fake_spark import write_fake_checkout, write_fake_run
 
 from spark_bench.data.case import Benchmark
 from spark_bench.errors import InputError

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 import trimesh
-from fake_spark import write_fake_run
+from helpers_fake_spark import write_fake_run
 
 from spark_bench.data.case import Benchmark
 from spark_bench.data.readers import load_object

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from fake_spark import optimize_joint, write_glb
+from helpers_fake_spark import optimize_joint, write_glb
 
 from spark_bench.asset.urdf import load_urdf
 from spark_bench.errors import InputError

@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 
 import pytest
-from fake_spark import write_fake_run
 from helpers_bench import write_case
+from helpers_fake_spark import write_fake_run
 
 from spark_bench.data.case import Benchmark
 from spark_bench.envs.cabinet import procedural_cabinet

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from fake_spark import STAMP, write_fake_run
+from helpers_fake_spark import STAMP, write_fake_run
 
 from spark_bench.asset.transforms import rpy_to_matrix
 from spark_bench.formats.spark import layout

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 import trimesh
-from fake_spark import rotation_z, write_fake_run, write_glb
+from helpers_fake_spark import rotation_z, write_fake_run, write_glb
 
 from spark_bench.data.readers import load_object
 from spark_bench.errors import InputError

@@ -157,7 +157,7 @@ def test_sac_trains_a_few_steps(tmp_path):
 
 @pytest.mark.slow
 def test_scripted_opener_opens_every_drawer_and_door_of_a_real_object(real_object):
-    from spark_bench.rl.scripted import open_every_joint
+    from spark_bench.rl.scoring import open_every_joint
 
     rows = open_every_joint(str(real_object("41083")))
     assert sorted(r["type"] for r in rows) == ["prismatic", "prismatic", "revolute", "revolute"]

@@ -1,6 +1,6 @@
 """Assemble a coarse URDF and part meshes into an :class:`ArticulatedAsset`, and edit its joints.
 
-The assembled asset has the PartNet-Mobility layout (DESIGN.md): a ``base`` link without geometry, a
+The assembled asset has the PartNet-Mobility layout (docs/conventions.md, "Object folders"): a ``base`` link without geometry, a
 fixed root joint turning the object frame into the world frame (:data:`OBJECT_TO_WORLD`), the prior's
 root link (the static body), and one link per prior link. When the prior itself calls a link ``base``
 (objects whose root link carries the body mesh, e.g. :func:`spark_bench.envs.cabinet.procedural_cabinet`,

@@ -23,7 +23,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from spark_bench.data.case import BenchmarkCase
-from spark_bench.methods.base import CaseInput, Generation, regime_of
+from spark_bench.methods.base import CaseInput, Generation, NotPreparedError, regime_of
 
 #: How the regime names each stage simulated from the ground truth (the ``gt`` input).
 SIMULATED_STAGES = {"prior": "gt structure (simulated prior)", "geometry": "gt geometry",
@@ -60,6 +60,7 @@ class OursMethod:
         self.version = __version__
         self.inputs = config.case_inputs()
         self.regime = " + ".join([regime_of(set(self.inputs) - {"gt"}), *simulated_stages(config)])
+        self._gallery: dict | None = None
 
     @classmethod
     def from_options(cls, options: dict) -> OursMethod:
@@ -74,21 +75,33 @@ class OursMethod:
     def label(self) -> str:
         return f"ours ({self.spark_config.label()})"
 
+    def prepare(self) -> None:
+        """With a ``retrieval`` backend: open the gallery and build its index (the default gallery is
+        generated on first use), once, in this process, as ``--method retrieval`` does
+        (:meth:`spark_bench.methods.retrieval.method.RetrievalMethod.prepare`); nothing otherwise."""
+        if self._gallery is not None or not self.spark_config.uses_retrieval():
+            return
+        from spark_bench.methods.ours.retrieved import open_case_gallery
+        from spark_bench.methods.retrieval.index import gallery_index
+        from spark_bench.methods.retrieval.method import BUILD_WORKERS
+        from spark_bench.methods.retrieval.search import SearchOptions
+
+        gallery = open_case_gallery(self.spark_config.retrieval.gallery)
+        gallery_index(gallery, SearchOptions().index, workers=BUILD_WORKERS, isolate=True)
+        self._gallery = {"name": gallery.name, "hash": gallery.content_hash}
+
     def config(self) -> dict:
         """The configuration; with a ``retrieval`` backend also the gallery's name and content hash (so
-        results are keyed by what the gallery holds). The runner asks for it once, before any case: the
-        default gallery is generated and its index built here on first use, in spawned processes, as
-        ``--method retrieval`` does (:meth:`spark_bench.methods.retrieval.method.RetrievalMethod.config`)."""
+        results are keyed by what the gallery holds).
+
+        :raises NotPreparedError: with a ``retrieval`` backend, before :meth:`prepare`
+        """
         out = self.spark_config.to_dict()
         if self.spark_config.uses_retrieval():
-            from spark_bench.methods.ours.retrieved import open_case_gallery
-            from spark_bench.methods.retrieval.index import gallery_index
-            from spark_bench.methods.retrieval.method import BUILD_WORKERS
-            from spark_bench.methods.retrieval.search import SearchOptions
-
-            gallery = open_case_gallery(self.spark_config.retrieval.gallery)
-            gallery_index(gallery, SearchOptions().index, workers=BUILD_WORKERS, isolate=True)
-            out["retrieval_gallery"] = {"name": gallery.name, "hash": gallery.content_hash}
+            if self._gallery is None:
+                raise NotPreparedError("ours: call prepare() before config() (the retrieval gallery's content "
+                                       "hash is known once the gallery is built)")
+            out["retrieval_gallery"] = dict(self._gallery)
         return out
 
     def generate(self, case: CaseInput, out_dir: Path) -> Generation:

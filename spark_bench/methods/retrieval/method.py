@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from spark_bench.methods.base import CaseInput, Generation, regime_of
+from spark_bench.methods.base import CaseInput, Generation, NotPreparedError, regime_of
 from spark_bench.methods.retrieval.gallery import DEFAULT_GALLERY, Gallery, open_gallery, source_check
 from spark_bench.methods.retrieval.index import gallery_index
 from spark_bench.methods.retrieval.search import RECORD_FILE, SearchOptions, retrieve, write_retrieval
@@ -51,6 +51,7 @@ class RetrievalMethod:
         self.gallery_folder = None if default else str(Path(gallery).expanduser().resolve())
         self.options = options or SearchOptions()
         self._gallery: Gallery | None = None
+        self._prepared = False
 
     @classmethod
     def from_options(cls, options: dict) -> RetrievalMethod:
@@ -71,14 +72,22 @@ class RetrievalMethod:
     def label(self) -> str:
         return f"retrieval (gallery={self.gallery_name})"
 
+    def prepare(self) -> None:
+        """Open the gallery and build its index: the default gallery is generated and the index built on
+        first use (:data:`BUILD_WORKERS` spawned processes; this process opens no OpenGL context, so the
+        runner may fork its workers after), once, not in every worker at once."""
+        if not self._prepared:
+            gallery_index(self.gallery, self.options.index, workers=BUILD_WORKERS, isolate=True)
+            self._prepared = True
+
     def config(self) -> dict:
         """The gallery (name, folder, content hash) and the search options.
 
-        The runner asks for it once, before any case: the default gallery is generated and the gallery's
-        index built here on first use (:data:`BUILD_WORKERS` spawned processes; this process opens no
-        OpenGL context, so the runner may fork its workers after), not in every worker at once.
+        :raises NotPreparedError: before :meth:`prepare` (the content hash is the built gallery's)
         """
-        gallery_index(self.gallery, self.options.index, workers=BUILD_WORKERS, isolate=True)
+        if not self._prepared:
+            raise NotPreparedError("retrieval: call prepare() before config() (the gallery's content hash is "
+                                   "known once the gallery is built)")
         return {"gallery": self.gallery_name, "gallery_folder": self.gallery_folder,
                 "gallery_hash": self.gallery.content_hash, "search": self.options.to_json()}
 

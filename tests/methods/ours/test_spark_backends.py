@@ -1,6 +1,6 @@
 """The ``spark`` part-geometry and ``http`` open-state backends, against real local stand-ins.
 
-``spark``: SPARK is the fake SPARK checkout of ``tests/spark_output/fake_spark.py`` (its stage scripts at
+``spark``: SPARK is the fake SPARK checkout of ``tests/helpers_fake_spark.py`` (its stage scripts at
 SPARK's paths take SPARK's real flags and leave what SPARK leaves: ``link0``.. names, meshes in
 ``inference/<tag>/`` where the URDF does not point, SPARK's Y-up frame turned by the view, parts in
 another order and scale than the ground truth's, exit 0 when a stage fails), run per case by
@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers_fake_spark import TAG, write_fake_checkout, write_fake_run
 from helpers_http import LoopbackServer
 from helpers_toy import write_toy_case
 from PIL import Image
@@ -39,11 +40,6 @@ from spark_bench.methods.ours.config import OpenStateConfig
 from spark_bench.methods.ours.geometry import spark_geometry
 from spark_bench.methods.ours.method import OursMethod, ours_case
 from spark_bench.methods.ours.open_state import http_open_state
-
-FAKE_SPARK_DIR = str(Path(__file__).resolve().parents[1] / "spark_output")
-if FAKE_SPARK_DIR not in sys.path:  # the fake SPARK lives with the SPARK-output tests
-    sys.path.insert(0, FAKE_SPARK_DIR)
-from fake_spark import TAG, write_fake_checkout, write_fake_run  # noqa: E402
 
 PY = sys.executable
 TAG_DIR = f"inference/{TAG}"

@@ -162,6 +162,7 @@ def test_ours_with_retrieval_reads_no_ground_truth(objects, tmp_path, isolated_h
          "optimize.top_k=1", "optimize.screen_values_revolute=[0.6, 1.2]", "optimize.screen_values_prismatic=[0.3]",
          "optimize.screen_local=[0.05]"])
     method = OursMethod(config)
+    method.prepare()
     assert method.config()["retrieval_gallery"]["name"] == "gallery"
     out = tmp_path / "out"
     generation = method.generate(CaseInput(case, frozenset(method.inputs)), out)

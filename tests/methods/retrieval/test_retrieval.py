@@ -23,7 +23,7 @@ from spark_bench.data.prepare import PrepareOptions, prepare_case
 from spark_bench.data.readers import load_object
 from spark_bench.data.synth.generate import CATEGORIES, generate_object, object_seed
 from spark_bench.errors import InputError, SparkBenchError
-from spark_bench.methods.base import CaseInput
+from spark_bench.methods.base import CaseInput, NotPreparedError
 from spark_bench.methods.retrieval.gallery import (
     DEFAULT_GALLERY,
     GalleryLeakError,
@@ -146,6 +146,9 @@ def test_retrieval_returns_the_exact_object_from_a_rewritten_copy(objects, cases
     gallery = make_gallery(tmp_path / "gallery", {}, rewritten={f"copy-{k}": v for k, v in objects.items()})
     method = RetrievalMethod(gallery)
     assert method.label() == "retrieval (gallery=gallery)"
+    with pytest.raises(NotPreparedError):
+        method.config()  # the content hash is the prepared gallery's
+    method.prepare()
     assert method.config()["gallery_hash"] == folder_gallery(gallery).content_hash
     for target in targets:
         out = tmp_path / f"out-{target}"
