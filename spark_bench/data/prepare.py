@@ -14,7 +14,6 @@ resumes where it stopped.
 from __future__ import annotations
 
 import shutil
-import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
@@ -28,6 +27,7 @@ from spark_bench.data.case import Benchmark, BenchmarkCase
 from spark_bench.data.contact_sheet import write_contact_sheet
 from spark_bench.data.readers import URDF_NAMES, load_object
 from spark_bench.errors import InputError, SparkBenchError
+from spark_bench.timing import StageTimer
 
 #: Stages timed by :func:`prepare_case` (``benchmarks/measure_prepare.py`` reports them); the timer also
 #: holds ``render.scene``, the part of ``render`` spent building the MuJoCo scene.
@@ -110,21 +110,6 @@ class CaseResult:
     reason: str | None = None
     seconds: dict[str, float] = field(default_factory=dict)
     skipped: bool = False
-
-
-class StageTimer:
-    """Accumulates wall time per named stage: ``with timer("render"): ...``."""
-
-    def __init__(self):
-        self.seconds: dict[str, float] = {}
-
-    @contextmanager
-    def __call__(self, stage: str) -> Iterator[None]:
-        start = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.seconds[stage] = self.seconds.get(stage, 0.0) + time.perf_counter() - start
 
 
 # ----- ground truth --------------------------------------------------------------------------
@@ -371,8 +356,8 @@ def _prepare_one(src: Path, case_dir: Path, options: PrepareOptions) -> CaseResu
     try:
         prepare_case(src, case_dir, options, case_dir.name, timer)
     except Exception as exc:  # any failure of one object is recorded and the run goes on
-        return CaseResult(case_dir.name, one_line(exc), timer.seconds)
-    return CaseResult(case_dir.name, None, timer.seconds)
+        return CaseResult(case_dir.name, one_line(exc), timer.wall)
+    return CaseResult(case_dir.name, None, timer.wall)
 
 
 def write_manifest(bench: Benchmark, name: str, options: PrepareOptions, failed: dict[str, str],
