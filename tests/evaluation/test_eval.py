@@ -166,6 +166,30 @@ def test_eval_with_rl_scores_the_shipped_policy_on_the_ground_truth(tmp_path, is
     assert "rl_success_rate" not in json.loads(capsys.readouterr().out)["metrics"]
 
 
+def assert_same_numbers(actual: dict, expected: dict, rel: float, abs_: float, where: str = "") -> None:
+    """``actual`` has ``expected``'s keys; numbers agree within the tolerances, nested dicts key by key, and
+    anything else (None: a metric with no value, text) exactly. (``pytest.approx`` over a dict holding None
+    raises TypeError since pytest 9.2.)"""
+    assert actual.keys() == expected.keys(), where
+    for key, value in expected.items():
+        here = f"{where}.{key}" if where else key
+        if isinstance(value, dict):
+            assert isinstance(actual[key], dict), here
+            assert_same_numbers(actual[key], value, rel, abs_, here)
+        elif isinstance(value, (int, float)) and not isinstance(value, bool):
+            assert actual[key] == pytest.approx(value, rel=rel, abs=abs_), here
+        else:
+            assert actual[key] == value, here
+
+
+def test_assert_same_numbers_compares_none_exactly_and_numbers_closely():
+    assert_same_numbers({"a": 1.0 + 1e-14, "b": None, "c": {"d": None, "e": 2.0}},
+                        {"a": 1.0, "b": None, "c": {"d": None, "e": 2.0}}, rel=1e-12, abs_=1e-15)
+    for wrong in ({"a": 1.0, "b": 0.0}, {"a": 1.1, "b": None}, {"a": 1.0}):
+        with pytest.raises(AssertionError):
+            assert_same_numbers(wrong, {"a": 1.0, "b": None}, rel=1e-12, abs_=1e-15)
+
+
 def test_ray_executor_gives_the_same_results_as_the_process_pool(tiny_bench, tmp_path):
     pytest.importorskip("ray", reason="the Ray executor is optional: pip install 'spark-bench[ray]'")
     import ray
@@ -182,9 +206,7 @@ def test_ray_executor_gives_the_same_results_as_the_process_pool(tiny_bench, tmp
     # with OMP_NUM_THREADS=1). The k-d tree answers are exact per point whatever the threads and NumPy takes
     # the means in one thread, so the numbers agree today; rel=1e-12 is the float64 summation-order noise of
     # a mean over 5000 samples (~5000 x 1e-16), what a reduction in another order could add, and no more
-    flat = {k: v for k, v in local.metrics.items() if k != "joint_mean"}
-    assert {k: v for k, v in remote.metrics.items() if k != "joint_mean"} == pytest.approx(flat, rel=1e-12, abs=1e-15)
-    assert remote.metrics["joint_mean"] == pytest.approx(local.metrics["joint_mean"], rel=1e-12, abs=1e-15)
+    assert_same_numbers(remote.metrics, local.metrics, rel=1e-12, abs_=1e-15)
     with ResultsStore(tmp_path / "ray.sqlite") as store:
         pids = {row["info"]["pid"] for row in store.rows(status="ok")}
     assert os.getpid() not in pids, "cases ran in Ray workers, not in the driver"
