@@ -112,14 +112,13 @@ def measure_rl(args, cores: list[int]) -> int:
     from spark_bench.evaluation.store import ResultsStore
     from spark_bench.methods.base import MethodSpec
     from spark_bench.rl import FINETUNE_STEPS
-    from spark_bench.rl.tasks import TASK_KIND
+    from spark_bench.rl.scoring import opening_joints
 
     name, folder = resolve_bench(args.bench)
 
     bench = Benchmark(folder)
     every = [c for c in bench.case_ids()  # cases with a drawer or door, spread over the categories
-             if any(j.type in TASK_KIND
-                    for j in load_object(bench.case(c).gt_dir, load_meshes=False).movable_joints())]
+             if opening_joints(load_object(bench.case(c).gt_dir, load_meshes=False))]
     cases = every[:: max(1, len(every) // args.rl)][: args.rl]
     cases += [c for c in args.rl_cases.split(",") if c and c not in cases] if args.rl_cases else []
     settings = args.finetune_steps if args.finetune_steps else [0, FINETUNE_STEPS]
@@ -137,7 +136,8 @@ def measure_rl(args, cores: list[int]) -> int:
                     rl = row["checks"].get("rl", {})
                     rows.append({"case": row["case_id"], "finetune_steps": steps, "rl_stage_s": row["timings"].get("rl"),
                                  "rl_cpu_s": rl.get("cpu_s"),
-                                 "joints": len(rl.get("joints", {})), "zero_shot": rl.get("zero_shot_success_rate"),
+                                 "joints": rl.get("joints_scored", 0), "joints_total": rl.get("joints_total", 0),
+                                 "zero_shot": rl.get("zero_shot_success_rate"),
                                  "finetuned": rl.get("success_rate"), "holdable": rl.get("holdable_joints"),
                                  "holdable_finetuned": rl.get("holdable_success_rate"),
                                  "error": rl.get("error")})
@@ -162,7 +162,7 @@ def measure_rl(args, cores: list[int]) -> int:
              "fine-tuning, both columns' episodes on every ground-truth drawer and door, and the case's "
              "episode video); the first case also pays for imports and loading the weights. CPU s: this process's CPU "
              "time in the stage (all its threads), what an idle machine's wall time would be on one core.", "",
-             "| fine-tuning steps | cases | joints | zero-shot success | fine-tuned success | holdable joints: "
+             "| fine-tuning steps | cases | joints scored / total | zero-shot success | fine-tuned success | holdable joints: "
              "fine-tuned | rl stage wall s per case (mean / max) | its CPU s per case (mean / max) |",
              "|---|---|---|---|---|---|---|---|"]
     for steps in settings:
@@ -176,12 +176,13 @@ def measure_rl(args, cores: list[int]) -> int:
                 if held else None)
         secs = [r["rl_stage_s"] for r in sel if r["rl_stage_s"] is not None]
         cpus = [r["rl_cpu_s"] for r in sel if r["rl_cpu_s"] is not None] or [float("nan")]
-        lines.append(f"| {steps} | {len(sel)} | {sum(weights)} | {_pct(zero)} | {_pct(tuned)} | "
+        lines.append(f"| {steps} | {len(sel)} | {sum(weights)} / {sum(r['joints_total'] for r in sel)} | "
+                     f"{_pct(zero)} | {_pct(tuned)} | "
                      f"{_pct(hold)} of {sum(r['holdable'] for r in held)} | "
                      f"{np.mean(secs):.1f} / {max(secs):.1f} | {np.mean(cpus):.1f} / {max(cpus):.1f} |"
                      if secs else f"| {steps} | {len(sel)} | - |")
-    lines += ["", "Rates are over ground-truth drawers and doors (joints), each joint one episode per column (eval "
-              "--rl's default); "
+    lines += ["", "Rates are over the ground-truth drawers and doors scored (joints; those nobody can open are left "
+              "out: spark_bench.rl.scoring), each joint one episode per column (eval --rl's default); "
               "holdable joints: a grasp on a handle, a notch, a lid's tab or the front's edges that the grasp planner "
               "gives no reason against (spark_bench.rl.tasks.holdable).", ""]
     out = Path(__file__).resolve().parent / "results" / ("generalist_transfer.md" if oracle else

@@ -25,7 +25,7 @@ sheet of their frames, and the report as ``opener_real.md`` (``--results``), wit
 Run: ``nice -n 10 python benchmarks/measure_opener_real.py [--ids 24644,7304] [--episodes 2]``.
 
 Timing mode (issue 12, item 5): ``--score BENCH --cases ...`` times the opening score
-(:func:`spark_bench.evaluation.opening.open_with_predicted_joints`) of the oracle on cases of a prepared
+(:func:`spark_bench.rl.scoring.open_with_predicted_joints`) of the oracle on cases of a prepared
 benchmark, seconds per case, into ``opener_score_speed.md`` (``--before`` an earlier run's ``--out`` JSON
 to compare with, verdicts included).
 """
@@ -42,7 +42,7 @@ import numpy as np
 from rich.console import Console
 
 import spark_bench  # noqa: F401  (registers the environments)
-from spark_bench.envs import make_env
+from spark_bench.envs import ENV_OF_JOINT_TYPE, make_env
 from spark_bench.envs.assets import load_asset
 from spark_bench.errors import InputError
 
@@ -63,10 +63,10 @@ def openable_joints(asset) -> list[dict]:
     out = []
     for joint in asset.movable_joints():
         kind = OPENABLE.get(asset.links[joint.child].label)
-        if kind is None or joint.type not in ("prismatic", "revolute", "continuous"):
+        if kind is None or joint.type not in ENV_OF_JOINT_TYPE:
             continue
         out.append({"joint": joint.name, "type": joint.type, "label": kind, "category": asset.category,
-                    "env": "SparkDrawer-v0" if joint.type == "prismatic" else "SparkDoor-v0"})
+                    "env": ENV_OF_JOINT_TYPE[joint.type]})
     return out
 
 
@@ -218,7 +218,7 @@ def default_rows(asset, object_id: str, rows: list[dict], episodes: int, max_ste
         if r["joint"] == joint:
             return {**r, "default": True}
     row = {"joint": joint, "type": asset.joints[joint].type, "label": asset.links[asset.joints[joint].child].label,
-           "category": asset.category, "env": "SparkDrawer-v0" if kind == "prismatic" else "SparkDoor-v0"}
+           "category": asset.category, "env": ENV_OF_JOINT_TYPE[kind]}
     return {**run_joint(asset, object_id, row, episodes, max_steps, None), "object": object_id, "default": True}
 
 
@@ -321,26 +321,26 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
 
 
 def score_speed(bench: Path, cases: list[str], seed: int = 0, path: Path | None = None) -> list[dict]:
-    """The opening score (:func:`spark_bench.evaluation.opening.open_with_predicted_joints`) of the oracle
+    """The opening score (:func:`spark_bench.rl.scoring.open_with_predicted_joints`) of the oracle
     on each case of a prepared benchmark: the ground truth predicted by itself, every joint matched with
     itself (what the oracle's metrics give). Wall time per case, and the verdicts, written to ``path`` (JSON)
     after each case when given."""
     from spark_bench.data import load_object
     from spark_bench.data.case import BenchmarkCase
-    from spark_bench.evaluation.opening import open_with_predicted_joints
+    from spark_bench.rl.scoring import open_with_predicted_joints
 
     out = []
     for case_id in cases:
         gt_dir = BenchmarkCase(bench / "cases" / case_id).gt_dir
-        gt = load_object(gt_dir, load_meshes=False)
-        matching = {"matching": [{"gt_joint": j.name, "pred_joint": j.name} for j in gt.movable_joints()]}
+        gt_bench = load_object(gt_dir, load_meshes=False)
+        matching = {"matching": [{"gt_joint": j.name, "pred_joint": j.name} for j in gt_bench.movable_joints()]}
         start = time.perf_counter()
         result = open_with_predicted_joints(gt_dir, gt_dir, matching, seed=seed)
         seconds = time.perf_counter() - start
         verdicts = {name: j.get("success") for name, j in result["joints"].items()}
-        out.append({"case": case_id, "category": gt.category, "seconds": seconds, "success_rate": result["success_rate"],
+        out.append({"case": case_id, "category": gt_bench.category, "seconds": seconds, "success_rate": result["success_rate"],
                     "verdicts": verdicts, "joints": result["joints"]})
-        console.print(f"{case_id} ({gt.category}): {seconds:.1f} s, success rate {result['success_rate']}, {verdicts}")
+        console.print(f"{case_id} ({gt_bench.category}): {seconds:.1f} s, success rate {result['success_rate']}, {verdicts}")
         if path is not None:  # as it goes: a long run stopped early keeps its cases
             path.write_text(json.dumps(out, indent=1, default=float))
     return out

@@ -7,7 +7,7 @@ prediction:
 
 1. the sim checks of the case's ground truth (:func:`spark_bench.sim.run_checks` on the ``gt``
    folder: the call ``spark-bench eval`` makes for a prediction, here the oracle's);
-2. the oracle's opening score (:func:`spark_bench.evaluation.opening.open_with_predicted_joints`, the
+2. the oracle's opening score (:func:`spark_bench.rl.scoring.open_with_predicted_joints`, the
    ground truth predicted by itself, every joint matched with itself, as
    ``benchmarks/measure_opener_real.py --score`` does).
 
@@ -61,7 +61,7 @@ def child(bench: Path, case_id: str) -> dict:
     """One case, in this process (run by :func:`run_case` with a fresh ``$SPARK_BENCH_HOME``)."""
     from spark_bench.data import load_object
     from spark_bench.data.case import BenchmarkCase
-    from spark_bench.evaluation.opening import open_with_predicted_joints
+    from spark_bench.rl.scoring import open_with_predicted_joints
     from spark_bench.sim import run_checks
 
     gt_dir = BenchmarkCase(bench / "cases" / case_id).gt_dir
@@ -69,12 +69,12 @@ def child(bench: Path, case_id: str) -> dict:
     checks["passed"] = bool(report.passed)
     checks["verdicts"] = {name: bool(c.passed) for name, c in report.checks.items()}
     checks["stages"] = {k: round(float(v), 2) for k, v in report.seconds.items()}
-    gt = load_object(gt_dir, load_meshes=False)
-    matching = {"matching": [{"gt_joint": j.name, "pred_joint": j.name} for j in gt.movable_joints()]}
+    gt_bench = load_object(gt_dir, load_meshes=False)
+    matching = {"matching": [{"gt_joint": j.name, "pred_joint": j.name} for j in gt_bench.movable_joints()]}
     result, score = _stage(lambda: open_with_predicted_joints(gt_dir, gt_dir, matching, seed=0))
     score["success_rate"] = result.get("success_rate")
     score["verdicts"] = {name: j.get("success") for name, j in result["joints"].items()}
-    return {"case": case_id, "category": gt.category, "checks": checks, "score": score}
+    return {"case": case_id, "category": gt_bench.category, "checks": checks, "score": score}
 
 
 def run_case(bench: Path, case_id: str, timeout: float) -> dict:
@@ -127,7 +127,7 @@ def markdown(rows: list[dict], old: list[dict] | None, note: str) -> str:
              "Written by `benchmarks/measure_real_case_speed.py`: per case, in a fresh process with an empty "
              "`$SPARK_BENCH_HOME` (no CoACD, link-shape or contact cache), `spark_bench.sim.run_checks` on the "
              "case's `gt` folder (what `spark-bench eval` runs on a prediction; here the oracle's), then the "
-             "oracle's opening score (`evaluation.opening.open_with_predicted_joints`). CPU seconds include the "
+             "oracle's opening score (`rl.scoring.open_with_predicted_joints`). CPU seconds include the "
              f"CoACD worker processes. Machine: {os.cpu_count()} cores"
              + (f"; {note}" if note else "") + ".", "",
              "| case | category | checks wall s | checks CPU s | score wall s | score CPU s | total wall s | "

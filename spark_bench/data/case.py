@@ -75,37 +75,53 @@ def to_benchmark_frame(asset):
     return normalize_asset(asset)
 
 
-def prediction_to_gt_world(pred, gt, alignment=None) -> np.ndarray:
-    """The 4x4 similarity from the prediction's world frame into the ground truth's: prediction world
-    -> its benchmark frame (-> the metrics' ICP alignment) -> ground-truth world.
+def prediction_to_gt_world(pred, gt_bench, alignment=None) -> np.ndarray:
+    """The 4x4 similarity from the prediction's world frame into the ground truth's as stored: prediction
+    world -> its benchmark frame (-> the metrics' ICP alignment) -> ground-truth world.
 
     :param pred: predicted asset
-    :param gt: ground-truth asset
+    :param gt_bench: the ground truth as stored (a case's ``gt/``: the benchmark frame)
     :param alignment: optional 4x4 similarity the metrics applied to the prediction's benchmark frame
     """
     align = np.asarray(alignment if alignment is not None else np.eye(4), dtype=np.float64)
-    return np.linalg.inv(benchmark_frame(gt)) @ align @ benchmark_frame(pred)
+    return np.linalg.inv(benchmark_frame(gt_bench)) @ align @ benchmark_frame(pred)
 
 
-def ground_truth_in_metres(gt_folder: str | Path, stored=None):
-    """``(ground truth as stored, ground truth in metres, 4x4 from the first to the second)``.
+def prediction_to_gt_metres(pred, gt_bench, alignment=None, bench_to_metres=None) -> np.ndarray:
+    """The 4x4 similarity from the prediction's world frame into the ground truth's in metres, where robots
+    act on it: :func:`prediction_to_gt_world`, then ``bench_to_metres``.
 
-    A benchmark case's ground truth comes back from the benchmark frame to its source's size and place
-    (:meth:`BenchmarkCase.gt_at_source_size`): robots act on objects at their real size. Any other object
-    folder is used as it is, with the identity.
+    :param pred: the predicted asset as stored
+    :param gt_bench: the ground truth as stored (a case's ``gt/``: the benchmark frame)
+    :param alignment: 4x4 similarity the metrics applied to the prediction's benchmark frame, or None
+    :param bench_to_metres: 4x4 from ``gt_bench`` to metres (:func:`ground_truth_in_metres`'s third
+        value), or None for a ground truth stored in metres
+    """
+    frame = prediction_to_gt_world(pred, gt_bench, alignment)
+    return (np.asarray(bench_to_metres, dtype=np.float64) if bench_to_metres is not None else np.eye(4)) @ frame
+
+
+def ground_truth_in_metres(gt_folder: str | Path, gt_bench=None):
+    """``(gt_bench, gt_metres, bench_to_metres)``: the ground truth as stored, the same object in metres,
+    and the 4x4 from the first to the second.
+
+    A benchmark case's ground truth is stored in the benchmark frame ([-1, 1]^3) and comes back to its
+    source's size and place (:meth:`BenchmarkCase.gt_at_source_size`): robots act on objects at their real
+    size. Any other object folder is taken to be in metres already: ``gt_metres`` is ``gt_bench`` itself and
+    the matrix the identity.
 
     :param gt_folder: the ground-truth object folder (a case's ``gt/``, or any object folder)
-    :param stored: that folder's object if the caller already loaded it (not modified; a real case's R=200
+    :param gt_bench: that folder's object if the caller already loaded it (not modified; a real case's R=200
         remesh takes ~0.6 s CPU to load)
     """
     from spark_bench.data.readers import load_object
 
-    stored = load_object(gt_folder) if stored is None else stored
+    gt_bench = load_object(gt_folder) if gt_bench is None else gt_bench
     case = BenchmarkCase.of_gt_folder(gt_folder)
     if case is None:
-        return stored, stored, np.eye(4)
-    gt, to_metres = case.gt_at_source_size(stored)
-    return stored, gt, to_metres
+        return gt_bench, gt_bench, np.eye(4)
+    gt_metres, bench_to_metres = case.gt_at_source_size(gt_bench)
+    return gt_bench, gt_metres, bench_to_metres
 
 
 def metres_from_normalization(normalization, where: Path | None = None) -> np.ndarray:
@@ -255,16 +271,18 @@ class BenchmarkCase:
         normalized to [-1, 1]^3 is two metres tall."""
         return metres_from_normalization(self.record.get("normalization"), self.record_path)
 
-    def gt_at_source_size(self, gt=None):
-        """``(ground truth in metres, 4x4 from the benchmark frame to metres)``.
+    def gt_at_source_size(self, gt_bench=None):
+        """``(gt_metres, bench_to_metres)``: the ground truth in metres and the 4x4 from the benchmark frame
+        to metres.
 
-        :param gt: the case's ground truth if already loaded (it is not modified)
+        :param gt_bench: the case's ground truth as stored (benchmark frame) if already loaded (it is not
+            modified)
         """
         from spark_bench.asset.ops import similarity_asset
 
-        gt = self.load_gt() if gt is None else gt
-        to_metres = self.to_metres()
-        return similarity_asset(gt, to_metres), to_metres
+        gt_bench = self.load_gt() if gt_bench is None else gt_bench
+        bench_to_metres = self.to_metres()
+        return similarity_asset(gt_bench, bench_to_metres), bench_to_metres
 
     @classmethod
     def of_gt_folder(cls, folder: str | Path) -> BenchmarkCase | None:

@@ -5,8 +5,10 @@
 - Articulation metrics: mean over the ``ok`` cases that have the value (docs/conventions.md: mean over joints
   per object, then over objects); ``joint_mean`` beside them: ``axis_err``, ``pivot_err``, ``type_err``
   averaged over every joint of the ``ok`` cases (from each row's stored per-joint errors).
-- Rates (sim pass, scripted opening): over every case of the run where the stage ran, a failed case
-  counting as not passed; None when the stage never ran.
+- Rates (sim pass, scripted opening, RL transfer): over every case of the run where the stage gave a value,
+  a failed case counting as not passed; None when the stage never ran. An opening score's case value is
+  itself over the case's scored joints (:mod:`spark_bench.rl.scoring`): a case whose every drawer and door
+  is left out gives none.
 
 Rows scored under different metric conventions (the ``convention`` column) are never averaged together.
 """
@@ -36,7 +38,9 @@ def _value(row: dict, key: str):
 
 
 #: The RL transfer rates of ``eval --rl`` (:func:`spark_bench.rl.transfer.rl_transfer_score`, stored in each
-#: row's ``checks["rl"]``): the summary key and the key of the per-case result it averages.
+#: row's ``checks["rl"]``): the summary key and the key of the per-case result it averages. A case's rate is
+#: over its scored joints (``joints_scored`` of ``joints_total``: :mod:`spark_bench.rl.scoring` leaves out
+#: those nobody can open), None when it has none, as the scripted opening score's.
 RL_RATES = {"rl_success_rate": "success_rate", "rl_zero_shot_success_rate": "zero_shot_success_rate"}
 
 

@@ -2,10 +2,12 @@
 
 Per case (:func:`evaluate_case`, plain data in and out, so it runs in a process pool or as a Ray task):
 generate (cached under ``runs/<bench>/<label>-<hash>/<case>/``), load, shape and articulation metrics,
-sim-readiness checks, the scripted opener with the predicted joints against the ground-truth object,
-and, with ``rl``, the RL transfer score (the shipped generalist opening policy fine-tuned on the
-prediction, run on the ground truth, :func:`spark_bench.rl.transfer.rl_transfer_score`). A failing
-stage fails the case with a one-line reason; the run goes on.
+sim-readiness checks, the scripted opener with the predicted joints against the ground-truth object
+(:func:`spark_bench.rl.scoring.open_with_predicted_joints`), and, with ``rl``, the RL transfer score (the
+shipped generalist opening policy fine-tuned on the prediction, run on the ground truth,
+:func:`spark_bench.rl.transfer.rl_transfer_score`). A failing stage fails the case with a one-line reason;
+the run goes on. The ground truth is loaded once, as stored (``gt_bench``: the benchmark frame), for the
+metrics; the opening scores bring it to metres themselves.
 
 The driver (:func:`run_eval`) skips cases whose result is already stored (resume), writes each result
 as it arrives, one transaction per case, and shows a progress bar.
@@ -230,12 +232,12 @@ def _metric_columns(metrics: dict) -> dict:
     return {column: metrics.get(key) for key, column in METRIC_COLUMNS.items()}
 
 
-def _score(pred_folder: Path, gt, options: EvalOptions, threads: int) -> dict:
+def _score(pred_folder: Path, gt_bench, options: EvalOptions, threads: int) -> dict:
     from spark_bench.data.readers import load_object
     from spark_bench.metrics import compute_metrics
 
     pred = load_object(pred_folder)
-    return compute_metrics(pred, gt, n_samples=options.n_samples, seed=options.seed, align=options.align,
+    return compute_metrics(pred, gt_bench, n_samples=options.n_samples, seed=options.seed, align=options.align,
                            workers=threads).to_dict()
 
 
@@ -248,18 +250,18 @@ def _sim_checks(pred_folder: Path) -> dict:
     return out
 
 
-def _scripted_open(pred_folder: Path, gt_folder: Path, metrics: dict, seed: int, gt=None) -> dict:
-    from spark_bench.evaluation.opening import open_with_predicted_joints
+def _scripted_open(pred_folder: Path, gt_folder: Path, metrics: dict, seed: int, gt_bench=None) -> dict:
+    from spark_bench.rl.scoring import open_with_predicted_joints
 
-    return open_with_predicted_joints(pred_folder, gt_folder, metrics, seed=seed, gt_stored=gt)
+    return open_with_predicted_joints(pred_folder, gt_folder, metrics, seed=seed, gt_bench=gt_bench)
 
 
 def _rl_transfer(pred_folder: Path, gt_folder: Path, metrics: dict, out_dir: Path, options: EvalOptions,
-                 gt=None) -> dict:
+                 gt_bench=None) -> dict:
     from spark_bench.rl.transfer import rl_transfer_score
 
     return rl_transfer_score(pred_folder, gt_folder, metrics, out_dir=out_dir, finetune_steps=options.rl_finetune_steps,
-                             seed=options.seed, video=out_dir / RL_VIDEO, gt_stored=gt)
+                             seed=options.seed, video=out_dir / RL_VIDEO, gt_bench=gt_bench)
 
 
 def _success_rate(result: dict) -> float | None:
@@ -309,20 +311,20 @@ def evaluate_case(task: CaseTask) -> list[dict]:
         row.update(prediction_dir=str(generation.folder), info={**generation.info, "generation_cached": cached},
                    shape_metrics_valid=generation.shape_metrics_valid)
         gt_folder = case.gt_dir
-        gt = stages("load_gt", case.load_gt)
-        metrics = stages("metrics", _score, generation.folder, gt, task.options, task.threads)
+        gt_bench = stages("load_gt", case.load_gt)  # as stored: the benchmark frame (the scores bring it to metres)
+        metrics = stages("metrics", _score, generation.folder, gt_bench, task.options, task.threads)
         row.update(metrics=metrics, **_metric_columns(metrics))
         checks: dict = {}
         if task.options.sim:
             checks["sim"] = _check_stage(stages, "sim", _sim_checks, generation.folder)
             row["sim_pass"] = checks["sim"].get("passed")
             checks["open"] = _check_stage(stages, "open", _scripted_open, generation.folder, gt_folder, metrics,
-                                          task.options.seed, gt)  # the stored gt, loaded once above
+                                          task.options.seed, gt_bench)  # loaded once, above
             row["open_success"] = _success_rate(checks["open"])
         if task.options.rl:
             checks["rl"] = _check_stage(stages, "rl", _rl_transfer, generation.folder, gt_folder, metrics,
                                         Path(task.generation_dir).with_name(Path(task.generation_dir).name + ".rl"),
-                                        task.options, gt)
+                                        task.options, gt_bench)
             row["rl_success"] = _success_rate(checks["rl"])
         row.update(checks=checks, status="ok")
         rows = [row]
@@ -330,7 +332,7 @@ def evaluate_case(task: CaseTask) -> list[dict]:
             vrow = {**_base_row(task, category), "variant": variant, "prediction_dir": str(folder),
                     "shape_metrics_valid": generation.shape_metrics_valid, "info": row["info"]}
             try:
-                vmetrics = stages(f"metrics[{variant}]", _score, Path(folder), gt, task.options, task.threads)
+                vmetrics = stages(f"metrics[{variant}]", _score, Path(folder), gt_bench, task.options, task.threads)
                 vrow.update(metrics=vmetrics, status="ok", **_metric_columns(vmetrics))
             except StageError as exc:
                 vrow.update(status="failed", stage=exc.stage, reason=exc.reason)

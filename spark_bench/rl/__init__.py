@@ -3,6 +3,10 @@ training.
 
 - :func:`open_with_joint` ``(env, axis, pivot, joint_type, seed=None, ...) -> OpenResult``: one scripted
   episode planned from given joint parameters; :func:`open_with_ground_truth` with the environment's own
+- :func:`open_with_predicted_joints`: the scripted opening score of a prediction, and
+  :func:`open_every_joint`, the opener on every joint of one object (:mod:`spark_bench.rl.scoring`: what
+  the scores that open each ground-truth joint share; the RL transfer score is
+  :func:`spark_bench.rl.transfer.rl_transfer_score`)
 - :func:`run_episodes`: score a policy over some episodes (:class:`RolloutStats`);
   :func:`spark_bench.rl.rollout.rollout` makes the environment too
 - :func:`spark_bench.rl.train.train` ``(env_id, algo="ppo", steps=..., out=...) -> TrainResult``: PPO or
@@ -12,7 +16,8 @@ training.
 Names are imported lazily (PEP 562), so that ``spark-bench --help`` does not import MuJoCo or torch.
 ``rollout`` and ``train`` are not exported here: they are also the names of their modules, which
 shadow a package attribute once imported.
-Imports run one way: ``train`` -> ``rollout`` -> ``policies`` -> ``scripted`` -> :mod:`spark_bench.envs`.
+Imports run one way: ``train`` -> ``rollout`` -> ``policies`` -> ``scripted`` -> :mod:`spark_bench.envs`;
+``transfer`` -> ``tasks`` -> ``scoring`` -> ``scripted``.
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ _EXPORTS = {
     "ScriptedOpener": "spark_bench.rl.scripted",
     "ground_truth_joint": "spark_bench.rl.scripted",
     "open_every_joint": "spark_bench.rl.scoring",
+    "open_with_predicted_joints": "spark_bench.rl.scoring",
     "open_with_ground_truth": "spark_bench.rl.scripted",
     "open_with_joint": "spark_bench.rl.scripted",
     "ModelPolicy": "spark_bench.rl.policies",

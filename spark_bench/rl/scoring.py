@@ -1,18 +1,303 @@
-"""Open each ground-truth joint with a policy (placeholder: being consolidated)."""
+"""Open each ground-truth joint with a policy: what the scores of a prediction share.
+
+A score of a prediction opens the *ground-truth* object's joints, at its real size, with a policy told the
+*predicted* joints. Two scores do so: the scripted opening score (:func:`open_with_predicted_joints`, here:
+one scripted episode planned from the predicted joint, ``eval``'s ``open`` stage) and the RL transfer score
+(:func:`spark_bench.rl.transfer.rl_transfer_score`: the generalist policy zero-shot and fine-tuned, ``eval
+--rl``). This module is everything they share; each supplies only how a matched joint is attempted.
+
+- **Which ground-truth joints are opening tasks**: drawers and doors (:data:`OPENING_TYPES`, prismatic and
+  revolute joints, :func:`opening_joints`); continuous joints (knobs, caps) have no opening task and are not
+  reported. The environment of a joint type is :data:`spark_bench.envs.registration.ENV_OF_JOINT_TYPE`.
+- **A joint nobody can open is left out**, for every method alike, whether or not the prediction matched
+  it (:func:`judge_joint`): ``success`` None and a one-line ``reason``, the first of: the grasp planner
+  declines the part before any episode (no handle, knob, notch or tab: a flush lid, a button); the scene
+  says it is stuck (driven directly by the gripper's largest pull it does not open: too heavy, or jammed
+  by its collision shapes); the scripted opener fails with the ground-truth joint too (one episode, the
+  score's seed and step limit); or, rarer, no environment can be made of it (``no opening task``: the
+  model does not compile). Such a joint tests the opener or the object, not the prediction. Every
+  result carries its coverage (:func:`coverage`): ``joints_total``, ``joints_scored``, ``left_out``.
+- **The pairing**: the predicted joint the metrics matched with each ground-truth joint
+  (``metrics["matching"]``); a joint not matched, or matched with a predicted joint no environment opens,
+  counts as not opened (:meth:`Pairing.predicted_joint`).
+- **The frames**: the ground truth as stored is ``gt_bench`` (a benchmark case's ``gt/``: the benchmark
+  frame, [-1, 1]^3) and the same object at its real size is ``gt_metres``
+  (:func:`spark_bench.data.case.ground_truth_in_metres`; another object folder is in metres already). The
+  prediction's joints are carried into ``gt_metres``: prediction world -> its benchmark frame (-> the
+  metrics' ICP alignment) -> ground-truth world -> metres
+  (:func:`spark_bench.data.case.prediction_to_gt_metres`).
+- **The oracle shortcut**: a prediction folder that is the ground-truth folder is loaded once.
+
+:func:`open_every_joint` is a diagnostic of the opener itself, on one object with its own joints.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import gymnasium as gym
 import numpy as np
 
+from spark_bench.asset.transforms import unit
 from spark_bench.envs.registration import ENV_OF_JOINT_TYPE, make_env
 from spark_bench.errors import InputError
-from spark_bench.rl.scripted import open_with_ground_truth
+from spark_bench.rl.scripted import OpenResult, open_with_ground_truth, open_with_joint
+
+#: The ground-truth joint types that are opening tasks: drawers (prismatic) and doors (revolute).
+OPENING_TYPES = ("prismatic", "revolute")
+#: Step limit of a scripted episode in the scores (the ground-truth reference episode included).
+OPENING_STEPS = 200
+#: Why a ground-truth joint counts as not opened when the metrics matched no predicted joint with it.
+NOT_MATCHED = "no matched predicted joint"
 
 
+def one_line(exc: Exception, limit: int = 200) -> str:
+    """An exception's message on one line, at most ``limit`` characters (a ``reason`` or ``why``).
+
+    :param exc: the exception
+    :param limit: most characters kept
+    """
+    return " ".join(str(exc).split())[:limit]
+
+
+def opening_joints(asset) -> list:
+    """The joints of ``asset`` that are opening tasks (:data:`OPENING_TYPES`), in the asset's order.
+
+    :param asset: an :class:`~spark_bench.asset.model.ArticulatedAsset`
+    """
+    return [joint for joint in asset.movable_joints() if joint.type in OPENING_TYPES]
+
+
+# ----- the one rule for a joint nobody can open ----------------------------------------------------
+def left_out_reason(grasp_reason: str | None, reference: OpenResult | None) -> str | None:
+    """Why a ground-truth joint is no test of a prediction, or None when it is one.
+
+    :param grasp_reason: the planner's reason (no handle...) or the scene's (stuck), as the scene's
+        ``grasp.reason`` reports either
+    :param reference: the scripted opener's episode with the ground-truth joint (None: not run)
+    """
+    if grasp_reason:
+        return grasp_reason
+    if reference is not None and not reference.success:
+        return (f"the scripted opener fails with the ground-truth joint too "
+                f"(max fraction {reference.max_fraction:.2f})")
+    return None
+
+
+@dataclass
+class JudgedJoint:
+    """A ground-truth joint after the rule (:func:`judge_joint`).
+
+    :param name: the joint's name
+    :param type: the joint's type
+    :param reason: why it is left out, or None when it is scored
+    :param grasp: the planner's grasp source (``label``, ``notch``, ``face``...; empty when the planner
+        declined the part)
+    :param env: its scripted opener's environment, open, when it is scored (reset by every episode: the
+        scripted score runs the prediction's episode in it); None when left out
+    """
+
+    name: str
+    type: str
+    reason: str | None
+    grasp: str = ""
+    env: gym.Env | None = field(default=None, repr=False)
+
+    def close(self) -> None:
+        """Close the environment, if open (idempotent)."""
+        if self.env is not None:
+            self.env.close()
+            self.env = None
+
+
+def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS) -> JudgedJoint:
+    """Apply the one rule to a ground-truth joint: the planner first (a part it declines needs no
+    environment), then the scene's stuck check, then one episode of the scripted opener with the joint's
+    own parameters. The caller closes the result.
+
+    :param gt_metres: the ground truth at its real size
+    :param joint: one of its :func:`opening_joints`
+    :param seed: the reference episode's reset seed
+    :param max_steps: its step limit (and the environment's)
+    """
+    from spark_bench.envs.scene import plan_grasp
+
+    try:
+        planned = plan_grasp(gt_metres, joint.name).reason
+    except InputError as exc:  # no geometry, no outward direction: nothing to grasp
+        planned = one_line(exc)
+    if planned is not None:
+        return JudgedJoint(joint.name, joint.type, planned)
+    try:
+        env = make_env(ENV_OF_JOINT_TYPE[joint.type], asset=gt_metres, joint=joint.name, max_episode_steps=max_steps)
+    except InputError as exc:  # the model does not compile...: not a method's fault
+        return JudgedJoint(joint.name, joint.type, f"no opening task: {one_line(exc)}")
+    grasp = env.unwrapped.scene.grasp
+    try:
+        reference = None if grasp.reason else open_with_ground_truth(env, seed=seed, max_steps=max_steps)
+    except BaseException:
+        env.close()
+        raise
+    reason = left_out_reason(grasp.reason, reference)
+    if reason is not None:
+        env.close()
+        return JudgedJoint(joint.name, joint.type, reason, grasp.source)
+    return JudgedJoint(joint.name, joint.type, None, grasp.source, env)
+
+
+def coverage(joints: dict[str, dict]) -> dict:
+    """``{"joints_total", "joints_scored", "left_out": {joint: reason}}``: how many joints a score's rates
+    cover.
+
+    :param joints: the score's per-joint rows (a row left out has ``success`` None and a ``reason``)
+    """
+    left_out = {name: row["reason"] for name, row in joints.items() if row.get("success") is None}
+    return {"joints_total": len(joints), "joints_scored": len(joints) - len(left_out), "left_out": left_out}
+
+
+def scored_mean(joints: dict[str, dict], key: str = "success") -> float | None:
+    """The mean of ``key`` over the rows scored (``success`` not None); None when none is.
+
+    :param joints: per-joint rows
+    :param key: the row's value to average (``success``, the RL score's ``zero_shot``)
+    """
+    values = [row[key] for row in joints.values() if row.get("success") is not None]
+    return float(np.mean(values)) if values else None
+
+
+# ----- the prediction, paired with the ground truth -------------------------------------------------
+def predicted_joints_in_gt_metres(pred, pred_to_gt_metres) -> dict[str, tuple[np.ndarray, np.ndarray, str]]:
+    """``{predicted joint: (unit axis, pivot, type)}`` carried into the ground truth's frame in metres.
+
+    :param pred: the predicted asset as stored
+    :param pred_to_gt_metres: 4x4 similarity (:func:`spark_bench.data.case.prediction_to_gt_metres`)
+    """
+    frame = np.asarray(pred_to_gt_metres, dtype=np.float64)
+    out = {}
+    for name, (point, direction) in pred.joint_frames().items():
+        out[name] = (unit(frame[:3, :3] @ direction), frame[:3, :3] @ point + frame[:3, 3], pred.joints[name].type)
+    return out
+
+
+@dataclass
+class Pairing:
+    """A prediction and the ground truth it is scored on (:func:`load_pairing`).
+
+    :param gt_bench: the ground truth as stored (a case's: benchmark frame)
+    :param gt_metres: the same at its real size, where the policies act
+    :param pred: the prediction as stored (its own world frame); ``gt_bench`` itself for the oracle
+    :param pred_to_gt_metres: 4x4 similarity from ``pred``'s world frame into ``gt_metres``'
+    :param matched: ``{ground-truth joint: predicted joint}`` from the metrics' matching
+    """
+
+    gt_bench: object
+    gt_metres: object
+    pred: object
+    pred_to_gt_metres: np.ndarray
+    matched: dict[str, str]
+
+    @cached_property
+    def estimates(self) -> dict[str, tuple[np.ndarray, np.ndarray, str]]:
+        """Every predicted joint as ``(unit axis, pivot, type)`` in ``gt_metres``' frame."""
+        return predicted_joints_in_gt_metres(self.pred, self.pred_to_gt_metres)
+
+    def predicted_joint(self, gt_joint: str) -> tuple[str | None, str | None]:
+        """``(predicted joint, why it cannot be attempted)`` for a ground-truth joint: the name is None when
+        none was matched; the reason is None when a policy can be told the predicted joint (an environment
+        opens its type, :data:`~spark_bench.envs.registration.ENV_OF_JOINT_TYPE`).
+
+        :param gt_joint: the ground-truth joint's name
+        """
+        name = self.matched.get(gt_joint)
+        if name is None or name not in self.pred.joints:
+            return name, NOT_MATCHED
+        pred_type = self.pred.joints[name].type
+        if pred_type not in ENV_OF_JOINT_TYPE:
+            return name, f"the matched predicted joint is {pred_type}"
+        return name, None
+
+
+def matched_joints(metrics: dict) -> dict[str, str]:
+    """``{ground-truth joint: predicted joint}`` of the metrics' matching (pairs without a prediction
+    dropped).
+
+    :param metrics: the prediction's metrics (their ``matching``)
+    """
+    return {m["gt_joint"]: m["pred_joint"] for m in metrics.get("matching", []) if m.get("pred_joint")}
+
+
+def load_pairing(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, gt_bench=None) -> Pairing:
+    """Load a prediction and its ground truth for a score.
+
+    :param pred_folder: the predicted object folder
+    :param gt_folder: the ground-truth object folder (a benchmark case's ``gt/`` is brought to metres)
+    :param metrics: the prediction's metrics (``matching``: gt_joint / pred_joint pairs; ``alignment``)
+    :param gt_bench: the object of ``gt_folder`` if the caller already loaded it (not modified)
+    """
+    from spark_bench.data import load_object
+    from spark_bench.data.case import ground_truth_in_metres, prediction_to_gt_metres
+
+    gt_bench, gt_metres, bench_to_metres = ground_truth_in_metres(gt_folder, gt_bench)
+    # the oracle's prediction is the ground-truth folder itself: loaded once (a real object takes seconds)
+    same_folder = Path(pred_folder).resolve() == Path(gt_folder).resolve()
+    pred = gt_bench if same_folder else load_object(pred_folder)
+    frame = prediction_to_gt_metres(pred, gt_bench, metrics.get("alignment"), bench_to_metres)
+    return Pairing(gt_bench, gt_metres, pred, frame, matched_joints(metrics))
+
+
+# ----- the scripted opening score -------------------------------------------------------------------
+def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, seed: int = 0,
+                               max_steps: int = OPENING_STEPS, gt_bench=None) -> dict:
+    """The scripted opening score: every ground-truth drawer and door opened by one scripted episode
+    planned from the matched predicted joint (:func:`spark_bench.rl.scripted.open_with_joint`).
+
+    :param pred_folder: the predicted object folder
+    :param gt_folder: the ground-truth object folder (a benchmark case's ``gt/`` is brought to metres)
+    :param metrics: :meth:`MetricsResult.to_dict` of the prediction (its ``matching`` and ``alignment``)
+    :param seed: environment reset seed (the reference episode's too)
+    :param max_steps: step limit per episode (the reference episode's too)
+    :param gt_bench: the object of ``gt_folder`` if the caller already loaded it (not modified)
+    :returns: ``{"success_rate": fraction opened of the joints scored (None when none is), "joints": {...},
+        "joints_total", "joints_scored", "left_out"}``; a joint left out has ``success`` None and a one-line
+        ``reason`` (module docstring); one not attempted has ``success`` False and ``why``; one attempted
+        has ``success``, ``pred_joint``, ``max_fraction`` and ``steps``
+    """
+    pairing = load_pairing(pred_folder, gt_folder, metrics, gt_bench)
+    joints: dict[str, dict] = {}
+    for joint in opening_joints(pairing.gt_metres):
+        judged = judge_joint(pairing.gt_metres, joint, seed, max_steps)
+        try:
+            joints[joint.name] = _scripted_row(judged, pairing, seed, max_steps)
+        finally:
+            judged.close()
+    return {"success_rate": scored_mean(joints), "joints": joints, **coverage(joints)}
+
+
+def _scripted_row(judged: JudgedJoint, pairing: Pairing, seed: int, max_steps: int) -> dict:
+    """One ground-truth joint's row of the scripted opening score."""
+    if judged.reason is not None:
+        return {"success": None, "reason": judged.reason}
+    pred_name, why = pairing.predicted_joint(judged.name)
+    if why is not None:
+        return {"success": False, "why": why}
+    axis, pivot, pred_type = pairing.estimates[pred_name]
+    result = open_with_joint(judged.env, axis, pivot, pred_type, seed=seed, max_steps=max_steps)
+    return {"success": bool(result.success), "pred_joint": pred_name, "max_fraction": float(result.max_fraction),
+            "steps": int(result.steps)}
+
+
+# ----- the opener's own diagnostic --------------------------------------------------------------------
 def open_every_joint(asset, episodes: int = 1, seed: int = 0, max_episode_steps: int = 150) -> list[dict]:
-    """The scripted opener with ground-truth joints on every drawer (prismatic) and door (revolute)
-    of one object: one row per joint with its success rate and mean largest opening (and the planner's or
-    the scene's ``reason`` when it declines the part; the episodes are run all the same).
+    """The scripted opener with ground-truth joints on every movable joint of one object (drawers, doors,
+    and the parts turning without limit that the door environment swings): one row per joint with its
+    success rate and mean largest opening over ``episodes`` episodes.
+
+    A diagnostic of the opener, not a score: every episode is run, also on a joint the scores leave out,
+    and the row says what they did. Its ``reason`` is the scores' rule (:func:`left_out_reason`): the
+    planner's or the scene's, else the first episode's failure (the episode the scores run as their
+    reference, at this function's step limit). A joint with no environment has ``error`` instead.
 
     :param asset: anything the environments accept as ``asset``
     :param episodes: episodes per joint (seeds ``seed ..``)
@@ -23,18 +308,21 @@ def open_every_joint(asset, episodes: int = 1, seed: int = 0, max_episode_steps:
     loaded, key = load_asset(asset)
     rows = []
     for joint in loaded.movable_joints():
-        env_id = ENV_OF_JOINT_TYPE[joint.type]
         try:
-            env = make_env(env_id, asset=key or loaded, joint=joint.name, max_episode_steps=max_episode_steps)
+            env = make_env(ENV_OF_JOINT_TYPE[joint.type], asset=key or loaded, joint=joint.name,
+                           max_episode_steps=max_episode_steps)
         except InputError as exc:
             rows.append({"joint": joint.name, "type": joint.type, "success_rate": 0.0, "error": str(exc)})
             continue
-        results = [open_with_ground_truth(env, seed=seed + k) for k in range(episodes)]
         grasp = env.unwrapped.scene.grasp
+        try:
+            results = [open_with_ground_truth(env, seed=seed + k) for k in range(episodes)]
+        finally:
+            env.close()
+        reason = left_out_reason(grasp.reason, results[0] if results else None)
         rows.append({"joint": joint.name, "type": joint.type, "grasp": grasp.source,
                      "pad_thickness": grasp.pad_thickness,
                      "success_rate": float(np.mean([r.success for r in results])),
                      "max_fraction": float(np.mean([r.max_fraction for r in results])),
-                     **({"reason": grasp.reason} if grasp.reason else {})})
-        env.close()
+                     **({"reason": reason} if reason else {})})
     return rows

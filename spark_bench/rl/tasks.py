@@ -17,9 +17,11 @@ import numpy as np
 import spark_bench.rl.rollout as rollout
 from spark_bench.errors import InputError
 from spark_bench.rl.generalist import EPISODE_STEPS, KIND_OF_TYPE, GraspFrameWrapper, make_task_env
+from spark_bench.rl.scoring import OPENING_TYPES, opening_joints
 
-#: The policy kind of each openable joint type (continuous joints, knobs and caps, are not opening tasks).
-TASK_KIND = {t: k for t, k in KIND_OF_TYPE.items() if t != "continuous"}
+#: The policy kind of each joint type that is an opening task (:data:`spark_bench.rl.scoring.OPENING_TYPES`;
+#: continuous joints, knobs and caps, are not).
+TASK_KIND = {t: KIND_OF_TYPE[t] for t in OPENING_TYPES}
 
 
 @dataclass
@@ -92,7 +94,7 @@ def object_tasks(folder: str | Path, category: str = "", seed: int | None = None
 
     asset = load_object(folder, load_meshes=False)
     return [Task(Path(folder), j.name, TASK_KIND[j.type], category or asset.category, seed)
-            for j in asset.movable_joints() if j.type in TASK_KIND]
+            for j in opening_joints(asset)]
 
 
 def synth_tasks(seeds, categories=None, root: str | Path | None = None) -> list[Task]:

@@ -1,30 +1,32 @@
 """The RL transfer score of a prediction: the shipped generalist policy, fine-tuned on the *predicted*
 object, acting on the *ground-truth* object (``eval --rl``).
 
-For every ground-truth drawer (prismatic joint) and door (revolute joint), nothing left out:
+What it shares with the scripted opening score is in :mod:`spark_bench.rl.scoring`: which ground-truth
+joints are opening tasks (drawers and doors), the one rule that leaves out a joint nobody can open (the
+planner declines it, the scene says it is stuck, or the scripted opener fails with the ground-truth joint
+too: ``success`` None with the ``reason``, for every method alike), the pairing with the predicted joints
+and their frame (prediction world -> its benchmark frame -> the metrics' alignment -> ground-truth world
+-> metres). For every ground-truth drawer and door not left out:
 
-1. the predicted joint matched with it by the metrics (``metrics["matching"]``) picks the policy (the
-   drawer policy for a predicted prismatic joint, the door policy for a revolute or continuous one) and is
-   what the policy is told about the joint: its axis and pivot, carried from the prediction's frame into
-   the ground truth's (prediction world -> its benchmark frame -> the metrics' alignment -> ground-truth
-   world -> metres), reported by the environment as ``joint_estimate``;
+1. the predicted joint matched with it by the metrics picks the policy (the drawer policy for a predicted
+   prismatic joint, the door policy for a revolute or continuous one) and is what the policy is told about
+   the joint, reported by the environment as ``joint_estimate``;
 2. **zero-shot**: the shipped policy opens the ground-truth joint in its environment (``SparkDrawer-v0``
    / ``SparkDoor-v0``), told the predicted joint;
 3. **fine-tuned**: a copy of the shipped policy trained with PPO for ``finetune_steps`` environment steps
    on the predicted object's matched joints of its kind (the prediction placed and scaled where the
    metrics matched it with the real object; the grasp frame turned at random each episode, as in
-   training), then run as in 2.
+   training; every predicted joint matched with a ground-truth drawer or door, scored or left out: what
+   the prediction offers to practise on), then run as in 2.
 
 The policy takes the direction to pull from the joint it is told (it was trained so, see
 :mod:`spark_bench.rl.generalist`): a predicted drawer axis 90 degrees off, or a door hinge moved next to
-the handle, fails on the real object, as the scripted opener does (:mod:`spark_bench.evaluation.opening`).
+the handle, fails on the real object, as the scripted opener does.
 
-A ground-truth joint counts as not opened when no predicted joint was matched with it, when the matched
-one is not a drawer or a door, when the ground truth offers no opening task for it (no graspable surface:
-every method fails it alike; the oracle's score shows that ceiling) and, for the fine-tuned score, when the
-prediction offers no task to fine-tune on. Continuous ground-truth joints (knobs, caps) are not drawers or
-doors and are left out. Joints no parallel gripper can pull open (a bare front, ``face``, or a planner
-``reason``) count like the others; the ``holdable_*`` rates beside the score leave them out.
+A scored joint counts as not opened when no predicted joint was matched with it, when the matched one is
+not a drawer or a door, and, for the fine-tuned score, when the prediction offers no task to fine-tune on.
+The rates are over the scored joints (``joints_scored`` of ``joints_total``); the ``holdable_*`` rates
+beside them leave out too the joints a parallel gripper holds only by a bare front (``face``).
 """
 
 from __future__ import annotations
@@ -32,9 +34,6 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import numpy as np
-
-from spark_bench.data.case import ground_truth_in_metres, prediction_to_gt_world
 from spark_bench.errors import InputError
 from spark_bench.rl import FINETUNE_STEPS
 from spark_bench.rl.generalist import (
@@ -47,6 +46,16 @@ from spark_bench.rl.generalist import (
     make_task_env,
     weights_record,
 )
+from spark_bench.rl.scoring import (
+    OPENING_STEPS,
+    Pairing,
+    coverage,
+    judge_joint,
+    load_pairing,
+    one_line,
+    opening_joints,
+    scored_mean,
+)
 from spark_bench.rl.tasks import TASK_KIND, holdable, run_episode, run_episodes
 
 #: Episodes per ground-truth joint (the fine-tuning budget is :data:`spark_bench.rl.FINETUNE_STEPS`).
@@ -57,23 +66,6 @@ VIDEO_EVERY = 3
 #: PPO settings of the fine-tuning (the shipped policy's own settings are those of its training run).
 FINETUNE_PPO = {"n_steps": 256, "batch_size": 128, "n_epochs": 4, "learning_rate": 5e-5, "clip_range": 0.1,
                 "target_kl": 0.03}
-
-
-def prediction_to_gt_metres(pred, gt_stored, alignment=None, to_metres=None) -> np.ndarray:
-    """The 4x4 similarity from the prediction's world frame into the ground truth's, in metres: prediction
-    world -> its benchmark frame (-> the metrics' ICP alignment) -> ground-truth world (-> metres).
-
-    :param pred: the predicted asset as stored
-    :param gt_stored: the ground truth as stored
-    :param alignment: 4x4 similarity the metrics applied to the prediction's benchmark frame, or None
-    :param to_metres: 4x4 from the stored ground truth to metres (a benchmark case's), or None
-    """
-    frame = prediction_to_gt_world(pred, gt_stored, alignment)
-    return (np.asarray(to_metres, dtype=np.float64) if to_metres is not None else np.eye(4)) @ frame
-
-
-def _why(exc: Exception) -> str:
-    return " ".join(str(exc).split())[:200]
 
 
 def finetune(kind: str, pred, joints: list[str], steps: int, seed: int = 0, weights=None):
@@ -89,7 +81,7 @@ def finetune(kind: str, pred, joints: list[str], steps: int, seed: int = 0, weig
         try:
             envs.append(GraspFrameWrapper(make_task_env(kind, pred, joint), FRAME_NOISE))
         except Exception as exc:  # noqa: BLE001  (a prediction's geometry may break the conversion anywhere)
-            skipped[joint] = f"{type(exc).__name__}: {_why(exc)}"
+            skipped[joint] = f"{type(exc).__name__}: {one_line(exc)}"
     info = {"joints": [j for j in joints if j not in skipped], "skipped": skipped, "steps": 0}
     if not envs:
         return None, info
@@ -107,18 +99,15 @@ def finetune(kind: str, pred, joints: list[str], steps: int, seed: int = 0, weig
     return model, info
 
 
-def _score_joint(row: dict, name: str, gt_folder: Path, zero, tuned, skipped: dict, episodes: int,
+def _score_joint(row: dict, name: str, gt_metres, zero, tuned, skipped: dict, episodes: int,
                  seed: int) -> None:
     """Fill ``row`` with the zero-shot and fine-tuned episodes on ground-truth joint ``name``."""
     try:
-        env = make_task_env(TASK_KIND[row["type"]], gt_folder, name, joint_estimate=row["estimate"])
+        env = make_task_env(TASK_KIND[row["type"]], gt_metres, name, joint_estimate=row["estimate"])
     except InputError as exc:
-        row["why"] = f"no opening task on the ground truth: {_why(exc)}"
+        row["why"] = f"no opening task on the ground truth: {one_line(exc)}"
         return
-    grasp = env.unwrapped.scene.grasp
-    row["grasp"] = grasp.source
-    if grasp.reason:
-        row["reason"] = grasp.reason
+    row["grasp"] = env.unwrapped.scene.grasp.source
     try:
         first = run_episodes(env, zero, episodes, seed)
         row.update(zero_shot=first.success_rate, zero_shot_max_fraction=first.mean_max_fraction)
@@ -159,7 +148,7 @@ def record_episode(kind: str, asset, joint: str, policy, path: str | Path, joint
 def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: dict,
                       out_dir: str | Path | None = None, finetune_steps: int = FINETUNE_STEPS, seed: int = 0,
                       episodes: int = EPISODES, weights: str | Path | None = None,
-                      video: str | Path | None = None, gt_stored=None) -> dict:
+                      video: str | Path | None = None, gt_bench=None) -> dict:
     """Score a prediction by the generalist policy's success on the ground truth (see the module docstring).
 
     :param pred_folder: the predicted object folder
@@ -168,17 +157,18 @@ def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: d
     :param out_dir: where the fine-tuned models are saved (None: not saved)
     :param finetune_steps: PPO steps per policy kind on the prediction (0: no fine-tuning, the fine-tuned
         column is the zero-shot one)
-    :param seed: fine-tuning and episode seed
+    :param seed: fine-tuning and episode seed (the scripted reference episode's too)
     :param episodes: episodes per ground-truth joint and column (reset seeds ``seed ..``)
     :param weights: a folder of generalist weights (default: the shipped ones)
     :param video: write the fine-tuned policy's episode on the first ground-truth joint it was run on there
         (``.gif`` / ``.mp4``)
-    :param gt_stored: the object of ``gt_folder`` if the caller already loaded it (not modified)
-    :returns: ``{"success_rate", "zero_shot_success_rate", "holdable_success_rate", "joints", "finetune",
-        "policy", "assets", ...}``; the rates are None when the ground truth has no drawer or door; the
-        holdable rates are over the joints a parallel gripper can hold
-        (:func:`spark_bench.rl.tasks.holdable`); ``assets``
-        names the prediction and the ground truth by path and content hash
+    :param gt_bench: the object of ``gt_folder`` if the caller already loaded it (not modified)
+    :returns: ``{"success_rate", "zero_shot_success_rate", "holdable_success_rate", "joints",
+        "joints_total", "joints_scored", "left_out", "finetune", "policy", "assets", ...}``; the rates are
+        over the joints scored, None when none is; a joint left out has ``success`` and ``zero_shot`` None
+        and its ``reason``; the holdable rates are over the scored joints a parallel gripper can hold
+        (:func:`spark_bench.rl.tasks.holdable`); ``assets`` names the prediction and the ground truth by
+        path and content hash
     """
     import torch
 
@@ -186,52 +176,57 @@ def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: d
     torch.set_num_threads(1)  # small MLPs: one thread is faster than several contending for the cores
     try:
         return _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, seed, episodes, weights,
-                               video, gt_stored)
+                               video, gt_bench)
     finally:
         torch.set_num_threads(threads)
 
 
+def _plan_rows(pairing: Pairing, seed: int) -> tuple[dict[str, dict], dict[str, list[str]]]:
+    """The ground-truth joints' rows before any policy runs, and ``{policy kind: ground-truth joints}``:
+    every joint whose matched predicted joint a policy can be told (its predicted joint is fine-tuned on),
+    left out or not."""
+    joints: dict[str, dict] = {}
+    plan: dict[str, list[str]] = {}
+    for joint in opening_joints(pairing.gt_metres):
+        judged = judge_joint(pairing.gt_metres, joint, seed, OPENING_STEPS)
+        judged.close()  # the policies act in environments of their own (grasp-frame observations)
+        pred_name, why = pairing.predicted_joint(joint.name)
+        row = joints[joint.name] = {"type": joint.type, "pred_joint": pred_name, "zero_shot": 0.0, "success": 0.0}
+        if judged.reason is not None:
+            row.update(zero_shot=None, success=None, reason=judged.reason)
+        if why is not None:
+            if judged.reason is None:
+                row["why"] = why
+            continue
+        pred_type = row["pred_type"] = pairing.pred.joints[pred_name].type
+        row["kind"] = KIND_OF_TYPE[pred_type]
+        row["estimate"] = pairing.estimates[pred_name]
+        plan.setdefault(row["kind"], []).append(joint.name)
+    return joints, plan
+
+
 def _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, seed, episodes, weights, video,
-                    gt_stored=None) -> dict:
+                    gt_bench=None) -> dict:
     from spark_bench.asset.ops import similarity_asset
-    from spark_bench.data import load_object
     from spark_bench.rl.records import asset_content_hash
 
     t0, cpu0 = time.perf_counter(), time.process_time()
     record = weights_record(weights)
-    gt_folder, pred_folder = Path(gt_folder), Path(pred_folder)
-    gt_stored, gt, to_metres = ground_truth_in_metres(gt_folder, gt_stored)
-    # the oracle's prediction is the ground-truth folder itself: loaded once (0.6 s CPU for a 52k-vertex PartNet object)
-    pred_stored = gt_stored if pred_folder.resolve() == gt_folder.resolve() else load_object(pred_folder)
-    pred = similarity_asset(pred_stored, prediction_to_gt_metres(pred_stored, gt_stored, metrics.get("alignment"),
-                                                                 to_metres))
-    frames = pred.joint_frames()
-    matched = {m["gt_joint"]: m["pred_joint"] for m in metrics.get("matching", []) if m.get("pred_joint")}
-    joints: dict[str, dict] = {}
-    plan: dict[str, list[str]] = {}  # policy kind -> the ground-truth joints it opens
-    for joint in gt.movable_joints():
-        if joint.type not in TASK_KIND:
-            continue
-        pred_name = matched.get(joint.name)
-        row = joints[joint.name] = {"type": joint.type, "pred_joint": pred_name, "zero_shot": 0.0, "success": 0.0}
-        if pred_name is None or pred_name not in pred.joints:
-            row["why"] = "no matched predicted joint"
-            continue
-        pred_type = row["pred_type"] = pred.joints[pred_name].type
-        if pred_type not in KIND_OF_TYPE:
-            row["why"] = f"the matched predicted joint is {pred_type}"
-            continue
-        row["kind"] = KIND_OF_TYPE[pred_type]
-        point, axis = frames[pred_name]
-        row["estimate"] = (np.asarray(axis, float), np.asarray(point, float), pred_type)
-        plan.setdefault(row["kind"], []).append(joint.name)
+    pairing = load_pairing(pred_folder, gt_folder, metrics, gt_bench)
+    joints, plan = _plan_rows(pairing, seed)
     tuned: dict[str, dict] = {}
     recorded = video is None
+    pred_metres = None  # the prediction where the metrics matched it, at the ground truth's size: fine-tuned on
     for kind, gt_joints in plan.items():
+        scored = [name for name in gt_joints if joints[name]["success"] is not None]
+        if not scored:
+            continue
         zero = GeneralistPolicy(load_generalist(kind, weights))
         pred_joints = list(dict.fromkeys(joints[j]["pred_joint"] for j in gt_joints))
         if finetune_steps > 0:
-            model, info = finetune(kind, pred, pred_joints, finetune_steps, seed, weights)
+            if pred_metres is None:
+                pred_metres = similarity_asset(pairing.pred, pairing.pred_to_gt_metres)
+            model, info = finetune(kind, pred_metres, pred_joints, finetune_steps, seed, weights)
         else:
             model, info = zero.model, {"joints": pred_joints, "skipped": {}, "steps": 0}
         tuned[kind] = info
@@ -239,25 +234,26 @@ def _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, se
             Path(out_dir).mkdir(parents=True, exist_ok=True)
             model.save(Path(out_dir) / f"{kind}_finetuned.zip")
         policy = zero if finetune_steps <= 0 else GeneralistPolicy(model) if model is not None else None
-        for name in gt_joints:
+        for name in scored:
             row = joints[name]
-            _score_joint(row, name, gt_folder, zero, policy, info["skipped"], episodes, seed)
+            _score_joint(row, name, pairing.gt_metres, zero, policy, info["skipped"], episodes, seed)
             if not recorded and policy is not None and "max_fraction" in row:
-                row["video"] = str(record_episode(TASK_KIND[row["type"]], gt_folder, name, policy, video,
+                row["video"] = str(record_episode(TASK_KIND[row["type"]], pairing.gt_metres, name, policy, video,
                                                   row["estimate"], seed))
                 recorded = True
     for row in joints.values():
         row.pop("estimate", None)
-    rates = [r["success"] for r in joints.values()]
-    zero_rates = [r["zero_shot"] for r in joints.values()]
-    held = [r for r in joints.values() if holdable(r)]
-    return {"success_rate": float(np.mean(rates)) if rates else None,
-            "zero_shot_success_rate": float(np.mean(zero_rates)) if zero_rates else None,
+    scored_rows = {name: row for name, row in joints.items() if row["success"] is not None}
+    held = {name: row for name, row in scored_rows.items() if holdable(row)}
+    return {"success_rate": scored_mean(joints),
+            "zero_shot_success_rate": scored_mean(joints, "zero_shot"),
             "holdable_joints": len(held),
-            "holdable_success_rate": float(np.mean([r["success"] for r in held])) if held else None,
-            "holdable_zero_shot_success_rate": float(np.mean([r["zero_shot"] for r in held])) if held else None,
-            "assets": {"prediction": {"path": str(pred_folder), "sha256": asset_content_hash(pred_stored)},
-                       "ground_truth": {"path": str(gt_folder), "sha256": asset_content_hash(gt_stored)}},
+            "holdable_success_rate": scored_mean(held),
+            "holdable_zero_shot_success_rate": scored_mean(held, "zero_shot"),
+            **coverage(joints),
+            "assets": {"prediction": {"path": str(Path(pred_folder)), "sha256": asset_content_hash(pairing.pred)},
+                       "ground_truth": {"path": str(Path(gt_folder)),
+                                        "sha256": asset_content_hash(pairing.gt_bench)}},
             "joints": joints, "finetune": tuned, "finetune_steps": int(finetune_steps), "episodes": int(episodes),
             "policy": {"version": record.get("version"), "feature_version": record.get("feature_version"),
                        "weights": str(weights) if weights is not None else "shipped"},

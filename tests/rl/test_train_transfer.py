@@ -1,12 +1,14 @@
 """The RL transfer score (``eval --rl``): the shipped generalist, fine-tuned on the prediction, judged on the
-ground truth, every ground-truth drawer and door counted."""
+ground truth's drawers and doors (those nobody can open left out, as the scripted score leaves them out:
+``tests/rl/test_scoring.py``)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from spark_bench.rl.transfer import prediction_to_gt_metres, rl_transfer_score
+from spark_bench.data.case import prediction_to_gt_metres
+from spark_bench.rl.transfer import rl_transfer_score
 
 
 @pytest.fixture(scope="module")
@@ -63,6 +65,7 @@ def test_the_oracle_opens_every_drawer_and_door_zero_shot(cabinet, tmp_path):
     # the cabinet's handles are holdable; both assets are named by path and content hash
     assert all(j["grasp"] != "face" and "reason" not in j for j in joints.values())
     assert result["holdable_joints"] == 2 and result["holdable_zero_shot_success_rate"] == 1.0
+    assert (result["joints_total"], result["joints_scored"], result["left_out"]) == (2, 2, {})
     from spark_bench.data import load_object
     from spark_bench.rl.records import asset_content_hash
 
@@ -89,6 +92,7 @@ def test_a_wrong_predicted_axis_fails_and_an_unmatched_joint_counts(cabinet, tmp
     assert joints["joint_0"] == {"type": "revolute", "pred_joint": None, "zero_shot": 0.0, "success": 0.0,
                                  "why": "no matched predicted joint"}
     assert result["zero_shot_success_rate"] == 0.0 and result["success_rate"] == 0.0
+    assert result["joints_scored"] == result["joints_total"] == 2  # both counted: neither is left out
 
 
 @pytest.mark.slow
@@ -131,7 +135,8 @@ def test_a_prediction_without_a_task_to_finetune_on_fails_the_finetuned_column(c
 def test_the_oracle_ground_truth_is_loaded_once(cabinet, tmp_path, object_loads):
     """The oracle's prediction folder is the ground-truth folder: one load, not two (0.6 s CPU on a
     52k-vertex PartNet object); a prediction in another folder is still loaded from its own files.
-    Nothing matched: no episode runs, only the loads."""
+    Nothing matched: no policy runs (the rule's scripted reference episodes act on the ground truth in
+    memory, loading nothing)."""
     from spark_bench.asset.urdf import write_object_folder
     from spark_bench.data.readers import load_object
 
@@ -151,21 +156,21 @@ def test_the_oracle_ground_truth_is_loaded_once(cabinet, tmp_path, object_loads)
 
 def test_a_ground_truth_the_caller_loaded_is_not_loaded_again(cabinet, tmp_path, object_loads):
     """``eval`` loads a case's ground truth once (its metrics stage) and hands it to the opening and RL
-    stages: with ``gt_stored`` neither reads the ground-truth folder again (a real case's R=200 remesh is
+    stages: with ``gt_bench`` neither reads the ground-truth folder again (a real case's R=200 remesh is
     ~0.6 s CPU a load); the prediction in its own folder is still read."""
     from spark_bench.asset.urdf import write_object_folder
     from spark_bench.data.readers import load_object
-    from spark_bench.evaluation.opening import open_with_predicted_joints
+    from spark_bench.rl.scoring import open_with_predicted_joints
 
     copy = tmp_path / "copy"
     write_object_folder(load_object(cabinet), copy)
-    stored = load_object(cabinet)
+    gt_bench = load_object(cabinet)
     loaded = object_loads
     loaded.clear()
-    rl_transfer_score(copy, cabinet, matching(), finetune_steps=0, gt_stored=stored)
+    rl_transfer_score(copy, cabinet, matching(), finetune_steps=0, gt_bench=gt_bench)
     assert loaded == [str(copy)]
     loaded.clear()
-    open_with_predicted_joints(copy, cabinet, matching(), gt_stored=stored)
+    open_with_predicted_joints(copy, cabinet, matching(), gt_bench=gt_bench)
     assert loaded == [str(copy)]
     loaded.clear()
     open_with_predicted_joints(copy, cabinet, matching())  # without it: both folders
