@@ -151,6 +151,10 @@ def _rl_video_cell(row: dict, stem: Path) -> str:
     if rl.get("error"):
         return f"<td class='na'>RL stage failed: {html_escape(rl['error'][:120])}</td>"
     if rl and rl.get("success_rate") is None:
+        left_out = rl.get("left_out") or {}
+        if left_out:  # drawers and doors nobody can open: say why, not that there are none
+            name, reason = next(iter(left_out.items()))
+            return f"<td class='na'>left out: {html_escape(name)}: {html_escape(reason[:120])}</td>"
         return "<td class='na'>no drawer or door</td>"
     why = next((j.get("why") for j in (rl.get("joints") or {}).values() if j.get("why")), None)
     return f"<td class='na'>{html_escape(why or 'no RL episode')}</td>"

@@ -284,3 +284,15 @@ def test_rl_scores_beside_the_scripted_opener_and_one_episode_video_per_case(tmp
     assert "case000_m0_rl.gif" in files and "case000_m1_rl.gif" in files and "case001_m1_rl.gif" not in files
     assert page.count("class='episode'") == 3 and page.count("RL episode</th>") == 2
     assert "failed: generate" in page
+
+
+def test_rl_cell_says_why_every_joint_was_left_out(tmp_path):
+    from spark_bench.evaluation.leaderboard_html import _rl_video_cell
+
+    none = {"checks": {"rl": {"success_rate": None, "joints": {}, "left_out": {}}}}
+    assert "no drawer or door" in _rl_video_cell(none, tmp_path / "case")
+    reason = "the scripted opener fails with the ground-truth joint too (max fraction 0.46)"
+    left = {"checks": {"rl": {"success_rate": None, "joints": {"joint_0": {"success": None, "reason": reason}},
+                              "left_out": {"joint_0": reason}}}}
+    cell = _rl_video_cell(left, tmp_path / "case")
+    assert "left out: joint_0" in cell and "max fraction 0.46" in cell and "no drawer or door" not in cell
