@@ -109,6 +109,8 @@ def _resolve_mesh_path(urdf_path: Path, folder: Path, filename: str) -> Path:
     resolved = (candidate if candidate.is_absolute() else urdf_path.parent / candidate).resolve()
     if not resolved.is_relative_to(folder):
         raise InputError(urdf_path, f"mesh path {filename!r} escapes the object folder")
+    if resolved.is_dir():
+        raise EmptyMeshError(urdf_path, f"mesh file {filename!r} is a directory, not a file")
     if not resolved.is_file():
         raise EmptyMeshError(urdf_path, f"mesh file {filename!r} not found")
     return resolved

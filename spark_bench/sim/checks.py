@@ -3,6 +3,9 @@
 =====================  ========================================================  =====================
 check                  value                                                     passes when
 =====================  ========================================================  =====================
+``mesh_files``         mesh files the URDF names that cannot be loaded            none (every file
+                                                                                 exists, is a file and
+                                                                                 has a surface)
 ``mjcf_compiles``      seconds to compile the MJCF                               MuJoCo compiles it
 ``pybullet_loads``     joints PyBullet built                                     same joints and hulls
 ``mass_inertia``       smallest mass of a moving body (kg)                       all > 0, inertia valid
@@ -34,7 +37,7 @@ import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.mujoco_gl import mujoco_module
-from spark_bench.sim.converter import load_source
+from spark_bench.sim.converter import load_source, unloadable_mesh_files
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.relief import joint_bodies, summarize_relief
 from spark_bench.sim.results import CheckReport, CheckResult
@@ -52,7 +55,23 @@ REST_DRIFT_FLOOR = 0.001
 PENETRATION_TOLERANCE = 0.005
 
 
+#: The checks that need the converted model, in report order (after ``mesh_files``).
+MODEL_CHECKS = ("mjcf_compiles", "pybullet_loads", "mass_inertia", "rest_stability", "rest_penetration",
+                "joint_sweep")
+
+
 # ----- individual checks --------------------------------------------------------------------------
+def check_mesh_files(asset: ArticulatedAsset) -> CheckResult:
+    """Every mesh file the URDF names can be loaded as written (:func:`unloadable_mesh_files`)."""
+    bad = unloadable_mesh_files(asset)
+    details = {"unloadable": bad} if bad else {}
+    if bad:
+        details["reason"] = (f"{asset.source or asset.name}: {len(bad)} mesh file(s) the URDF names cannot be "
+                             f"loaded as written (MuJoCo's URDF importer fails on them): " + "; ".join(bad[:3])
+                             + ("; ..." if len(bad) > 3 else ""))
+    return CheckResult(not bad, float(len(bad)), details)
+
+
 def check_mass_inertia(model) -> CheckResult:
     """Every body with a degree of freedom has positive mass and principal moments that satisfy the
     triangle inequality (MuJoCo's own test, with its tolerance)."""
@@ -242,6 +261,12 @@ def run_checks(src, options: ConvertOptions | None = None, render: Path | None =
     report = CheckReport(asset.name)
     seconds = report.seconds
     seconds["load"] = time.perf_counter() - clock
+    report.checks["mesh_files"] = files = check_mesh_files(asset)
+    if not files.passed:  # not converted: the asset as written cannot be simulated
+        for name in MODEL_CHECKS:
+            report.checks[name] = CheckResult(False, float("nan"), {
+                "reason": "not converted: the URDF names mesh files that cannot be loaded (mesh_files)"})
+        return report
     start = time.perf_counter()
     prepared = prepare(asset, options, progress=progress)
     prepared_at = time.perf_counter()

@@ -31,6 +31,19 @@ def load_source(src: Path | str | ArticulatedAsset) -> ArticulatedAsset:
     return load_object(Path(src))
 
 
+def unloadable_mesh_files(asset: ArticulatedAsset) -> list[str]:
+    """The mesh files ``asset``'s URDF names that cannot be loaded as written, one line each (``link 'door':
+    visual: mesh file 'textured_objs/a.obj' not found``): missing, not a file, empty, or without a surface.
+
+    The loader skips such a file, with a warning, where its link has others (PartNet-Mobility's URDFs keep
+    listing parts that were deleted; preparing ground truth and the metrics rely on that); MuJoCo's own URDF
+    importer fails on it.
+
+    :param asset: an asset read from a URDF (an asset built in memory has none)
+    """
+    return [f"link {name!r}: {problem}" for name, link in asset.links.items() for problem in link.skipped_meshes]
+
+
 def convert(src: Path | str | ArticulatedAsset, out_dir: Path | str, options: ConvertOptions | None = None,
             progress: bool = False) -> Path:
     """Convert ``src`` and write ``model.xml``, ``model.urdf``, ``meshes/`` and ``conversion.json``
@@ -40,7 +53,9 @@ def convert(src: Path | str | ArticulatedAsset, out_dir: Path | str, options: Co
     :param out_dir: output folder (created; files of an earlier conversion are overwritten)
     :param options: conversion options
     :param progress: show CoACD progress
-    :raises InputError: when ``src`` cannot be read, or MuJoCo rejects the model
+    :raises InputError: when ``src`` cannot be read, its URDF names a mesh file that is missing, not a file,
+        empty or without a surface (:func:`unloadable_mesh_files`), or MuJoCo
+        rejects the model
     """
     from spark_bench.sim.mjcf import build_spec, prepare
     from spark_bench.sim.pybullet_io import write_pybullet_urdf
@@ -48,6 +63,10 @@ def convert(src: Path | str | ArticulatedAsset, out_dir: Path | str, options: Co
 
     start = time.perf_counter()
     asset = load_source(src)
+    unloadable = unloadable_mesh_files(asset)
+    if unloadable:  # MuJoCo's own importer fails on the URDF as written: no model of it is a model of it
+        raise InputError(asset.source or asset.name, "the URDF names mesh files that cannot be loaded: "
+                         + "; ".join(unloadable) + " (remove them from the URDF or restore the files)")
     loaded = time.perf_counter()
     options = options or ConvertOptions()
     prepared = prepare(asset, options, progress=progress)

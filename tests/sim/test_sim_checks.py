@@ -69,7 +69,7 @@ def test_tiny_cabinet_passes_every_check(isolated_home):
     report = run_checks(tiny_cabinet())
     data = report.to_dict()
     assert data["passed"] is True, report.failures()
-    assert set(data["checks"]) == {"mjcf_compiles", "pybullet_loads", "mass_inertia", "rest_stability",
+    assert set(data["checks"]) == {"mesh_files", "mjcf_compiles", "pybullet_loads", "mass_inertia", "rest_stability",
                                    "rest_penetration", "joint_sweep"}
     sweep = data["checks"]["joint_sweep"]
     assert sweep["value"] >= 0.95
