@@ -6,7 +6,9 @@
   per object, then over objects); ``joint_mean`` beside them: ``axis_err``, ``pivot_err``, ``type_err``
   averaged over every joint of the ``ok`` cases (from each row's stored per-joint errors).
 - Rates (sim pass, scripted opening, RL transfer): over every case of the run where the stage gave a value,
-  a failed case counting as not passed; None when the stage never ran. An opening score's case value is
+  a failed case counting as not passed; None when the stage never ran. Beside each opening rate, its
+  coverage (``open_coverage``, ``rl_coverage``: :func:`joint_coverage`): the ground-truth drawer and door
+  joints scored out of all of them, and what left the others out. An opening score's case value is
   itself over the case's scored joints (:mod:`spark_bench.rl.scoring`): a case whose every drawer and door
   is left out gives none.
 
@@ -57,6 +59,34 @@ def _rl_value(key: str):
     return lambda row: ((row.get("checks") or {}).get("rl") or {}).get(key)
 
 
+def joint_coverage(rows: Sequence[dict], check: str) -> dict | None:
+    """How many ground-truth drawer and door joints an opening score covers over a run: ``{"joints_scored",
+    "joints_total", "left_out_kinds": {kind: count}, "cases"}`` summed over the ``ok`` rows where the stage
+    ran (``cases``: how many); None when it ran nowhere. Read from each case's per-joint rows (a joint left
+    out has ``success`` None; its kind is ``left_out_kind``, ``unknown`` in rows stored before kinds were
+    recorded), so older rows count too.
+
+    :param rows: result rows of one run and variant
+    :param check: ``open`` (the scripted opening score) or ``rl`` (the RL transfer score)
+    """
+    results = [(r.get("checks") or {}).get(check) for r in rows if r["status"] == "ok"]
+    results = [c for c in results if c and isinstance(c.get("joints"), dict)]
+    if not results:
+        return None
+    scored = total = 0
+    kinds: dict[str, int] = {}
+    for result in results:
+        for joint in result["joints"].values():
+            total += 1
+            if joint.get("success") is None:
+                kind = joint.get("left_out_kind") or "unknown"
+                kinds[kind] = kinds.get(kind, 0) + 1
+            else:
+                scored += 1
+    return {"joints_scored": scored, "joints_total": total, "left_out_kinds": dict(sorted(kinds.items())),
+            "cases": len(results)}
+
+
 def check_convention(rows: Sequence[dict]) -> str:
     """The one metric convention of ``rows`` (``""`` for rows that name none).
 
@@ -92,7 +122,8 @@ def by_part_class(rows: Sequence[dict]) -> dict[str, dict]:
 
 def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (), rl: bool = False) -> dict:
     """The per-benchmark metrics of one run's rows (one variant), keys
-    :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``, + :data:`RL_RATES`), then :data:`JOINT_MEAN`.
+    :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``, + :data:`RL_RATES`), then :data:`JOINT_MEAN`;
+    with ``sim`` also ``open_coverage``, with ``rl`` also ``rl_coverage`` (:func:`joint_coverage`).
 
     :param rows: result rows of one run and variant (ok and failed), all of one metric convention
     :param sim: whether the sim stages were asked for (False: the rates are None)
@@ -113,8 +144,11 @@ def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (),
     out["open_success_rate"] = _rate(rows, lambda r: r.get("open_success")) if sim else None
     if "cd_open" in extra:
         out["cd_open"] = _mean(_value(r, "cd_open") for r in shape_ok)
+    if sim:
+        out["open_coverage"] = joint_coverage(rows, "open")
     if rl:
         for key, result_key in RL_RATES.items():
             out[key] = _rate(rows, _rl_value(result_key))
+        out["rl_coverage"] = joint_coverage(rows, "rl")
     out[JOINT_MEAN] = mean_over_joints(joint_records(rows))
     return out

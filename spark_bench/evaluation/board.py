@@ -26,6 +26,9 @@ RL_KEYS = tuple(RL_RATES)
 #: Table headers by metric key: the label and an arrow saying which way is better.
 HEADERS = {key: header(key) for key in HEADLINE_KEYS}
 LATEX_HEADERS = {key: header(key, r"$\uparrow$", r"$\downarrow$") for key in HEADLINE_KEYS}
+#: The coverage beside each opening rate (:func:`spark_bench.evaluation.aggregate.joint_coverage`): the rate's
+#: key -> its coverage key and the count column's header.
+COVERAGE = {"open_success_rate": ("open_coverage", "Open joints"), "rl_success_rate": ("rl_coverage", "RL joints")}
 #: The paper's colours for best (Palette5) and second best (Palette4).
 PALETTE = {"Palette5": (253, 207, 158), "Palette4": (231, 188, 198)}
 
@@ -81,14 +84,18 @@ class Table:
     joints: bool = False
 
     def count_headers(self) -> list[str]:
-        """Headers of the count columns after the metrics."""
-        return ["Joints"] if self.joints else ["Cases", "Failed"]
+        """Headers of the count columns after the metrics: the cases and failures (a per-part-class
+        table: its joints), and beside each opening rate the joints it covers (:data:`COVERAGE`)."""
+        if self.joints:
+            return ["Joints"]
+        return ["Cases", "Failed", *(COVERAGE[m][1] for m in self.metrics if m in COVERAGE)]
 
     def count_cells(self, entry: Entry) -> list[str]:
         """The count cells of ``entry``, see :meth:`count_headers`."""
         if self.joints:
             return [str(entry.metrics.get("n_joints", 0))]
-        return [str(entry.n_cases), str(entry.n_failed)]
+        covered = [fmt_coverage(entry.metrics.get(COVERAGE[m][0])) for m in self.metrics if m in COVERAGE]
+        return [str(entry.n_cases), str(entry.n_failed), *covered]
 
     def ranks(self) -> dict[tuple[int, str], int]:
         """``{(entry index, metric): 1 or 2}`` for the best and second best ranked values."""
@@ -177,6 +184,33 @@ def fmt_value(value, digits: int = 4) -> str:
     return f"{value:.{digits}f}"
 
 
+def fmt_coverage(coverage: dict | None) -> str:
+    """An opening rate's coverage for a table: ``scored/total`` ground-truth joints, ``n/a`` when the score
+    never ran.
+
+    :param coverage: :func:`spark_bench.evaluation.aggregate.joint_coverage`'s result
+    """
+    if not coverage:
+        return "n/a"
+    return f"{coverage['joints_scored']}/{coverage['joints_total']}"
+
+
+def coverage_line(coverage: dict | None) -> str:
+    """An opening rate's coverage in words: ``75/79 ground-truth drawer and door joints scored in 50 cases;
+    left out: planner 3, stuck 1``.
+
+    :param coverage: :func:`spark_bench.evaluation.aggregate.joint_coverage`'s result
+    """
+    if not coverage:
+        return "n/a"
+    text = (f"{coverage['joints_scored']}/{coverage['joints_total']} ground-truth drawer and door joints "
+            f"scored in {coverage['cases']} cases")
+    kinds = coverage.get("left_out_kinds") or {}
+    if kinds:
+        text += "; left out: " + ", ".join(f"{kind} {n}" for kind, n in kinds.items())
+    return text
+
+
 #: How the articulation errors are averaged, under every rendering of the tables.
 ARTICULATION_NOTE = ("AxisErr, PivotErr and TypeErr are per object (the mean over its joints), then averaged over "
                      "objects; `eval --json` also gives the mean over all joints (`joint_mean`). PivotErr "
@@ -188,8 +222,9 @@ PART_CLASS_NOTE = ("Per GAPartNet part class: AxisErr, PivotErr and TypeErr aver
                    "(link_annotation_gapartnet.json).")
 #: What the open-success column measures, under every rendering of the tables.
 OPEN_SUCCESS_NOTE = ("Open success: the scripted opener, planned from the predicted joints, opening each "
-                     "ground-truth drawer and door at its real size; cases whose joints it cannot open even "
-                     "with the ground truth's own are left out.")
+                     "ground-truth drawer and door at its real size; the joints it cannot open even with the "
+                     "ground truth's own are left out, and Open joints says how many were scored of all "
+                     "(RL joints likewise for the RL columns).")
 #: What the RL columns measure, under every rendering of tables that show them.
 RL_NOTE = ("RL success: the shipped generalist opening policy (spark_bench.rl.generalist), fine-tuned for a few "
            "thousand steps on the predicted object and told the predicted joint, opening each ground-truth drawer "

@@ -30,6 +30,7 @@ from spark_bench import CONVENTION_VERSION
 from spark_bench.errors import SparkBenchError
 from spark_bench.evaluation.aggregate import summarize
 from spark_bench.evaluation.board import (
+    COVERAGE,
     HEADERS,
     LATEX_HEADERS,
     PALETTE,
@@ -231,11 +232,16 @@ def to_csv(board: Leaderboard, per_category: bool = False, per_part_class: bool 
     keys = list(HEADLINE_KEYS)
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
+    coverage = [name for key, _ in COVERAGE.values() for name in (f"{key}_scored", f"{key}_total")]
     writer.writerow(["bench", "category", "method", "label", "variant", "regime", "version", "config_hash",
-                     "n_cases", "n_failed", *keys, *(["part_class", "n_joints"] if per_part_class else [])])
+                     "n_cases", "n_failed", *keys, *coverage, *(["part_class", "n_joints"] if per_part_class else [])])
 
     def values(metrics: dict) -> list[str]:
-        return ["n/a" if not is_number(metrics.get(k)) else repr(float(metrics[k])) for k in keys]
+        numbers = ["n/a" if not is_number(metrics.get(k)) else repr(float(metrics[k])) for k in keys]
+        for key, _ in COVERAGE.values():
+            found = metrics.get(key) or {}
+            numbers += [str(found.get("joints_scored", "n/a")), str(found.get("joints_total", "n/a"))]
+        return numbers
 
     groups = [("", board.entries)] + (list(board.categories.items()) if per_category else [])
     for category, entries in groups:

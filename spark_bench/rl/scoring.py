@@ -51,6 +51,10 @@ OPENING_TYPES = ("prismatic", "revolute")
 OPENING_STEPS = 200
 #: Why a ground-truth joint counts as not opened when the metrics matched no predicted joint with it.
 NOT_MATCHED = "no matched predicted joint"
+#: What left a joint out (a row's ``left_out_kind``): the grasp planner declined the part (nothing a parallel
+#: gripper can pull), the scene found it stuck (the gripper's largest pull does not open it), the scripted
+#: opener failed with the ground-truth joint, or no environment could be made of it.
+LEFT_OUT_KINDS = ("planner", "stuck", "reference", "no_task")
 
 
 def one_line(exc: Exception, limit: int = 200) -> str:
@@ -97,6 +101,7 @@ class JudgedJoint:
         declined the part)
     :param env: its scripted opener's environment, open, when it is scored (reset by every episode: the
         scripted score runs the prediction's episode in it); None when left out
+    :param kind: what left it out (one of :data:`LEFT_OUT_KINDS`), None when it is scored
     """
 
     name: str
@@ -104,6 +109,7 @@ class JudgedJoint:
     reason: str | None
     grasp: str = ""
     env: gym.Env | None = field(default=None, repr=False)
+    kind: str | None = None
 
     def close(self) -> None:
         """Close the environment, if open (idempotent)."""
@@ -129,11 +135,11 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS)
     except InputError as exc:  # no geometry, no outward direction: nothing to grasp
         planned = one_line(exc)
     if planned is not None:
-        return JudgedJoint(joint.name, joint.type, planned)
+        return JudgedJoint(joint.name, joint.type, planned, kind="planner")
     try:
         env = make_env(ENV_OF_JOINT_TYPE[joint.type], asset=gt_metres, joint=joint.name, max_episode_steps=max_steps)
     except InputError as exc:  # the model does not compile...: not a method's fault
-        return JudgedJoint(joint.name, joint.type, f"no opening task: {one_line(exc)}")
+        return JudgedJoint(joint.name, joint.type, f"no opening task: {one_line(exc)}", kind="no_task")
     grasp = env.unwrapped.scene.grasp
     try:
         reference = None if grasp.reason else open_with_ground_truth(env, seed=seed, max_steps=max_steps)
@@ -143,18 +149,24 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS)
     reason = left_out_reason(grasp.reason, reference)
     if reason is not None:
         env.close()
-        return JudgedJoint(joint.name, joint.type, reason, grasp.source)
+        return JudgedJoint(joint.name, joint.type, reason, grasp.source, kind="stuck" if grasp.reason else "reference")
     return JudgedJoint(joint.name, joint.type, None, grasp.source, env)
 
 
 def coverage(joints: dict[str, dict]) -> dict:
-    """``{"joints_total", "joints_scored", "left_out": {joint: reason}}``: how many joints a score's rates
-    cover.
+    """``{"joints_total", "joints_scored", "left_out": {joint: reason}, "left_out_kinds": {kind: count}}``:
+    how many joints a score's rates cover, and what left the others out (:data:`LEFT_OUT_KINDS`).
 
-    :param joints: the score's per-joint rows (a row left out has ``success`` None and a ``reason``)
+    :param joints: the score's per-joint rows (a row left out has ``success`` None, a ``reason`` and a
+        ``left_out_kind``)
     """
-    left_out = {name: row["reason"] for name, row in joints.items() if row.get("success") is None}
-    return {"joints_total": len(joints), "joints_scored": len(joints) - len(left_out), "left_out": left_out}
+    left_out = {name: row for name, row in joints.items() if row.get("success") is None}
+    kinds: dict[str, int] = {}
+    for row in left_out.values():
+        kind = row.get("left_out_kind", "")
+        kinds[kind] = kinds.get(kind, 0) + 1
+    return {"joints_total": len(joints), "joints_scored": len(joints) - len(left_out),
+            "left_out": {name: row["reason"] for name, row in left_out.items()}, "left_out_kinds": kinds}
 
 
 def scored_mean(joints: dict[str, dict], key: str = "success") -> float | None:
@@ -278,7 +290,7 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
 def _scripted_row(judged: JudgedJoint, pairing: Pairing, seed: int, max_steps: int) -> dict:
     """One ground-truth joint's row of the scripted opening score."""
     if judged.reason is not None:
-        return {"success": None, "reason": judged.reason}
+        return {"success": None, "reason": judged.reason, "left_out_kind": judged.kind}
     pred_name, why = pairing.predicted_joint(judged.name)
     if why is not None:
         return {"success": False, "why": why}

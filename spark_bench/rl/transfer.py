@@ -193,7 +193,7 @@ def _plan_rows(pairing: Pairing, seed: int) -> tuple[dict[str, dict], dict[str, 
         pred_name, why = pairing.predicted_joint(joint.name)
         row = joints[joint.name] = {"type": joint.type, "pred_joint": pred_name, "zero_shot": 0.0, "success": 0.0}
         if judged.reason is not None:
-            row.update(zero_shot=None, success=None, reason=judged.reason)
+            row.update(zero_shot=None, success=None, reason=judged.reason, left_out_kind=judged.kind)
         if why is not None:
             if judged.reason is None:
                 row["why"] = why

@@ -296,3 +296,43 @@ def test_rl_cell_says_why_every_joint_was_left_out(tmp_path):
                               "left_out": {"joint_0": reason}}}}
     cell = _rl_video_cell(left, tmp_path / "case")
     assert "left out: joint_0" in cell and "max fraction 0.46" in cell and "no drawer or door" not in cell
+
+
+def _open_check(*joints) -> dict:
+    """A row's ``checks`` with a scripted opening result over ``joints``: ``(success, kind or None)``."""
+    rows = {}
+    for k, (success, kind) in enumerate(joints):
+        rows[f"joint_{k}"] = {"success": success, **({"reason": "why", "left_out_kind": kind} if kind else {})}
+    return {"open": {"success_rate": None, "joints": rows}}
+
+
+def test_coverage_counts_the_joints_scored_and_what_left_the_others_out(tmp_path):
+    """The coverage beside the open rate: joints scored of all, summed over the ok cases, and the kinds
+    that left the others out (a row stored before kinds were recorded counts as ``unknown``); shown as a
+    count column in Markdown and HTML and as numbers in the CSV."""
+    from spark_bench.evaluation.aggregate import joint_coverage, summarize
+    from spark_bench.evaluation.board import coverage_line
+
+    old = _open_check((True, None), (None, None))
+    old["open"]["joints"]["joint_1"].update(reason="planner said so")  # no left_out_kind: an older row
+    rows = [_row("A", "c1", checks=_open_check((True, None), (False, None), (None, "planner"))),
+            _row("A", "c2", checks=_open_check((None, "stuck"), (None, "planner"))),
+            _row("A", "c3", checks=old),
+            {**_row("A", "c4", checks=_open_check((True, None))), "status": "failed"}]
+    coverage = joint_coverage(rows, "open")
+    assert coverage == {"joints_scored": 3, "joints_total": 7, "cases": 3,
+                        "left_out_kinds": {"planner": 2, "stuck": 1, "unknown": 1}}
+    assert joint_coverage(rows, "rl") is None
+    assert summarize(rows)["open_coverage"] == coverage and "open_coverage" not in summarize(rows, sim=False)
+    assert coverage_line(coverage) == ("3/7 ground-truth drawer and door joints scored in 3 cases; "
+                                       "left out: planner 2, stuck 1, unknown 1")
+    with ResultsStore(tmp_path / "r.sqlite") as s:
+        s.put(rows)
+        board = build_leaderboard(s)
+    text = render(board, "md")
+    sim_table = text.split("Sim-readiness", 1)[1]
+    assert "| Open joints |" in sim_table and "| 3/7 |" in sim_table
+    header, line = render(board, "csv").splitlines()[:2]
+    values = dict(zip(header.split(","), line.split(",")))
+    assert (values["open_coverage_scored"], values["open_coverage_total"]) == ("3", "7")
+    assert values["rl_coverage_total"] == "n/a"

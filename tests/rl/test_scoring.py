@@ -157,11 +157,12 @@ def test_a_part_the_planner_declines_is_left_out_with_its_reason(flat_dir):
     gt = load_object(flat_dir)
     result = open_with_predicted_joints(flat_dir, flat_dir, identity_matching(gt))
     entry = result["joints"]["joint_0"]
-    assert entry == {"success": None, "reason": entry["reason"]}
+    assert entry == {"success": None, "reason": entry["reason"], "left_out_kind": "planner"}
     assert "no handle" in entry["reason"] and "\n" not in entry["reason"]
     assert result["joints"]["joint_1"]["success"] is True
     assert result["success_rate"] == 1.0  # the door alone is judged
     assert (result["joints_total"], result["joints_scored"], result["left_out"]) == (2, 1, {"joint_0": entry["reason"]})
+    assert result["left_out_kinds"] == {"planner": 1}
 
 
 def test_the_oracle_ground_truth_is_loaded_once(gt_dir, tmp_path, object_loads):
@@ -248,11 +249,13 @@ def test_both_scores_leave_out_the_same_joint_with_the_same_reason(why, flat_dir
     rl = rl_transfer_score(folder, folder, metrics, finetune_steps=0)
     reason = scripted["joints"][joint]["reason"]
     assert words in reason and "\n" not in reason
-    assert scripted["joints"][joint] == {"success": None, "reason": reason}
-    assert rl["joints"][joint]["reason"] == reason
+    kind = {"planner": "planner", "scene": "stuck", "reference": "reference"}[why]
+    assert scripted["joints"][joint] == {"success": None, "reason": reason, "left_out_kind": kind}
+    assert rl["joints"][joint]["reason"] == reason and rl["joints"][joint]["left_out_kind"] == kind
     assert rl["joints"][joint]["success"] is None and rl["joints"][joint]["zero_shot"] is None
     for result in (scripted, rl):
         assert (result["joints_total"], result["joints_scored"], result["left_out"]) == (2, 1, {joint: reason})
+        assert result["left_out_kinds"] == {kind: 1}
         assert result["success_rate"] == 0.0  # the other joint, scored, was not matched
     assert rl["zero_shot_success_rate"] == 0.0 and rl["finetune"] == {}
     other = next(name for name in rl["joints"] if name != joint)
@@ -266,6 +269,7 @@ def test_every_joint_left_out_gives_no_rate(flat_dir, monkeypatch):
     result = open_with_predicted_joints(flat_dir, flat_dir, {"matching": []})
     assert result["success_rate"] is None
     assert (result["joints_total"], result["joints_scored"]) == (2, 0) and set(result["left_out"]) == {"joint_0", "joint_1"}
+    assert result["left_out_kinds"] == {"planner": 1, "reference": 1}
 
 
 def test_open_every_joint_reports_the_rule_and_what_the_episodes_did(monkeypatch):
