@@ -11,6 +11,10 @@ The method (:mod:`.method`: :class:`OursMethod`, what the registry builds) runs 
    :mod:`.refine`, :mod:`.render`, :mod:`.simplify`, differentiable FK from :mod:`spark_bench.asset.torch_fk`)
 5. export (:mod:`.pipeline`): PartNet-Mobility object folders
 
+Each backend is one small class in its stage's module of :mod:`.stages` (a registry per stage), which
+says what it reads of the case, whether that is the ground truth, its part of the label, the settings it
+requires, and runs the stage; a new backend is one more class there.
+
 Configuration: :mod:`.config` (the sections and their defaults), :mod:`.config_parse` (reading them).
 SPARK's own code, run on a machine that has it: :mod:`.run_spark` (its stage scripts per case, the
 ``spark`` geometry backend's usual command) and :mod:`.commands` (``spark-bench run-spark``); what it

@@ -81,3 +81,11 @@ def load_camera(path: str | Path) -> Camera:
     if data.get("convention", "opencv") != "opencv":
         raise InputError(path, f"unsupported camera convention {data.get('convention')!r}")
     return Camera(intrinsics, world_to_camera, width, height)
+
+
+def load_camera_pose(path: str | Path) -> np.ndarray:
+    """The 4x4 camera-to-world pose of a case's ``camera.json``.
+
+    :param path: the file
+    """
+    return np.linalg.inv(load_camera(path).world_to_camera)

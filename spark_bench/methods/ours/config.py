@@ -37,14 +37,19 @@ from pathlib import Path
 from spark_bench.errors import InputError
 from spark_bench.methods.base import INPUT_KINDS
 from spark_bench.methods.ours.config_parse import build_dataclass
-from spark_bench.methods.ours.geometry import command_fields
 from spark_bench.methods.ours.prior import NoiseModel
-
-PRIOR_BACKENDS = ("annotation", "vlm", "file", "retrieval")
-GEOMETRY_BACKENDS = ("annotation", "predictions", "spark", "retrieval")
-OPEN_STATE_BACKENDS = ("dataset", "http")
-REFINE_BACKENDS = ("render", "vlm", "none")
-OPTIMIZE_METHODS = ("spark", "native")
+from spark_bench.methods.ours.stages import (
+    GEOMETRY_BACKENDS,
+    OPEN_STATE_BACKENDS,
+    OPTIMIZERS,
+    PRIOR_BACKENDS,
+    REFINEMENTS,
+    GeometryBackend,
+    JointOptimizer,
+    OpenStateBackend,
+    PriorBackend,
+    StageBackend,
+)
 
 
 @dataclass
@@ -306,13 +311,10 @@ class SparkConfig:
         setting that changes results differs from its default (the prior's noise, an optimization knob,
         the predictions folder, the SPARK command, the VLM's sampling), ``settings=<8 hex>`` names that
         set of changes, so two runs that differ only there never share a label (the leaderboard keeps
-        one row per label).
+        one row per label). Each part is the backend's (:meth:`~.stages.base.StageBackend.label`).
         """
-        prior = f"vlm:{self.vlm.model}" if self.prior.backend == "vlm" else self.prior.backend
-        open_state = self.open_state.backend
-        if open_state == "http" and self.open_state.model:
-            open_state = f"http:{self.open_state.model}"
-        label = f"prior={prior},geometry={self.geometry.backend},open={open_state},opt={self.opt_name()}"
+        label = (f"prior={self.prior_backend().label(self)},geometry={self.geometry_backend().label(self)},"
+                 f"open={self.open_state_backend().label(self)},opt={self.opt_name()}")
         if self.uses_retrieval() and not self.retrieval.is_default:
             label += f",gallery={self.retrieval.gallery_name}"
         if self.uses_part_masks():
@@ -323,79 +325,80 @@ class SparkConfig:
             label += f",settings={digest}"
         return label
 
+    def prior_backend(self) -> PriorBackend:
+        """The structure-prior backend ``[prior] backend`` names."""
+        return PRIOR_BACKENDS[self.prior.backend]
+
+    def geometry_backend(self) -> GeometryBackend:
+        """The part-geometry backend ``[geometry] backend`` names."""
+        return GEOMETRY_BACKENDS[self.geometry.backend]
+
+    def open_state_backend(self) -> OpenStateBackend:
+        """The open-state backend ``[open_state] backend`` names."""
+        return OPEN_STATE_BACKENDS[self.open_state.backend]
+
+    def optimizer(self) -> JointOptimizer:
+        """The joint-optimization method ``[optimize] method`` names (run when ``enabled``)."""
+        return OPTIMIZERS[self.optimize.method]
+
+    def stage_backends(self) -> list[StageBackend]:
+        """The backends that run: the prior's and the geometry's, and with the joint optimization enabled,
+        the open state's and the optimizer."""
+        backends = [self.prior_backend(), self.geometry_backend()]
+        if self.optimize.enabled:
+            backends += [self.open_state_backend(), self.optimizer()]
+        return backends
+
     def opt_name(self) -> str:
-        """The ``opt=`` of the label: ``none``, ``spark``, or the native method's ``native`` |
-        ``native+vlm`` | ``fit-only``."""
-        if not self.optimize.enabled:
-            return "none"
-        if self.optimize.method == "spark":
-            return "spark"
-        return {"render": "native", "vlm": "native+vlm", "none": "fit-only"}[self.optimize.refine]
+        """The ``opt=`` of the label: ``none``, or the optimizer's (``spark``, or the native method's
+        ``native`` | ``native+vlm`` | ``fit-only``)."""
+        return self.optimizer().label(self) if self.optimize.enabled else "none"
 
     def changed_settings(self) -> dict:
         """The settings that change results and differ from their defaults, for the stages in use
-        (``{"optimize.top_k": 5, ...}``); endpoints, keys, timeouts and retries are not among them."""
+        (``{"optimize.top_k": 5, ...}``): those of the sections each backend names
+        (:meth:`~.stages.base.StageBackend.settings`; endpoints, keys, timeouts and retries are not among
+        them), and a gallery other than the default."""
         default = SparkConfig()
-        sections = []
-        if self.prior.backend == "annotation":
-            sections.append(("prior.noise", self.prior.noise, default.prior.noise, ()))
-        if self.prior.backend == "file":
-            sections.append(("prior", self.prior, default.prior, ("backend", "noise")))
-        native = self.optimize.enabled and self.optimize.method == "native"
-        if self.prior.backend == "vlm" or (native and self.optimize.refine == "vlm"):
-            sections.append(("vlm", self.vlm, default.vlm, ("base_url", "model", "api_key_env", "timeout_s",
-                                                             "max_retries", "backoff_s")))
-        sections.append(("geometry", self.geometry, default.geometry, ("backend", "timeout_s")))
+        sections = [section for backend in self.stage_backends() for section in backend.settings(self)]
         if self.uses_retrieval() and not self.retrieval.is_default:
-            sections.append(("retrieval", self.retrieval, default.retrieval, ()))
-        if native:  # the label names the method, the refinement and the part masks
-            sections.append(("optimize", self.optimize, default.optimize,
-                             ("enabled", "method", "spark", "refine", "part_masks", "threads")))
-        elif self.optimize.enabled:
-            sections.append(("optimize.spark", self.optimize.spark, default.optimize.spark, ()))
+            sections.append(("retrieval", ()))
         out = {}
-        for prefix, ours, theirs, skip in sections:
+        for path, skip in dict.fromkeys(sections):  # a section two backends name (the VLM's) counts once
+            ours, theirs = _section(self, path), _section(default, path)
             for f in fields(ours):
                 value = getattr(ours, f.name)
                 if f.name not in skip and value != getattr(theirs, f.name):
-                    out[f"{prefix}.{f.name}"] = asdict(value) if is_dataclass(value) else value
+                    out[f"{path}.{f.name}"] = asdict(value) if is_dataclass(value) else value
         return out
 
     def uses_retrieval(self) -> bool:
-        """Whether a stage retrieves the case's object from the gallery (a ``retrieval`` backend)."""
-        return "retrieval" in (self.prior.backend, self.geometry.backend)
+        """Whether a stage retrieves the case's object from the gallery (a backend that
+        :attr:`~.stages.base.StageBackend.retrieves`)."""
+        return self.prior_backend().retrieves or self.geometry_backend().retrieves
 
     def uses_part_masks(self) -> bool:
-        """Whether the joint optimization reads the open state's per-part masks: the ``native`` method
-        with ``optimize.part_masks``, ``annotation`` geometry (whose parts are the case's own links) and
-        the ``dataset`` open state."""
-        return (self.optimize.enabled and self.optimize.method == "native" and self.optimize.part_masks
-                and self.geometry.backend == "annotation" and self.open_state.backend == "dataset")
+        """Whether the joint optimization reads the open state's per-part masks: an optimizer that fits
+        them (``native`` with ``optimize.part_masks``), a geometry whose parts are the case's own links
+        (``annotation``) and an open state that has their masks (``dataset``)."""
+        return (self.optimize.enabled and self.optimizer().fits_part_masks(self)
+                and self.geometry_backend().ground_truth_parts and self.open_state_backend().part_masks)
 
     def case_inputs(self) -> tuple[str, ...]:
         """The input kinds (:data:`spark_bench.methods.base.INPUT_KINDS`) the pipeline reads of a case with
-        this configuration: the input image always; the camera when optimizing, for the ``annotation``
-        prior (whose axes are snapped in the camera's frame) and for the ``retrieval`` backends (the search
-        renders the gallery from it), the open image with the ``dataset`` open
-        state, the open state's part masks when :meth:`uses_part_masks`; the ground truth for an
-        ``annotation`` backend, and for a ``spark`` command that is handed the case folder (``{case}``)."""
-        inputs = {"image"}
-        if self.prior.backend == "annotation" or self.uses_retrieval():
-            inputs.add("camera")
-        if self.optimize.enabled:
-            inputs.add("camera")
-            if self.open_state.backend == "dataset":
-                inputs.add("open_image")
-            if self.uses_part_masks():
-                inputs.add("open_masks")
-        if "annotation" in (self.prior.backend, self.geometry.backend) or self.command_gets_case_folder():
-            inputs.add("gt")
+        this configuration: the input image always, and what each backend that runs reads
+        (:meth:`~.stages.base.StageBackend.case_inputs`): the camera for the ``annotation`` prior (whose
+        axes are snapped in the camera's frame), for the ``retrieval`` backends (the search renders the
+        gallery from it) and for every optimizer, the open image with the ``dataset`` open state, the
+        open state's part masks when :meth:`uses_part_masks`; the ground truth for an ``annotation``
+        backend, and for a ``spark`` command that is handed the case folder (``{case}``)."""
+        inputs = {"image"}.union(*(backend.case_inputs(self) for backend in self.stage_backends()))
         return tuple(k for k in INPUT_KINDS if k in inputs)
 
-    def command_gets_case_folder(self) -> bool:
-        """Whether the ``spark`` geometry command is handed the whole case folder (``{case}``), which holds
-        the ground truth."""
-        return self.geometry.backend == "spark" and "case" in command_fields(self.geometry.spark_command)
+    def simulated_stages(self) -> list[str]:
+        """The regime's names of the stages this configuration simulates from the ground truth, in stage
+        order (:meth:`~.stages.base.StageBackend.simulated_stage`)."""
+        return [name for backend in self.stage_backends() if (name := backend.simulated_stage(self))]
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -443,32 +446,24 @@ class SparkConfig:
         return SparkConfig.from_dict(data, "command line")
 
     def validate(self, source=None) -> None:
-        checks = [("prior.backend", self.prior.backend, PRIOR_BACKENDS),
-                  ("geometry.backend", self.geometry.backend, GEOMETRY_BACKENDS),
-                  ("open_state.backend", self.open_state.backend, OPEN_STATE_BACKENDS),
-                  ("optimize.refine", self.optimize.refine, REFINE_BACKENDS),
-                  ("optimize.method", self.optimize.method, OPTIMIZE_METHODS)]
-        for key, value, allowed in checks:
-            if value not in allowed:
-                raise InputError(source, f"{key} = {value!r} is not one of {list(allowed)}")
-        if self.prior.backend == "file" and not self.prior.file_dir:
-            raise InputError(source, "prior.backend = 'file' needs prior.file_dir")
-        if self.geometry.backend == "predictions" and not self.geometry.predictions_dir:
-            raise InputError(source, "geometry.backend = 'predictions' needs geometry.predictions_dir")
-        if self.geometry.backend == "spark" and not self.geometry.spark_command:
-            raise InputError(source, "geometry.backend = 'spark' needs geometry.spark_command")
-        if self.prior.backend == "retrieval" and self.geometry.backend == "annotation":
-            raise InputError(source, "prior.backend = 'retrieval' names the retrieved object's parts, not the "
-                                     "ground truth's: use it with geometry.backend 'retrieval' (or "
-                                     "'predictions', 'spark')")
-        if self.open_state.backend == "http" and not self.open_state.url:
-            raise InputError(source, "open_state.backend = 'http' needs open_state.url")
-        opt = self.optimize
+        """Raise :class:`~spark_bench.errors.InputError` naming ``source`` at the first problem: a backend
+        name no stage has, a setting a configured backend requires
+        (:meth:`~.stages.base.StageBackend.validate`, whether or not its stage runs), a malformed
+        optimization setting.
+
+        :param source: where the configuration came from (a file, ``"command line"``, None)
+        """
+        names = [(PRIOR_BACKENDS, self.prior.backend), (GEOMETRY_BACKENDS, self.geometry.backend),
+                 (OPEN_STATE_BACKENDS, self.open_state.backend), (REFINEMENTS, self.optimize.refine),
+                 (OPTIMIZERS, self.optimize.method)]
+        for registry, name in names:
+            registry.check(name, source)
+        for backend in (self.prior_backend(), self.geometry_backend(), self.open_state_backend()):
+            backend.validate(self, source)
+        opt = self.optimize  # its settings are checked whichever method runs
         if not (len(opt.final_sizes) == len(opt.final_taus) == len(opt.final_steps)):
             raise InputError(source, "optimize.final_sizes, final_taus and final_steps must have equal lengths")
-        if opt.method == "spark" and opt.part_masks:
-            raise InputError(source, "optimize.part_masks applies to method 'native' only (SPARK's recipe fits "
-                                     "the whole silhouette)")
+        self.optimizer().validate(self, source)
         bounds = opt.spark.angle_bounds
         if len(bounds) != 2 or not 0 <= bounds[0] <= bounds[1]:
             raise InputError(source, f"optimize.spark.angle_bounds must be [low, high] degrees with "
@@ -476,3 +471,14 @@ class SparkConfig:
         if opt.spark.iters < 0 or opt.spark.size < 8 or opt.spark.tau <= 0:
             raise InputError(source, "optimize.spark needs iters >= 0, size >= 8 and tau > 0")
 
+
+def _section(config: SparkConfig, path: str):
+    """The settings object at a dotted ``path`` of ``config`` (``"optimize.spark"``).
+
+    :param config: the configuration
+    :param path: attribute names joined by dots
+    """
+    node = config
+    for name in path.split("."):
+        node = getattr(node, name)
+    return node

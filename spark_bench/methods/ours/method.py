@@ -2,7 +2,8 @@
 
 Its inputs are what its configuration reads of a case (:meth:`SparkConfig.case_inputs`), and its
 regime names every ground-truth-derived one, the simulated stages by what they take from the ground
-truth. With the default configuration (SPARK's own optimizer on the whole open-state silhouette)::
+truth (:meth:`SparkConfig.simulated_stages`, as each stage's backend names it). With the default
+configuration (SPARK's own optimizer on the whole open-state silhouette)::
 
     image + gt camera + gt open image + gt structure (simulated prior) + gt geometry
 
@@ -25,22 +26,6 @@ from pathlib import Path
 from spark_bench.data.case import BenchmarkCase
 from spark_bench.methods.base import CaseInput, Generation, NotPreparedError, regime_of
 
-#: How the regime names each stage simulated from the ground truth (the ``gt`` input).
-SIMULATED_STAGES = {"prior": "gt structure (simulated prior)", "geometry": "gt geometry",
-                    "case_folder": "gt case folder (SPARK command)"}
-
-
-def simulated_stages(config) -> list[str]:
-    """The regime's names of the stages that ``config`` (a ``SparkConfig``) simulates from the ground truth."""
-    out = []
-    if config.prior.backend == "annotation":
-        out.append(SIMULATED_STAGES["prior"])
-    if config.geometry.backend == "annotation":
-        out.append(SIMULATED_STAGES["geometry"])
-    if config.command_gets_case_folder():
-        out.append(SIMULATED_STAGES["case_folder"])
-    return out
-
 
 class OursMethod:
     """SPARK with a ``SparkConfig``: its label is the configuration's (``ours (prior=annotation,...)``).
@@ -59,7 +44,7 @@ class OursMethod:
         self.spark_config = config
         self.version = __version__
         self.inputs = config.case_inputs()
-        self.regime = " + ".join([regime_of(set(self.inputs) - {"gt"}), *simulated_stages(config)])
+        self.regime = " + ".join([regime_of(set(self.inputs) - {"gt"}), *config.simulated_stages()])
         self._gallery: dict | None = None
 
     @classmethod

@@ -34,8 +34,6 @@ coarse image happened to prefer (measured: 2 correct joints of 8 replaced on the
 
 from __future__ import annotations
 
-import time
-from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -53,7 +51,9 @@ from spark_bench.methods.ours.optimize import (
     child_box,
     fit,
 )
+from spark_bench.methods.ours.stages.joint_opt import REFINEMENTS
 from spark_bench.methods.ours.structure import CANONICAL_AXES, OBJECT_TO_WORLD
+from spark_bench.timing import StageTimer
 
 
 @dataclass
@@ -120,16 +120,18 @@ class RefineSettings:
     @classmethod
     def from_config(cls, opt: OptimizeConfig | None = None) -> RefineSettings:
         """The settings of an ``optimize`` section (default: its defaults); the type/axis search runs
-        when ``opt.refine`` is ``render`` (``vlm`` and ``none`` fit the given joints only)."""
+        when the refinement ``opt.refine`` names searches (``render``; ``vlm`` and ``none`` fit the given
+        joints only)."""
         opt = opt or OptimizeConfig()
         return cls(
             screen=Stage(opt.screen_size, opt.screen_tau, 0), short_steps=opt.short_steps,
             short_fine=Stage(opt.short_fine_size, opt.short_fine_tau, opt.short_fine_steps), top_k=opt.top_k,
             final=[Stage(s, t, n) for s, t, n in zip(opt.final_sizes, opt.final_taus, opt.final_steps)],
             weights=LossWeights(opt.w_edge, opt.lambda_t, opt.lambda_theta, opt.w_part),
-            refine_discrete=opt.refine == "render", include_fixed=opt.include_fixed, sweeps=opt.sweeps,
-            max_faces=opt.max_faces, lr_pivot=opt.lr_pivot, lr_value=opt.lr_value, score_size=opt.score_size,
-            screen_score_size=opt.screen_score_size, margin_rel=opt.margin_rel, margin_abs=opt.margin_abs,
+            refine_discrete=REFINEMENTS[opt.refine].searches, include_fixed=opt.include_fixed,
+            sweeps=opt.sweeps, max_faces=opt.max_faces, lr_pivot=opt.lr_pivot, lr_value=opt.lr_value,
+            score_size=opt.score_size, screen_score_size=opt.screen_score_size, margin_rel=opt.margin_rel,
+            margin_abs=opt.margin_abs,
             screen_values={"revolute": tuple(opt.screen_values_revolute),
                            "prismatic": tuple(opt.screen_values_prismatic)},
             screen_blur=opt.screen_blur, screen_local=tuple(opt.screen_local), small_part=opt.small_part,
@@ -149,9 +151,9 @@ class RefineResult:
     :param hypotheses: the final hypothesis per movable joint
     :param curve: loss per Adam step of the final fit
     :param candidates: per joint, every candidate's tag with its screening and short-fit losses
-    :param timings: seconds per phase (:meth:`Clock.as_dict`): ``discrete_search`` (of which
-        ``search_screen``, the screening scores, ``search_short_fits`` and ``search_exact_scores``) and
-        ``final_fit``, wall and ``*_cpu``
+    :param timings: seconds per phase (:meth:`~spark_bench.timing.StageTimer.as_dict`):
+        ``discrete_search`` (of which ``search_screen``, the screening scores, ``search_short_fits`` and
+        ``search_exact_scores``) and ``final_fit``, wall and ``*_cpu``
     :param loss_prior: the prior's image loss at the finest level
     :param loss_final: the refined image loss at the finest level
     """
@@ -163,28 +165,6 @@ class RefineResult:
     timings: dict[str, float]
     loss_prior: float
     loss_final: float
-
-
-class Clock:
-    """Wall and CPU (this process) seconds per phase, accumulated over its ``with clock.phase(name)``
-    blocks: on a shared machine the CPU seconds say what the work costs, the wall seconds what it took."""
-
-    def __init__(self):
-        self.wall: dict[str, float] = {}
-        self.cpu: dict[str, float] = {}
-
-    @contextmanager
-    def phase(self, name: str):
-        wall, cpu = time.perf_counter(), time.process_time()
-        try:
-            yield
-        finally:
-            self.wall[name] = self.wall.get(name, 0.0) + time.perf_counter() - wall
-            self.cpu[name] = self.cpu.get(name, 0.0) + time.process_time() - cpu
-
-    def as_dict(self) -> dict[str, float]:
-        """``{phase: wall seconds, phase + "_cpu": CPU seconds}``."""
-        return {**self.wall, **{f"{k}_cpu": v for k, v in self.cpu.items()}}
 
 
 def prior_hypotheses(asset: ArticulatedAsset, include_fixed: bool = False) -> dict[str, Hypothesis]:
@@ -308,7 +288,7 @@ def _same_family(a: Hypothesis, b: Hypothesis) -> bool:
 
 def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSettings) -> RefineResult:
     """The native joint-optimization stage on an assembled prior asset (see the module docstring)."""
-    clock = Clock()
+    timer = StageTimer()
     prior = {n: canonical_axis(asset, n, h) for n, h in prior_hypotheses(asset, settings.include_fixed).items()}
     current = dict(prior)
     candidates_report: dict[str, list[dict]] = {}
@@ -316,14 +296,14 @@ def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSetti
     loss_prior = scene.loss(prior, finest, settings.weights)
     short = settings.short_stages()
     silent: set[str] = set()  # joints the image says nothing about (see ``skip_without_evidence``)
-    with clock.phase("discrete_search"):
+    with timer("discrete_search"):
         pending = list(current) if settings.refine_discrete else []
         for sweep in range(settings.sweeps):
             last_changed = -1
             for k, name in enumerate(pending):
                 # the prior stays the reference in every sweep: a joint replaced while the others were
                 # still wrong must beat the prior again once they are right
-                found, rows, quiet = _search_joint(asset, scene, current, name, prior[name], short, settings, clock)
+                found, rows, quiet = _search_joint(asset, scene, current, name, prior[name], short, settings, timer)
                 candidates_report.setdefault(name, []).extend({"sweep": sweep, **row} for row in rows)
                 if quiet:
                     silent.add(name)
@@ -339,7 +319,7 @@ def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSetti
     stages = list(settings.final)
     if not settings.refine_discrete:  # no short fits ran: start coarse
         stages = [replace(settings.screen, steps=2 * settings.short_steps)] + stages
-    with clock.phase("final_fit"):  # the joints without evidence keep the prior's hypothesis
+    with timer("final_fit"):  # the joints without evidence keep the prior's hypothesis
         result: FitResult = fit(scene, current, [n for n in current if n not in silent], stages, settings.weights,
                                 settings.lr_pivot, settings.lr_value)
     final = {n: canonical_sign(h) for n, h in result.hypotheses.items()}
@@ -348,17 +328,17 @@ def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSetti
         set_joint(refined, name, hyp.type, hyp.axis, hyp.value)
         if hyp.type == "revolute":
             apply_pivot_offset(refined, name, hyp.pivot_offset)
-    return RefineResult(refined, final, result.curve, candidates_report, clock.as_dict(), loss_prior,
+    return RefineResult(refined, final, result.curve, candidates_report, timer.as_dict(), loss_prior,
                         result.loss)
 
 
-def _search_joint(asset, scene, current, name, prior_hyp, short, settings, clock: Clock):
+def _search_joint(asset, scene, current, name, prior_hyp, short, settings, timer: StageTimer):
     """Screen and short-fit the candidates of one joint; returns the winner, a report, and whether the
     image had no evidence about the joint (the prior kept without short fits)."""
-    with clock.phase("search_screen"):
+    with timer("search_screen"):
         screened, keep = _screen(asset, scene, current, name, prior_hyp, settings)
     report = [{"candidate": c.tag, "screen_loss": round(s, 6)} for s, c in screened]
-    with clock.phase("search_exact_scores"):
+    with timer("search_exact_scores"):
         exact = scene.seg_scorer(current, name, settings.score_size)
         # the part left at rest: a knob turned a full turn looks so, and then no motion is evidence of an axis
         rest_score = exact(replace(prior_hyp, value=0.0))
@@ -372,13 +352,13 @@ def _search_joint(asset, scene, current, name, prior_hyp, short, settings, clock
         return _pivot_in_part(asset, name, prior_hyp), report, True
     fitted = []
     for cand in keep:
-        with clock.phase("search_short_fits"):
+        with timer("search_short_fits"):
             res = fit(scene, {**current, name: cand}, [name], short, settings.weights, settings.lr_pivot,
                       settings.lr_value)
         # the short fit minimizes the soft loss, not the exact score: on a small part it can drift from
         # a start that was already right, so the better of the two (exactly scored) is the finalist
         options = [canonical_sign(res.hypotheses[name]), canonical_sign(cand)]
-        with clock.phase("search_exact_scores"):
+        with timer("search_exact_scores"):
             scores = exact.scores(options).tolist()
         score_exact, found = min(zip(scores, options), key=lambda item: item[0])
         entry = next(r for r in report if r["candidate"] == cand.tag)

@@ -62,7 +62,8 @@ from spark_bench.data.images import GENERATED_TOLERANCE, mask_from_image
 from spark_bench.methods.ours.assemble import apply_pivot_offset, set_joint
 from spark_bench.methods.ours.loss import halo_target
 from spark_bench.methods.ours.optimize import Adam, Hypothesis, OpenStateScene, Stage, child_box
-from spark_bench.methods.ours.refine import Clock, prior_hypotheses
+from spark_bench.methods.ours.refine import prior_hypotheses
+from spark_bench.timing import StageTimer
 
 #: The script's render size (``--image-size``): the frame its loss terms are means over.
 SPARK_FRAME = 1024
@@ -151,7 +152,7 @@ class SparkFitResult:
     :param joints: per fitted joint, its start, end and loss (for the report)
     :param curve: the loss per iteration, joints one after another
     :param closed_loss: the closed-image term (before its weight)
-    :param timings: seconds (:class:`~.refine.Clock`)
+    :param timings: seconds per phase, wall and ``*_cpu`` (:class:`~spark_bench.timing.StageTimer`)
     """
 
     asset: ArticulatedAsset
@@ -172,11 +173,11 @@ def spark_fit(asset: ArticulatedAsset, scene: OpenStateScene, closed_mask: np.nd
     :param settings: a :class:`~spark_bench.methods.ours.config.SparkFitConfig`
     :param progress: optional ``callable(str)`` told when each joint is done
     """
-    clock = Clock()
+    timer = StageTimer()
     stage = Stage(int(settings.size), float(settings.tau), int(settings.iters))
     area, length = frame_scales(scene.camera.width, scene.image_size, stage.size)
     hypotheses = prior_hypotheses(asset)
-    with clock.phase("closed_term"), torch.no_grad():
+    with timer("closed_term"), torch.no_grad():
         closed_target = torch.as_tensor(halo_target(scene.crop(closed_mask), stage.size, stage.tau),
                                         dtype=torch.float32)
         at_rest = {n: replace(h, value=0.0) for n, h in hypotheses.items()}
@@ -187,7 +188,7 @@ def spark_fit(asset: ArticulatedAsset, scene: OpenStateScene, closed_mask: np.nd
     rows, curve = [], []
     revolute = [n for n, h in hypotheses.items() if h.type == "revolute"]
     for index, name in enumerate(revolute):
-        with clock.phase("fit"):
+        with timer("fit"):
             hyp, row, losses = _fit_joint(asset, scene, hypotheses, name, index, stage, target,
                                           settings.closed_weight * closed, (low, high), (area, length), settings)
         hypotheses[name] = hyp
@@ -200,7 +201,7 @@ def spark_fit(asset: ArticulatedAsset, scene: OpenStateScene, closed_mask: np.nd
         hyp = hypotheses[name]
         set_joint(refined, name, hyp.type, hyp.axis, hyp.value)
         apply_pivot_offset(refined, name, hyp.pivot_offset)
-    return SparkFitResult(refined, hypotheses, rows, curve, closed, clock.as_dict())
+    return SparkFitResult(refined, hypotheses, rows, curve, closed, timer.as_dict())
 
 
 def _fit_joint(asset, scene, hypotheses, name, index, stage, target, closed_term, bounds, scales, settings):
