@@ -272,10 +272,12 @@ def test_a_spark_command_given_the_case_folder_says_so_in_the_regime():
     base = ["geometry.backend=spark", "prior.backend=file", "prior.file_dir=\"/x\"", "optimize.enabled=false"]
     with_case = OursMethod(SparkConfig().with_overrides(
         [*base, 'geometry.spark_command="spark-infer --image {image} --case {case} --out {out}"']))
-    assert with_case.inputs == ("image", "gt") and with_case.regime == "image + gt case folder (SPARK command)"
+    # the camera always (SPARK's parts come turned by the view), the case folder's ground truth named as such
+    assert with_case.inputs == ("image", "camera", "gt")
+    assert with_case.regime == "image + gt camera + gt case folder (SPARK command)"
     without = OursMethod(SparkConfig().with_overrides(
         [*base, 'geometry.spark_command="spark-infer --image {image} --out {out} --id {case_id} --note {{case}}"']))
-    assert without.inputs == ("image",) and without.regime == "image"
+    assert without.inputs == ("image", "camera") and without.regime == "image + gt camera"
 
 
 # ----- objects whose base link carries the body --------------------------------------------------

@@ -152,3 +152,14 @@ def test_the_vlm_refinement_starts_the_fit_from_the_vlms_second_answer(toy_case,
     assert [prior.joints[n].type for n in ("joint_0", "joint_1")] == ["prismatic", "revolute"]
     assert [report["hypotheses"][n]["type"] for n in ("joint_0", "joint_1")] == ["revolute", "prismatic"]
     assert {"vlm_refine", "joint_optimization", "opt_final_fit"} <= set(report["timings"])
+
+
+def test_the_spark_geometry_declares_the_camera_it_needs_without_optimization():
+    """The ``spark`` geometry backend brings SPARK's view-turned parts into the prior's frame with the case
+    camera, optimized or not: the camera is an input of such a configuration either way."""
+    from spark_bench.methods.ours.config import SparkConfig
+
+    for enabled in (True, False):
+        config = SparkConfig.from_dict({"prior": {"backend": "vlm"}, "optimize": {"enabled": enabled},
+                                        "geometry": {"backend": "spark", "spark_command": "run {image} {out}"}})
+        assert "camera" in config.case_inputs() and "gt" not in config.case_inputs()

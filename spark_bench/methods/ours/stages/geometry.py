@@ -87,14 +87,16 @@ class PredictionsGeometry(GeometryBackend):
 class SparkGeometry(GeometryBackend):
     """SPARK run per case by ``geometry.spark_command``
     (:func:`~spark_bench.methods.ours.geometry.spark_geometry`); a command handed the case folder
-    (``{case}``) reads the ground truth."""
+    (``{case}``) reads the ground truth. It reads the case camera always (SPARK's parts are turned by the
+    view: the camera brings them into the prior's frame), also when nothing is optimized."""
 
     name = "spark"
     simulated_as = "gt case folder (SPARK command)"
     after_prior = True
+    reads = frozenset({"camera"})
 
     def case_inputs(self, config: SparkConfig) -> frozenset[str]:
-        return frozenset({"gt"}) if self.gets_case_folder(config) else frozenset()
+        return self.reads | ({"gt"} if self.gets_case_folder(config) else set())
 
     @staticmethod
     def gets_case_folder(config: SparkConfig) -> bool:
