@@ -2,7 +2,7 @@
 
 - Shape metrics (CD, F-Scores): mean over the ``ok`` cases whose shape metrics are valid; None (shown
   as n/a) when no case has valid shape metrics (a method that reuses the ground-truth geometry).
-- Articulation metrics: mean over the ``ok`` cases that have the value (docs/conventions.md: mean over joints
+- Articulation metrics: mean over the ``ok`` cases that have the value (not a shape-only prediction's) (docs/conventions.md: mean over joints
   per object, then over objects); ``joint_mean`` beside them: ``axis_err``, ``pivot_err``, ``type_err``
   averaged over every joint of the ``ok`` cases (from each row's stored per-joint errors).
 - Rates (sim pass, scripted opening, RL transfer): over every case of the run where the stage gave a value,
@@ -107,7 +107,13 @@ def joint_records(rows: Sequence[dict]) -> list[dict]:
 
     :param rows: result rows (their ``metrics`` JSON holds ``matching`` and ``missing_joints``)
     """
-    return [record for r in rows if r["status"] == "ok" for record in joint_errors(r.get("metrics") or {})]
+    return [record for r in rows if r["status"] == "ok" and articulation_valid(r)
+            for record in joint_errors(r.get("metrics") or {})]
+
+
+def articulation_valid(row: dict) -> bool:
+    """Whether a row's articulation errors mean anything (not a shape-only prediction, which has no joints)."""
+    return (row.get("metrics") or {}).get("articulation_metrics_valid", True) is not False
 
 
 def by_part_class(rows: Sequence[dict]) -> dict[str, dict]:
@@ -139,7 +145,7 @@ def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (),
     for key in SHAPE_KEYS:
         out[key] = _mean(_value(r, key) for r in shape_ok)
     for key in ARTICULATION_KEYS:
-        out[key] = _mean(_value(r, key) for r in ok)
+        out[key] = _mean(_value(r, key) for r in ok if articulation_valid(r))
     out["sim_pass_rate"] = _rate(rows, lambda r: r.get("sim_pass")) if sim else None
     out["open_success_rate"] = _rate(rows, lambda r: r.get("open_success")) if sim else None
     if "cd_open" in extra:

@@ -35,7 +35,7 @@ from spark_bench.evaluation.store import ResultsStore, config_hash, now
 from spark_bench.jsonio import plain, to_json_text
 from spark_bench.methods.base import GENERATION_MARKER, CaseInput, Generation, MethodSpec, prepare_method
 from spark_bench.methods.registry import make_method
-from spark_bench.metrics.names import METRIC_COLUMNS
+from spark_bench.metrics.names import ARTICULATION_KEYS, JOINT_MEAN, METRIC_COLUMNS
 from spark_bench.rl import FINETUNE_STEPS
 
 DEFAULT_BENCH = "synth-v1"
@@ -232,6 +232,15 @@ def _metric_columns(metrics: dict) -> dict:
     return {column: metrics.get(key) for key, column in METRIC_COLUMNS.items()}
 
 
+def _mark_articulation(metrics: dict, valid: bool) -> dict:
+    """The metrics of a prediction that has no joints at all (a shape-only method) say so: its articulation
+    errors (per object and over all joints) are None, stored and averaged as n/a; the part matching stays."""
+    if valid:
+        return metrics
+    return {**metrics, "articulation_metrics_valid": False, JOINT_MEAN: None,
+            **{key: None for key in ARTICULATION_KEYS}}
+
+
 def _score(pred_folder: Path, gt_bench, options: EvalOptions, threads: int) -> dict:
     from spark_bench.data.readers import load_object
     from spark_bench.metrics import compute_metrics
@@ -313,6 +322,7 @@ def evaluate_case(task: CaseTask) -> list[dict]:
         gt_folder = case.gt_dir
         gt_bench = stages("load_gt", case.load_gt)  # as stored: the benchmark frame (the scores bring it to metres)
         metrics = stages("metrics", _score, generation.folder, gt_bench, task.options, task.threads)
+        metrics = _mark_articulation(metrics, generation.articulation_metrics_valid)
         row.update(metrics=metrics, **_metric_columns(metrics))
         checks: dict = {}
         if task.options.sim:
@@ -333,6 +343,7 @@ def evaluate_case(task: CaseTask) -> list[dict]:
                     "shape_metrics_valid": generation.shape_metrics_valid, "info": row["info"]}
             try:
                 vmetrics = stages(f"metrics[{variant}]", _score, Path(folder), gt_bench, task.options, task.threads)
+                vmetrics = _mark_articulation(vmetrics, generation.articulation_metrics_valid)
                 vrow.update(metrics=vmetrics, status="ok", **_metric_columns(vmetrics))
             except StageError as exc:
                 vrow.update(status="failed", stage=exc.stage, reason=exc.reason)

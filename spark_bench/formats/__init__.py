@@ -2,9 +2,17 @@
 run of a method into an object folder in the benchmark frame, with the files of the method's code each
 fact comes from.
 
+- :mod:`.foreign`: what every format shares (the object read, into the benchmark frame, ``import.json``);
+- :mod:`.runs`: ``spark-bench import FORMAT``: ``DIR/<case id>/`` -> ``PRED/<case id>/`` with any reader of
+  :data:`FORMATS`;
 - :mod:`.spark`: SPARK's run folders (its layout, the reader, ``spark-bench import spark``);
-- :mod:`.commands`: ``spark-bench import FORMAT``.
+- :mod:`.commands`: the ``import`` command.
 
 This package uses ``asset`` and ``data`` only; the methods (``methods/predictions``, ``ours``' ``spark``
 geometry backend) use it.
 """
+
+#: Format name -> its reader, ``module:function`` (imported when used): ``read_run(run_dir: Path) ->
+#: ForeignObject``, raising :class:`~spark_bench.errors.InputError` naming the file and the problem. A new
+#: format is one module with its reader and its facts, and one line here.
+FORMATS: dict[str, str] = {}

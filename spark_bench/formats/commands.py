@@ -7,6 +7,8 @@ import json
 import sys
 from pathlib import Path
 
+from spark_bench.formats import FORMATS
+
 
 def add_commands(subparsers) -> None:
     """Register ``import`` and its formats (``import spark``)."""
@@ -27,6 +29,18 @@ def add_commands(subparsers) -> None:
     p.add_argument("--cases", help="comma-separated case ids (default: every case)")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(func=run_import_spark)
+    for name in sorted(FORMATS):
+        f = isub.add_parser(name, help=f"{name} runs, DIR/<case id>/ -> PRED/<case id>/",
+                            description=f"Read DIR/<case id>/ (one case's output, as the method writes it) with "
+                                        f"the {name} reader into the benchmark frame and write PRED/<case id>/ "
+                                        f"with its import.json. Exit 0 when at least one run was imported, 1 "
+                                        f"when none could be, 2 on bad arguments.")
+        f.add_argument("--runs", type=Path, required=True, help="the folder of runs, one per case id")
+        f.add_argument("--bench", type=Path, required=True, help="the benchmark folder")
+        f.add_argument("--out", type=Path, required=True, help="the predictions folder to write")
+        f.add_argument("--cases", help="comma-separated case ids (default: every case)")
+        f.add_argument("--json", action="store_true", help="print the report as JSON")
+        f.set_defaults(func=run_import_format, format=name)
 
 
 def _cases(text: str | None) -> list[str] | None:
@@ -43,4 +57,14 @@ def run_import_spark(args) -> int:
         print("\n".join(report.lines()))
     if not report.imported:
         print("spark-bench: no SPARK run could be imported", file=sys.stderr)
+    return report.exit_code
+
+
+def run_import_format(args) -> int:
+    from spark_bench.formats.runs import import_runs
+
+    report = import_runs(args.format, args.runs, args.bench, args.out, cases=_cases(args.cases))
+    print(json.dumps(report.to_dict(), indent=1) if args.json else "\n".join(report.lines()))
+    if not report.imported:
+        print(f"spark-bench: no {args.format} run could be imported", file=sys.stderr)
     return report.exit_code

@@ -197,15 +197,19 @@ class Generation:
         (``{"w/o joint opt.": folder}``)
     :param shape_metrics_valid: False when the geometry is the ground truth's (an annotation backend):
         the shape metrics are then shown as n/a, never as zeros
+    :param articulation_metrics_valid: False when the method predicts no joints at all (a shape-only
+        method: part meshes): the articulation metrics are then shown as n/a, never as errors
     """
 
     folder: Path
     info: dict = field(default_factory=dict)
     variants: dict[str, Path] = field(default_factory=dict)
     shape_metrics_valid: bool = True
+    articulation_metrics_valid: bool = True
 
     def to_json(self) -> dict:
         return {"folder": str(self.folder), "info": self.info, "shape_metrics_valid": self.shape_metrics_valid,
+                "articulation_metrics_valid": self.articulation_metrics_valid,
                 "variants": {k: str(v) for k, v in self.variants.items()}}
 
     @classmethod
@@ -217,14 +221,16 @@ class Generation:
         try:
             return cls(Path(data["folder"]), dict(data.get("info", {})),
                        {k: Path(v) for k, v in data.get("variants", {}).items()},
-                       bool(data.get("shape_metrics_valid", True)))
+                       bool(data.get("shape_metrics_valid", True)),
+                       bool(data.get("articulation_metrics_valid", True)))
         except (KeyError, TypeError, AttributeError) as exc:
             raise ValueError(f"not a generation record: {exc!r}") from None
 
     @classmethod
     def from_result(cls, result, out_dir: Path) -> Generation:
         """Normalize what ``generate`` returned: None (the folder is ``out_dir``), a dict with optional
-        keys ``folder``, ``variants``, ``shape_metrics_valid`` (the rest is ``info``), or a Generation."""
+        keys ``folder``, ``variants``, ``shape_metrics_valid``, ``articulation_metrics_valid`` (the rest is
+        ``info``), or a Generation."""
         if isinstance(result, Generation):
             return result
         if result is None:
@@ -235,7 +241,8 @@ class Generation:
         folder = Path(info.pop("folder", out_dir))
         variants = {str(k): Path(v) for k, v in (info.pop("variants", None) or {}).items()}
         valid = bool(info.pop("shape_metrics_valid", True))
-        return cls(folder, info, variants, valid)
+        articulated = bool(info.pop("articulation_metrics_valid", True))
+        return cls(folder, info, variants, valid, articulated)
 
 
 @runtime_checkable

@@ -5,7 +5,7 @@ conventions). :func:`prediction_folder` is how every user finds a case's folder 
 ``predictions`` method and the ``predictions`` geometry backend of the SPARK pipeline. A case folder
 written by ``spark-bench import spark`` holds ``import.json``; its results row then says which SPARK run,
 which URDF of it (``mobility_optimized.urdf``...) and which alignment it came from
-(:func:`spark_bench.formats.spark.reader.row_fields`).
+(:func:`spark_bench.formats.foreign.row_fields`).
 """
 
 from __future__ import annotations
@@ -65,10 +65,14 @@ class PredictionsFolder:
         """The case's folder of predictions (nothing is copied into ``out_dir``); its info names the folder
         and, for an imported SPARK run, what the import read (``spark_run``, ``spark_urdf``,
         ``spark_urdf_kind``, ``spark_alignment``)."""
-        from spark_bench.formats.spark.reader import read_import_record, row_fields
+        from spark_bench.formats.foreign import read_import_record, row_fields
 
         folder = prediction_folder(self.folder, case.case_id)
-        return Generation(folder, {"source": str(folder), **row_fields(read_import_record(folder))})
+        record = read_import_record(folder)
+        # a shape-only format's import (part meshes, no joints): its articulation metrics are n/a, not errors
+        articulated = bool((record or {}).get("articulated", True))
+        return Generation(folder, {"source": str(folder), **row_fields(record)},
+                          articulation_metrics_valid=articulated)
 
 
 def make_predictions(options: dict) -> PredictionsFolder:

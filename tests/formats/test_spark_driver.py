@@ -11,9 +11,9 @@ from helpers_fake_spark import write_fake_checkout, write_fake_run
 
 from spark_bench.data.case import Benchmark
 from spark_bench.errors import InputError
+from spark_bench.formats.foreign import read_import_record
 from spark_bench.formats.spark import layout
 from spark_bench.formats.spark.importer import import_runs
-from spark_bench.formats.spark.reader import read_import_record
 from spark_bench.methods.ours.run_spark import DriverConfig, SparkDriver
 
 PY = sys.executable

@@ -11,8 +11,8 @@ from helpers_fake_spark import write_fake_run
 from spark_bench.data.case import Benchmark
 from spark_bench.envs.cabinet import procedural_cabinet
 from spark_bench.errors import InputError
+from spark_bench.formats.foreign import read_import_record
 from spark_bench.formats.spark.importer import SUMMARY, find_runs, import_runs, match_runs
-from spark_bench.formats.spark.reader import read_import_record
 
 TAG_DIR = "inference/FT5_G1_0"
 

@@ -11,14 +11,9 @@ from helpers_fake_spark import rotation_z, write_fake_run, write_glb
 
 from spark_bench.data.readers import load_object
 from spark_bench.errors import InputError
+from spark_bench.formats.foreign import read_import_record, row_fields, write_import
 from spark_bench.formats.spark import layout
-from spark_bench.formats.spark.reader import (
-    choose_urdf,
-    read_import_record,
-    read_spark_run,
-    row_fields,
-    write_import,
-)
+from spark_bench.formats.spark.reader import choose_urdf, read_spark_run
 
 TAG_DIR = "inference/FT5_G1_0"
 # GLB stores vertices as float32: coordinates of about 1 round-trip to within ~1e-7; normalizing
@@ -149,7 +144,7 @@ def test_icp_alignment_squares_the_footprint_up_to_a_quarter_turn(tmp_path, gt0,
 def test_written_object_folder_and_its_import_record(tmp_path, gt0):
     run = write_fake_run(tmp_path, "cab0", gt0)
     result = read_spark_run(run, name="cab0")
-    folder = write_import(result, tmp_path / "pred" / "cab0")
+    folder = write_import(result.asset, result.record, tmp_path / "pred" / "cab0")
     assert not (tmp_path / "pred" / ".cab0.partial").exists()
     loaded = load_object(folder)
     assert set(loaded.joints) == {"base_to_link0", "link0_to_link1", "link0_to_link2"}  # SPARK's own joints

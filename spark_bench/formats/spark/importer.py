@@ -18,13 +18,13 @@ could be, 2 on bad arguments (no runs folder, not a benchmark).
 
 from __future__ import annotations
 
-import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from spark_bench.errors import InputError
+from spark_bench.formats.foreign import remove_stale_import, write_import
 from spark_bench.formats.spark import layout
-from spark_bench.formats.spark.reader import IMPORT_RECORD, read_spark_run, write_import
+from spark_bench.formats.spark.reader import read_spark_run
 
 SUMMARY = "spark_import.json"
 
@@ -169,14 +169,6 @@ def match_runs(runs: list[RunFolder], case_ids: list[str]) -> tuple[dict[str, Ru
     return chosen, superseded, unknown
 
 
-def _remove_stale(folder: Path) -> bool:
-    """Remove a previous SPARK import of a case (only a folder this importer wrote)."""
-    if (folder / IMPORT_RECORD).is_file():
-        shutil.rmtree(folder)
-        return True
-    return False
-
-
 def import_runs(runs_dir: str | Path, bench: str | Path, out_dir: str | Path, tag: str | None = None,
                 alignment: str = "icp", cases: list[str] | None = None) -> ImportReport:
     """Import every case's newest SPARK run (see the module docstring).
@@ -213,7 +205,7 @@ def import_runs(runs_dir: str | Path, bench: str | Path, out_dir: str | Path, ta
         run = chosen.get(case_id)
         if run is None:
             report.cases.append(CaseImport(case_id, None, False, "no SPARK run for this case",
-                                           removed_stale=_remove_stale(target)))
+                                           removed_stale=remove_stale_import(target)))
             continue
         diagnosis = layout.diagnose(run.path, tag or _tag_of(run.path))
         try:
@@ -223,10 +215,10 @@ def import_runs(runs_dir: str | Path, bench: str | Path, out_dir: str | Path, ta
                                     name=case_id)
         except InputError as exc:
             report.cases.append(CaseImport(case_id, run.path, False, str(exc), diagnosis.failed_stage,
-                                           removed_stale=_remove_stale(target)))
+                                           removed_stale=remove_stale_import(target)))
             continue
         result.record["case_id"] = case_id
-        write_import(result, target)
+        write_import(result.asset, result.record, target)
         driver = result.record.get("driver")
         label = str(driver["label"]) if isinstance(driver, dict) and driver.get("label") else None
         report.cases.append(CaseImport(case_id, run.path, True, "", diagnosis.failed_stage, result.record["urdf"],

@@ -36,20 +36,18 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from spark_bench.errors import InputError
+from spark_bench.formats.foreign import OUR_FRAME, footprint_yaw, rotation_z
 from spark_bench.formats.spark import layout
 
-IMPORT_RECORD = "import.json"
 IMPORT_FORMAT = "spark-bench spark import 1"
 ALIGNMENTS = ("icp", "camera")
 SPARK_FRAME = "SPARK: Y up, front +Z (image frame: +x right, +y up, +z towards the camera)"
-OUR_FRAME = "PartNet-Mobility world: Z up, front -X"
 
 
 @dataclass
@@ -243,51 +241,6 @@ def camera_yaw(camera: dict, where: Path | None = None) -> float:
     return math.atan2(position[1], position[0]) - math.pi
 
 
-def footprint_yaw(asset, rotation: np.ndarray) -> float:
-    """The turn about Z (radians, in ``(-pi/4, pi/4]``) that squares the object's footprint to the axes:
-    the rest-pose vertices, turned by ``rotation`` into our frame and projected on the ground plane, get
-    the bounding rectangle of least area (rotating calipers on their convex hull), and the turn brings its
-    sides onto X and Y.
-
-    Datasets keep objects axis-aligned, and the benchmark frame is scaled by the box: an object turned
-    by an odd angle has a larger box, hence a smaller scale after normalization, which a rigid alignment
-    cannot undo. Squared, what is left of SPARK's view-dependent turn is a multiple of a quarter turn,
-    which ``eval --align icp``'s grid of starts holds exactly.
-    """
-    from scipy.spatial import ConvexHull, QhullError
-
-    meshes = asset.link_meshes()
-    if not meshes:
-        return 0.0
-    points = np.concatenate([m.vertices for m in meshes.values()]) @ np.asarray(rotation, dtype=float).T
-    flat = points[:, :2]
-    try:
-        hull = flat[ConvexHull(flat).vertices]
-    except (QhullError, ValueError):  # a flat or degenerate footprint: nothing to square
-        return 0.0
-    best, best_area = 0.0, math.inf
-    for a, b in zip(hull, np.roll(hull, -1, axis=0)):
-        edge = b - a
-        angle = math.atan2(edge[1], edge[0])
-        turned = flat_rotate(hull, -angle)
-        area = float(np.prod(np.ptp(turned, axis=0)))
-        quarter = -((angle + math.pi / 4) % (math.pi / 2) - math.pi / 4)  # the smallest turn squaring it
-        if area < best_area * (1 - 1e-9) or (area <= best_area * (1 + 1e-9) and abs(quarter) < abs(best)):
-            best, best_area = quarter, area
-    return best
-
-
-def flat_rotate(points: np.ndarray, angle: float) -> np.ndarray:
-    """(N, 2) points turned by ``angle`` radians."""
-    c, s = math.cos(angle), math.sin(angle)
-    return points @ np.array([[c, s], [-s, c]])
-
-
-def _rotation_z(angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
 # ----- the reader ---------------------------------------------------------------------------------------------
 def read_spark_run(run_dir: str | Path, tag: str | None = None, alignment: str = "icp", camera: dict | None = None,
                    camera_source: Path | None = None, name: str | None = None) -> SparkImport:
@@ -347,7 +300,7 @@ def read_spark_run(run_dir: str | Path, tag: str | None = None, alignment: str =
         yaw = camera_yaw(camera, camera_source)
     else:
         yaw = footprint_yaw(asset, rotation)
-    rotation = _rotation_z(yaw) @ rotation
+    rotation = rotation_z(yaw) @ rotation
     matrix = np.eye(4)
     matrix[:3, :3] = rotation
     ours = similarity_asset(asset, matrix)
@@ -386,48 +339,3 @@ def read_spark_run(run_dir: str | Path, tag: str | None = None, alignment: str =
         except (OSError, ValueError):
             record["driver"] = None
     return SparkImport(normalized, record)
-
-
-def write_import(result: SparkImport, folder: str | Path) -> Path:
-    """Write ``result`` as the object folder ``folder`` (replacing it) with ``import.json`` inside.
-
-    Written beside as ``.<name>.partial`` and renamed, so a reader never sees half a folder.
-    """
-    from spark_bench.asset.urdf import write_object_folder
-    from spark_bench.jsonio import to_json_text
-
-    folder = Path(folder)
-    partial = folder.parent / f".{folder.name}.partial"
-    if partial.exists():
-        shutil.rmtree(partial)
-    write_object_folder(result.asset, partial)
-    (partial / IMPORT_RECORD).write_text(to_json_text(result.record, indent=1) + "\n")
-    if folder.exists():
-        shutil.rmtree(folder)
-    partial.rename(folder)
-    return folder
-
-
-def read_import_record(folder: str | Path) -> dict | None:
-    """``import.json`` of an imported object folder, or None when there is none (not imported from SPARK).
-
-    :raises InputError: naming the file when it is there but not a JSON object
-    """
-    path = Path(folder) / IMPORT_RECORD
-    if not path.is_file():
-        return None
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise InputError(path, f"unreadable SPARK import record: {exc}") from None
-    if not isinstance(data, dict):
-        raise InputError(path, "SPARK import record is not a JSON object")
-    return data
-
-
-def row_fields(record: dict | None) -> dict:
-    """What a results row should carry about an imported SPARK prediction (empty when not one)."""
-    if not record:
-        return {}
-    return {"spark_urdf": record.get("urdf"), "spark_urdf_kind": record.get("urdf_kind"),
-            "spark_alignment": record.get("alignment"), "spark_run": record.get("run")}

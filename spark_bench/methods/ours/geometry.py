@@ -266,8 +266,9 @@ def read_spark_geometry(run: Path, case: CaseInput, import_dir: Path | None = No
     :raises InputError: naming the file, with the first SPARK stage whose output is missing (SPARK
         exits 0 when a stage fails)
     """
+    from spark_bench.formats.foreign import write_import
     from spark_bench.formats.spark import layout
-    from spark_bench.formats.spark.reader import read_spark_run, write_import
+    from spark_bench.formats.spark.reader import read_spark_run
 
     camera_declared = "camera" in case.allowed
     camera_path = case.path("camera") if camera_declared else None
@@ -281,7 +282,7 @@ def read_spark_geometry(run: Path, case: CaseInput, import_dir: Path | None = No
         raise InputError(exc.path, exc.problem + where) from None
     result.record["case_id"] = case.case_id
     if import_dir is not None:
-        write_import(result, import_dir)
+        write_import(result.asset, result.record, import_dir)
     out = predicted_parts(result.asset, run, offered_to_prior=False)
     out.record = result.record
     return out

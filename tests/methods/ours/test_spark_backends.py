@@ -129,7 +129,7 @@ def _normalized_gt_meshes(case: Path) -> dict:
 
 def test_run_ours_with_sparks_run_pairs_its_parts_by_geometry(toy_case, tmp_path):
     from spark_bench.data import load_object
-    from spark_bench.formats.spark.reader import read_import_record
+    from spark_bench.formats.foreign import read_import_record
 
     # SPARK's frame is turned by the view; the case camera (an input of ours here) undoes it
     spark_dir = fake_spark(tmp_path / "SPARK", toy_case, yaw_deg=camera_yaw_deg(toy_case))
