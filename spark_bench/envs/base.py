@@ -12,8 +12,10 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from spark_bench.envs import observation as OBS
 from spark_bench.envs.assets import AssetLike, asset_key, load_asset
 from spark_bench.envs.gripper import MAX_STEP, finger_target, grip_command
+from spark_bench.envs.observation import FRAME_OBS_SIZE, OBS_SIZE
 from spark_bench.envs.scene import N_SUBSTEPS, TIMESTEP, Scene, build_scene
 from spark_bench.mujoco_gl import mujoco_module
 
@@ -28,11 +30,9 @@ GRASP_RADIUS = 0.03
 TOUCH_THRESHOLD = 0.5
 #: Dense reward weights: reach, grasp, open progress, success; the sum is divided by their total.
 REWARD_WEIGHTS = (1.0, 1.0, 2.0, 1.0)
-#: Observation layouts (see the environments' docstrings): ``basic``, and ``frame`` (``basic`` followed by
-#: the grasp frame and the joint, what a policy needs to act on any asset).
+#: Observation layouts (:mod:`spark_bench.envs.observation`; the environments' docstrings): ``basic``, and
+#: ``frame`` (``basic`` followed by the grasp frame and the joint, what a policy needs to act on any asset).
 OBSERVATIONS = ("basic", "frame")
-OBS_SIZE = 19
-FRAME_OBS_SIZE = 37
 JOINT_TYPES = ("prismatic", "revolute", "continuous")
 #: Every observation entry is clipped to [-OBS_BOUND, OBS_BOUND] (positions in m, velocities in m/s).
 OBS_BOUND = 10.0
@@ -189,45 +189,46 @@ class SparkArticulationEnv(gym.Env):
         tcp = d.qpos[self._tcp_q]
         grasp = self.grasp_point
         out = np.empty(FRAME_OBS_SIZE if self._frame else OBS_SIZE, dtype=np.float32)
-        out[0:3] = tcp
-        out[3] = d.qpos[self._wrist_q] if self._wrist_q is not None else 0.0
-        out[4] = (d.qpos[self._finger_q[0]] + d.qpos[self._finger_q[1]]) / (2 * self._max_opening)
-        out[5:8] = d.qvel[self._tcp_v]
-        out[8:11] = grasp
-        out[11:14] = grasp - tcp
-        out[14] = (d.qpos[self._joint_q] - self._rest) / self._span
-        out[15] = d.qvel[self._joint_v] / self._span
-        out[16:18] = np.minimum(d.sensordata[self._touch] / 10.0, 1.0)
-        out[18] = np.linalg.norm(out[11:14])
+        out[OBS.TCP] = tcp
+        out[OBS.WRIST] = d.qpos[self._wrist_q] if self._wrist_q is not None else 0.0
+        out[OBS.FINGERS] = (d.qpos[self._finger_q[0]] + d.qpos[self._finger_q[1]]) / (2 * self._max_opening)
+        out[OBS.TCP_VELOCITY] = d.qvel[self._tcp_v]
+        out[OBS.GRASP] = grasp
+        out[OBS.TO_GRASP] = grasp - tcp
+        out[OBS.JOINT_FRACTION] = (d.qpos[self._joint_q] - self._rest) / self._span
+        out[OBS.JOINT_VELOCITY] = d.qvel[self._joint_v] / self._span
+        out[OBS.TOUCH] = np.minimum(d.sensordata[self._touch] / 10.0, 1.0)
+        out[OBS.GRASP_DISTANCE] = np.linalg.norm(out[OBS.TO_GRASP])
         if self._frame:
             self._frame_obs(out, grasp)
         np.clip(out, -OBS_BOUND, OBS_BOUND, out=out)
         return out
 
     def _frame_obs(self, out: np.ndarray, grasp: np.ndarray) -> None:
-        """Entries 19-36: the grasp frame (turned with the part) and the reported joint."""
+        """The ``frame`` entries: the grasp frame (turned with the part) and the reported joint."""
         rot = self.data.xmat[self._body].reshape(3, 3)
         axis, pivot, joint_type = self.joint_estimate
-        out[19:22] = rot @ self._outward_local
-        out[22:25] = rot @ self._closing_local
-        out[25:28] = axis
+        out[OBS.OUTWARD] = rot @ self._outward_local
+        out[OBS.CLOSING] = rot @ self._closing_local
+        out[OBS.AXIS] = axis
         if joint_type == "prismatic":
-            out[28:31] = 0.0
-            out[31] = 0.0
+            out[OBS.TO_AXIS] = 0.0
+            out[OBS.REVOLUTE] = 0.0
         else:
             v = pivot - grasp
-            out[28:31] = v - (v @ axis) * axis
-            out[31] = 1.0
-        out[32] = 1.0 if self.scene.grasp.inside_grip else 0.0
-        out[33] = self._approach_grip
-        out[34:37] = rot @ self._press_local
+            out[OBS.TO_AXIS] = v - (v @ axis) * axis
+            out[OBS.REVOLUTE] = 1.0
+        out[OBS.INSIDE_GRIP] = 1.0 if self.scene.grasp.inside_grip else 0.0
+        out[OBS.APPROACH_GRIP] = self._approach_grip
+        out[OBS.PRESS] = rot @ self._press_local
 
     def _reward_terms(self, obs: np.ndarray) -> dict[str, float]:
-        dist = float(obs[18])
+        dist = float(obs[OBS.GRASP_DISTANCE])
         reach = 1.0 - np.tanh(10.0 * dist)
         grasped = float(dist < GRASP_RADIUS and bool(np.all(self._touching())))
-        progress = float(min(max(obs[14] / self.target_fraction, 0.0), 1.0))  # np.clip costs 3 us on a scalar
-        success = float(obs[14] >= self.target_fraction)
+        fraction = obs[OBS.JOINT_FRACTION]
+        progress = float(min(max(fraction / self.target_fraction, 0.0), 1.0))  # np.clip costs 3 us on a scalar
+        success = float(fraction >= self.target_fraction)
         return {"reach": float(reach), "grasp": grasped, "progress": progress, "success": success}
 
     def _reward(self, terms: dict[str, float]) -> float:

@@ -61,7 +61,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from spark_bench.envs.base import FRAME_OBS_SIZE
+from spark_bench.envs import observation as OBS
+from spark_bench.envs.observation import FRAME_OBS_SIZE
 from spark_bench.envs.registration import ENV_OF_JOINT_TYPE, make_env
 from spark_bench.errors import InputError
 
@@ -99,10 +100,10 @@ def opening_directions(obs: np.ndarray) -> np.ndarray:
     joint, ``axis x (grasp - hinge)`` of a revolute one (the outward direction if the grasp point lies on
     the hinge)."""
     obs = np.asarray(obs, dtype=np.float64)
-    axis, to_axis = obs[..., 25:28], obs[..., 28:31]
+    axis, to_axis = obs[..., OBS.AXIS], obs[..., OBS.TO_AXIS]
     radius = np.linalg.norm(to_axis, axis=-1, keepdims=True)
-    swing = np.where(radius > 1e-6, np.cross(axis, -to_axis) / np.maximum(radius, 1e-9), obs[..., 19:22])
-    return _unit(np.where(obs[..., 31:32] > 0.5, swing, axis))
+    swing = np.where(radius > 1e-6, np.cross(axis, -to_axis) / np.maximum(radius, 1e-9), obs[..., OBS.OUTWARD])
+    return _unit(np.where(obs[..., OBS.REVOLUTE, None] > 0.5, swing, axis))
 
 
 def policy_frames(obs: np.ndarray) -> np.ndarray:
@@ -111,7 +112,7 @@ def policy_frames(obs: np.ndarray) -> np.ndarray:
     to x; the outward direction where closing runs along x) and z = x cross y, world frame."""
     obs = np.asarray(obs, dtype=np.float64)
     x = opening_directions(obs)
-    closing, outward = _unit(obs[..., 22:25]), _unit(obs[..., 19:22])
+    closing, outward = _unit(obs[..., OBS.CLOSING]), _unit(obs[..., OBS.OUTWARD])
     along = np.abs(np.sum(closing * x, axis=-1, keepdims=True)) > 0.9
     y = np.where(along, outward, closing)
     y = y - np.sum(y * x, axis=-1, keepdims=True) * x
@@ -131,9 +132,10 @@ class Memory:
         self.previous = np.zeros(4)
 
     def _observe(self, obs: np.ndarray) -> None:
-        self.near = self.near + 1 if obs[18] < NEAR_RADIUS else 0
-        self.grip = self.grip + 1 if obs[16] > TOUCH_OBS and obs[17] > TOUCH_OBS else 0
-        self.stall = self.stall + 1 if float(np.linalg.norm(obs[5:8])) < STALL_SPEED else 0
+        touch = obs[OBS.TOUCH]
+        self.near = self.near + 1 if obs[OBS.GRASP_DISTANCE] < NEAR_RADIUS else 0
+        self.grip = self.grip + 1 if touch[0] > TOUCH_OBS and touch[1] > TOUCH_OBS else 0
+        self.stall = self.stall + 1 if float(np.linalg.norm(obs[OBS.TCP_VELOCITY])) < STALL_SPEED else 0
 
     def reset(self, obs: np.ndarray) -> None:
         self.near = self.grip = self.stall = self.t = 0
@@ -165,8 +167,8 @@ def perturb_frame(obs: np.ndarray, rotation: np.ndarray | None) -> np.ndarray:
     if rotation is None:
         return obs
     out = np.array(obs, dtype=np.float32, copy=True)
-    out[19:22] = rotation @ obs[19:22]
-    out[22:25] = rotation @ obs[22:25]
+    out[OBS.OUTWARD] = rotation @ obs[OBS.OUTWARD]
+    out[OBS.CLOSING] = rotation @ obs[OBS.CLOSING]
     return out
 
 
@@ -187,16 +189,15 @@ def features(obs: np.ndarray, memory: np.ndarray | None = None) -> np.ndarray:
     def local(v: np.ndarray) -> np.ndarray:  # world vectors into the joint frame: R^T v
         return np.einsum("...ji,...j->...i", rot, v)
 
-    axis, to_axis = obs[..., 25:28], obs[..., 28:31]
-    revolute = obs[..., 31:32]
+    axis, to_axis = obs[..., OBS.AXIS], obs[..., OBS.TO_AXIS]
     out = np.concatenate([
-        local(-obs[..., 11:14]) / POSITION_SCALE,
-        local(obs[..., 5:8]) / VELOCITY_SCALE,
-        obs[..., 3:5], obs[..., 14:18],
-        local(axis), local(obs[..., 19:22]), local(to_axis),
-        revolute, obs[..., 32:34], local(obs[..., 34:37]),
-        obs[..., 18:19] / POSITION_SCALE,
-        np.clip(local(-obs[..., 11:14]) / FINE_SCALE, -3.0, 3.0),
+        local(-obs[..., OBS.TO_GRASP]) / POSITION_SCALE,
+        local(obs[..., OBS.TCP_VELOCITY]) / VELOCITY_SCALE,
+        obs[..., [OBS.WRIST, OBS.FINGERS, OBS.JOINT_FRACTION, OBS.JOINT_VELOCITY]], obs[..., OBS.TOUCH],
+        local(axis), local(obs[..., OBS.OUTWARD]), local(to_axis),
+        obs[..., [OBS.REVOLUTE, OBS.INSIDE_GRIP, OBS.APPROACH_GRIP]], local(obs[..., OBS.PRESS]),
+        obs[..., [OBS.GRASP_DISTANCE]] / POSITION_SCALE,
+        np.clip(local(-obs[..., OBS.TO_GRASP]) / FINE_SCALE, -3.0, 3.0),
         np.broadcast_to(np.zeros(N_MEMORY) if memory is None else memory, obs.shape[:-1] + (N_MEMORY,)),
     ], axis=-1)
     return np.clip(out, -FEATURE_BOUND, FEATURE_BOUND).astype(np.float32)

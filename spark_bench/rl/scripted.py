@@ -15,12 +15,13 @@ part's shape, what the grasp planner read from it and the door's free edge and t
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import gymnasium as gym
 import numpy as np
 
 from spark_bench.asset.transforms import unit
+from spark_bench.envs import observation as OBS
 from spark_bench.envs.base import MAX_STEP
 from spark_bench.envs.gripper import grip_command
 from spark_bench.envs.scene import part_points
@@ -97,12 +98,12 @@ def _met(obs: np.ndarray, closing: float, closing_before: float) -> bool:
     so by more than :data:`PUSH_GUARD` in the last step and faster than in the step before: swinging shut by
     itself it only slows down).
 
-    :param obs: the environment's observation (pads' touch readings at 16-17)
+    :param obs: the environment's observation (its pads' touch readings)
     :param closing: how far (m) the grasp point moved towards closing in the last step
     :param closing_before: the same in the step before
     """
     knocked = closing > PUSH_GUARD and closing > closing_before + 0.5 * PUSH_GUARD
-    return knocked or float(np.max(obs[16:18])) > REGRASP_TOUCH
+    return knocked or float(np.max(obs[OBS.TOUCH])) > REGRASP_TOUCH
 
 
 def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
@@ -112,12 +113,79 @@ def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: 
     return pivot + v * c + np.cross(axis, v) * s + axis * np.dot(axis, v) * (1 - c)
 
 
+@dataclass
+class Reading:
+    """What one step of the opener reads of the observation, and what it derives first.
+
+    :param obs: the observation (for the pads' touch readings)
+    :param tcp: the TCP's position
+    :param grasp: the grasp point's position
+    :param closing: how far (m) the grasp point moved towards closing in the last step
+    :param closing_before: the same in the step before
+    :param press: the press offset turned with the part (zero unless an inside grip)
+    :param travel: the finger command while travelling to the grasp
+    :param hold: the finger command that holds the part
+    """
+
+    obs: np.ndarray
+    tcp: np.ndarray
+    grasp: np.ndarray
+    closing: float
+    closing_before: float
+    press: np.ndarray
+    travel: float
+    hold: float
+
+
+@dataclass
+class Move:
+    """What a phase decides: the TCP target, the finger command, and the phase to go to (None: stay)."""
+
+    target: np.ndarray
+    grip: float
+    then: str | None = None
+
+
+@dataclass
+class EpisodeState:
+    """The opener's memory of its episode (reset at each episode's start).
+
+    :param phase: the current phase (``pregrasp``, ``approach``, ``press``, ``close``, ``open``, ``around``,
+        ``push``)
+    :param phase_steps: steps spent in it
+    :param distances: the phase's distances to its waypoint, step by step (the stall test)
+    :param radius: the grasp's radius about the planned axis while opening (set on the first opening step)
+    :param rest_grasp: the grasp point at the episode's start
+    :param last_grasp: the grasp point a step ago
+    :param closing: how far the part moved towards closing in the last step
+    :param regrasps: re-grasps so far
+    :param cleared: a door's re-grasp has backed out of the door's face
+    :param hold: where the hand stopped on meeting a door (closes there), None otherwise
+    :param around: the waypoints left of the way round a door's free edge (door frame, at rest)
+    """
+
+    phase: str = "pregrasp"
+    phase_steps: int = 0
+    distances: list[float] = field(default_factory=list)
+    radius: float | None = None
+    rest_grasp: np.ndarray | None = None
+    last_grasp: np.ndarray | None = None
+    closing: float = 0.0
+    regrasps: int = 0
+    cleared: bool = True
+    hold: np.ndarray | None = None
+    around: list[np.ndarray] = field(default_factory=list)
+
+
 class ScriptedOpener:
     """A four-phase controller: pre-grasp, approach, close, open along the given joint (and back to the
     pre-grasp when the handle slips out of the fingers while opening, :data:`REGRASP_DISTANCE`; a door's
     re-grasp backs out, waits and comes in guarded so as not to swing it shut, :data:`PUSH_GUARD`; a door
     open so far that the hand fits behind it is instead pushed open from inside, round its free edge,
     :data:`EDGE_CLEARANCE`).
+
+    Each phase is one method taking the step's :class:`Reading` and returning a :class:`Move`; the episode's
+    memory is one :class:`EpisodeState`.
 
     With ``inside_grip`` (a finger-pull notch instead of a handle) the fingers close *before* the
     approach, enter the notch, the hand presses towards the notch's inner wall (``press``) and the
@@ -165,23 +233,48 @@ class ScriptedOpener:
         """Whether the part swings like a door (rotational and not turning in place, :func:`turns_in_place`)."""
         return self.rotational and not self.in_place
 
+    @property
+    def aligned(self) -> bool:
+        """Whether the approach is aligned (pads going into narrow gaps beside the handle)."""
+        return self.lateral_tolerance is not None
+
     def reset(self) -> None:
         """Back to the first phase (call at each episode start)."""
-        self.phase, self.phase_steps, self.radius, self.rest_grasp = "pregrasp", 0, None, None
-        self._distances: list[float] = []
-        self.regrasps = 0
-        self._last_grasp: np.ndarray | None = None
-        self._cleared, self._hold, self._closing = True, None, 0.0
-        self._around: list[np.ndarray] = []
+        self.state = EpisodeState()
+
+    @property
+    def phase(self) -> str:
+        """The current phase."""
+        return self.state.phase
+
+    @phase.setter
+    def phase(self, value: str) -> None:
+        if value not in self.PHASES:
+            raise ValueError(f"unknown phase {value!r}; phases: {', '.join(self.PHASES)}")
+        self.state.phase = value
+
+    @property
+    def regrasps(self) -> int:
+        """Re-grasps so far in this episode."""
+        return self.state.regrasps
+
+    @property
+    def rest_grasp(self) -> np.ndarray | None:
+        """The grasp point at the episode's start (None before its first step)."""
+        return self.state.rest_grasp
+
+    @rest_grasp.setter
+    def rest_grasp(self, value) -> None:
+        self.state.rest_grasp = value
 
     def _next(self, phase: str) -> None:
-        self.phase, self.phase_steps, self._distances = phase, 0, []
+        self.state.phase, self.state.phase_steps, self.state.distances = phase, 0, []
 
     def _stalled(self, distance: float) -> bool:
         """Record this step's distance to the phase's waypoint; whether the travel has stalled."""
-        self._distances.append(float(distance))
-        return (len(self._distances) > STALL_STEPS
-                and self._distances[-1 - STALL_STEPS] - self._distances[-1] < STALL_PROGRESS)
+        distances = self.state.distances
+        distances.append(float(distance))
+        return len(distances) > STALL_STEPS and distances[-1 - STALL_STEPS] - distances[-1] < STALL_PROGRESS
 
     def _opening_direction(self, grasp: np.ndarray) -> np.ndarray:
         """The direction in which the grasp point moves when the part opens (the axis for a drawer, the
@@ -194,7 +287,7 @@ class ScriptedOpener:
 
     def _angle(self, grasp: np.ndarray) -> float:
         """The angle the grasp point has swung about the planned axis since the episode began."""
-        a, b = self.rest_grasp - self.pivot, grasp - self.pivot
+        a, b = self.state.rest_grasp - self.pivot, grasp - self.pivot
         a, b = a - np.dot(a, self.axis) * self.axis, b - np.dot(b, self.axis) * self.axis
         return float(np.arctan2(np.dot(self.axis, np.cross(a, b)), np.dot(a, b)))
 
@@ -211,17 +304,18 @@ class ScriptedOpener:
         the hand to fit behind it there, or its edge is unknown."""
         if self.edge is None:
             return None
+        rest_grasp = self.state.rest_grasp
         angle = self._angle(grasp)
         n, edge = self.outward, self.edge.point
-        if np.linalg.norm(edge - self.rest_grasp) <= 1e-6:
+        if np.linalg.norm(edge - rest_grasp) <= 1e-6:
             return None
-        u = unit(edge - self.rest_grasp)
+        u = unit(edge - rest_grasp)
         back = -(self.edge.depth + INSIDE_CLEARANCE) * n
         out = rotate_about(tcp, self.pivot, self.axis, -angle)  # the hand, in the door's frame at rest
-        out = out + max(PREGRASP_OFFSET - float((out - self.rest_grasp) @ n), 0.0) * n
+        out = out + max(PREGRASP_OFFSET - float((out - rest_grasp) @ n), 0.0) * n
         path = [out, edge + EDGE_CLEARANCE * u + PREGRASP_OFFSET * n, edge + EDGE_CLEARANCE * u + back,
                 edge - PUSH_INSET * u + back]
-        front = float(self.rest_grasp @ n) - self.edge.depth  # the closed door's inside face: the body's front
+        front = float(rest_grasp @ n) - self.edge.depth  # the closed door's inside face: the body's front
         behind = [rotate_about(p, self.pivot, self.axis, angle) for p in path[2:]]
         if min(float(p @ n) for p in behind) < front + FIT_CLEARANCE:
             return None
@@ -233,12 +327,13 @@ class ScriptedOpener:
             return tcp + self.pull_step * self.axis + press
         v = tcp - self.pivot
         radial = v - np.dot(v, self.axis) * self.axis
-        if self.radius is None:
-            self.radius = max(float(np.linalg.norm(radial)), 1e-3)
+        if self.state.radius is None:
+            self.state.radius = max(float(np.linalg.norm(radial)), 1e-3)
+        radius = self.state.radius
         center = self.pivot + np.dot(v, self.axis) * self.axis
         # keep the grasp on the planned circle: correct radial drift, then advance along the arc
-        on_circle = center + radial / max(np.linalg.norm(radial), 1e-9) * self.radius
-        return rotate_about(on_circle, self.pivot, self.axis, self.pull_step / self.radius) + press
+        on_circle = center + radial / max(np.linalg.norm(radial), 1e-9) * radius
+        return rotate_about(on_circle, self.pivot, self.axis, self.pull_step / radius) + press
 
     def _aligned_target(self, tcp: np.ndarray, grasp: np.ndarray, outward: np.ndarray) -> np.ndarray:
         """The next waypoint of an aligned approach: down the line ``grasp + s * outward`` by at most
@@ -249,100 +344,146 @@ class ScriptedOpener:
         advance = ALIGNED_STEP if off_line <= self.lateral_tolerance else 0.0
         return grasp + max(depth - advance, 0.0) * outward
 
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        """The action for observation ``obs`` (the environments' layout)."""
-        tcp, grasp = obs[0:3].astype(float), obs[8:11].astype(float)
-        if self.rest_grasp is None:
-            self.rest_grasp = grasp
-        last, self._last_grasp = self._last_grasp, grasp
+    # ----- one step ---------------------------------------------------------------------------------
+    def _read(self, obs: np.ndarray) -> Reading:
+        """The step's :class:`Reading`; remembers the grasp point (and, on the first step, where it rests)."""
+        state = self.state
+        tcp, grasp = obs[OBS.TCP].astype(float), obs[OBS.GRASP].astype(float)
+        if state.rest_grasp is None:
+            state.rest_grasp = grasp
+        last, state.last_grasp = state.last_grasp, grasp
         # how far the part moved towards closing in the last step, and in the step before
         closing = 0.0 if last is None else -float((grasp - last) @ self._opening_direction(grasp))
-        closing_before, self._closing = self._closing, closing
-        self.phase_steps += 1
+        closing_before, state.closing = state.closing, closing
         # an inside grip travels with closed fingers and grips by opening them
         travel, hold = (1.0, -1.0) if self.inside_grip else (-1.0, 1.0)
-        grip = travel if self.approach_grip is None else self.approach_grip
         press = PRESS_OFFSET * self._turned(self.press, grasp)
-        aligned = self.lateral_tolerance is not None
-        if self.phase == "pregrasp":
-            outward = self._turned(self.outward, grasp)
-            target = grasp + PREGRASP_OFFSET * outward
-            if not self._cleared:  # a door's re-grasp: straight out first, away from its face
-                depth = float((tcp - grasp) @ outward)
-                if depth < PREGRASP_OFFSET - WAYPOINT_TOLERANCE and self.phase_steps <= PREGRASP_STEPS // 2:
-                    target = tcp + (PREGRASP_OFFSET - depth) * outward
-                else:
-                    self._cleared, self._distances = True, []
-            if self._cleared:
-                error = target - tcp
-                if aligned:  # on the approach line, not just near the waypoint
-                    error = error - np.dot(error, outward) * outward
-                tolerance = self.lateral_tolerance if aligned else WAYPOINT_TOLERANCE
-                distance = float(np.linalg.norm(error))
-                swinging = self.regrasps and self.swinging and abs(closing) > PUSH_GUARD
-                if swinging and self.phase_steps <= 2 * PREGRASP_STEPS:
-                    self._distances = []  # a door still swinging: wait for it to come to rest (not for ever)
-                elif distance < tolerance or self.phase_steps > PREGRASP_STEPS or self._stalled(distance):
-                    self._next("approach")
-        elif self.phase == "approach":
-            target = self._aligned_target(tcp, grasp, self._turned(self.outward, grasp)) if aligned else grasp
-            ajar = (self.regrasps > 0 and self.swinging
-                    and float(np.linalg.norm(grasp - self.rest_grasp)) > AJAR_DISTANCE)
-            if ajar:  # a door's re-grasp: slowly
-                step = target - tcp
-                target = tcp + step * min(1.0, REGRASP_STEP / max(float(np.linalg.norm(step)), 1e-9))
-            limit = ALIGNED_APPROACH_STEPS if aligned else APPROACH_STEPS
-            distance = float(np.linalg.norm(grasp - tcp))
-            pushed = ajar and _met(obs, closing, closing_before)
-            if pushed:  # close where the hand is, and stay there (not following the door)
-                target = self._hold = tcp
-            if (distance < WAYPOINT_TOLERANCE or self.phase_steps > limit or self._stalled(distance)
-                    or pushed):
-                self._next("press" if self.inside_grip else "close")
-        elif self.phase == "press":
-            target = grasp + press
-            if self.phase_steps >= PRESS_STEPS:
-                self._next("close")
-        elif self.phase == "close":
-            target, grip = (grasp + press if self._hold is None else self._hold), hold
-            if aligned:  # close gradually: thin pads slamming shut from beside a thin lip can pass through it
-                grip = grip + (self.approach_grip - grip) * (1.0 - self.phase_steps / CLOSE_STEPS)
-            if self.phase_steps >= CLOSE_STEPS:
-                self._next("open")
-        elif self.phase == "around":  # round a door's free edge, fingers closed
-            angle = self._angle(grasp)
-            target = rotate_about(self._around[0], self.pivot, self.axis, angle)
-            grip = -1.0 if len(self._around) == 4 else 1.0  # open while backing out, then closed
-            distance = float(np.linalg.norm(target - tcp))
-            behind = len(self._around) == 1 and _met(obs, closing, closing_before)
-            if (distance < AROUND_TOLERANCE or self.phase_steps > AROUND_STEPS or self._stalled(distance)
-                    or behind):  # behind the door, touching it: push from here (chasing the waypoint shuts it)
-                self._around.pop(0)
-                self._next("around" if self._around else "push")
-                self.radius = None
-        elif self.phase == "push":  # along the opening arc, pressing on the door's inside face
-            target, grip = self._open_target(tcp, np.zeros(3)), 1.0
-        elif np.linalg.norm(grasp - tcp) > REGRASP_DISTANCE and self.regrasps < MAX_REGRASPS:
-            # the handle slipped out of the fingers
-            self.regrasps += 1
-            path = self._push_path(tcp, grasp) if self.swinging else None
-            if path is not None:  # a door open far enough: push it open from inside
-                self._around = path
-                self._next("around")
-                target, grip = rotate_about(path[0], self.pivot, self.axis, self._angle(grasp)), -1.0
-            else:  # open the fingers and go back in front of the handle
-                self._next("pregrasp")
-                self.radius, self._cleared, self._hold = None, not self.swinging, None
-                outward = self._turned(self.outward, grasp)
-                target = grasp + PREGRASP_OFFSET * outward
-                if not self._cleared:
-                    target = tcp + max(PREGRASP_OFFSET - float((tcp - grasp) @ outward), 0.0) * outward
-        else:
-            target, grip = self._open_target(tcp, press), hold
+        return Reading(obs, tcp, grasp, closing, closing_before, press, travel, hold)
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        """The action for observation ``obs`` (the environments' layout, :mod:`spark_bench.envs.observation`)."""
+        reading = self._read(obs)
+        self.state.phase_steps += 1
+        move = self.PHASES[self.state.phase](self, reading)
+        if move.then is not None:
+            self._next(move.then)
         action = np.empty(4, dtype=np.float32)
-        action[:3] = np.clip((target - tcp) / MAX_STEP, -1.0, 1.0)
-        action[3] = grip
+        action[:3] = np.clip((move.target - reading.tcp) / MAX_STEP, -1.0, 1.0)
+        action[3] = move.grip
         return action
+
+    def _travel_grip(self, reading: Reading) -> float:
+        """The finger command while travelling to the grasp."""
+        return reading.travel if self.approach_grip is None else self.approach_grip
+
+    # ----- the phases ---------------------------------------------------------------------------------
+    def _pregrasp(self, r: Reading) -> Move:
+        """In front of the grasp point, along the part's outward direction (a door's re-grasp backs straight
+        out of its face first, and waits while the door still swings)."""
+        state = self.state
+        outward = self._turned(self.outward, r.grasp)
+        target = r.grasp + PREGRASP_OFFSET * outward
+        then = None
+        if not state.cleared:  # a door's re-grasp: straight out first, away from its face
+            depth = float((r.tcp - r.grasp) @ outward)
+            if depth < PREGRASP_OFFSET - WAYPOINT_TOLERANCE and state.phase_steps <= PREGRASP_STEPS // 2:
+                target = r.tcp + (PREGRASP_OFFSET - depth) * outward
+            else:
+                state.cleared, state.distances = True, []
+        if state.cleared:
+            error = target - r.tcp
+            if self.aligned:  # on the approach line, not just near the waypoint
+                error = error - np.dot(error, outward) * outward
+            tolerance = self.lateral_tolerance if self.aligned else WAYPOINT_TOLERANCE
+            distance = float(np.linalg.norm(error))
+            swinging = state.regrasps and self.swinging and abs(r.closing) > PUSH_GUARD
+            if swinging and state.phase_steps <= 2 * PREGRASP_STEPS:
+                state.distances = []  # a door still swinging: wait for it to come to rest (not for ever)
+            elif distance < tolerance or state.phase_steps > PREGRASP_STEPS or self._stalled(distance):
+                then = "approach"
+        return Move(target, self._travel_grip(r), then)
+
+    def _approach(self, r: Reading) -> Move:
+        """In to the grasp point (aligned: down the approach line; a door's re-grasp: slowly, stopping where
+        the hand meets the door)."""
+        state = self.state
+        target = self._aligned_target(r.tcp, r.grasp, self._turned(self.outward, r.grasp)) if self.aligned else r.grasp
+        ajar = (state.regrasps > 0 and self.swinging
+                and float(np.linalg.norm(r.grasp - state.rest_grasp)) > AJAR_DISTANCE)
+        if ajar:  # a door's re-grasp: slowly
+            step = target - r.tcp
+            target = r.tcp + step * min(1.0, REGRASP_STEP / max(float(np.linalg.norm(step)), 1e-9))
+        limit = ALIGNED_APPROACH_STEPS if self.aligned else APPROACH_STEPS
+        distance = float(np.linalg.norm(r.grasp - r.tcp))
+        pushed = ajar and _met(r.obs, r.closing, r.closing_before)
+        if pushed:  # close where the hand is, and stay there (not following the door)
+            target = state.hold = r.tcp
+        then = None
+        if (distance < WAYPOINT_TOLERANCE or state.phase_steps > limit or self._stalled(distance)
+                or pushed):
+            then = "press" if self.inside_grip else "close"
+        return Move(target, self._travel_grip(r), then)
+
+    def _press(self, r: Reading) -> Move:
+        """Inside grip: press towards the notch's inner wall before the fingers open against its sides."""
+        return Move(r.grasp + r.press, self._travel_grip(r), "close" if self.state.phase_steps >= PRESS_STEPS else None)
+
+    def _close(self, r: Reading) -> Move:
+        """Close the fingers on the grasp (or where the hand met a door); gradually for an aligned approach."""
+        state = self.state
+        target, grip = (r.grasp + r.press if state.hold is None else state.hold), r.hold
+        if self.aligned:  # close gradually: thin pads slamming shut from beside a thin lip can pass through it
+            grip = grip + (self.approach_grip - grip) * (1.0 - state.phase_steps / CLOSE_STEPS)
+        return Move(target, grip, "open" if state.phase_steps >= CLOSE_STEPS else None)
+
+    def _around(self, r: Reading) -> Move:
+        """Round a door's free edge to behind its inside face, waypoint by waypoint (fingers open while
+        backing out, then closed)."""
+        state = self.state
+        angle = self._angle(r.grasp)
+        target = rotate_about(state.around[0], self.pivot, self.axis, angle)
+        grip = -1.0 if len(state.around) == 4 else 1.0  # open while backing out, then closed
+        distance = float(np.linalg.norm(target - r.tcp))
+        behind = len(state.around) == 1 and _met(r.obs, r.closing, r.closing_before)
+        then = None
+        if (distance < AROUND_TOLERANCE or state.phase_steps > AROUND_STEPS or self._stalled(distance)
+                or behind):  # behind the door, touching it: push from here (chasing the waypoint shuts it)
+            state.around.pop(0)
+            then = "around" if state.around else "push"
+            state.radius = None
+        return Move(target, grip, then)
+
+    def _push(self, r: Reading) -> Move:
+        """Along the opening arc, pressing on the door's inside face."""
+        return Move(self._open_target(r.tcp, np.zeros(3)), 1.0)
+
+    def _open(self, r: Reading) -> Move:
+        """Pull along the planned line or swing along the planned arc, holding the part; when the handle has
+        slipped out of the fingers, re-grasp it (:meth:`_slipped`)."""
+        if np.linalg.norm(r.grasp - r.tcp) > REGRASP_DISTANCE and self.state.regrasps < MAX_REGRASPS:
+            return self._slipped(r)
+        return Move(self._open_target(r.tcp, r.press), r.hold)
+
+    def _slipped(self, r: Reading) -> Move:
+        """The handle slipped out of the fingers: a door open far enough is pushed open from inside (round its
+        free edge); otherwise open the fingers and go back in front of the handle (a door's hand backing
+        straight out of its face first)."""
+        state = self.state
+        state.regrasps += 1
+        path = self._push_path(r.tcp, r.grasp) if self.swinging else None
+        if path is not None:  # a door open far enough: push it open from inside
+            state.around = path
+            return Move(rotate_about(path[0], self.pivot, self.axis, self._angle(r.grasp)), -1.0, "around")
+        state.radius, state.cleared, state.hold = None, not self.swinging, None
+        outward = self._turned(self.outward, r.grasp)
+        target = r.grasp + PREGRASP_OFFSET * outward
+        if not state.cleared:
+            target = r.tcp + max(PREGRASP_OFFSET - float((r.tcp - r.grasp) @ outward), 0.0) * outward
+        return Move(target, self._travel_grip(r), "pregrasp")
+
+    #: The method of each phase.
+    PHASES = {"pregrasp": _pregrasp, "approach": _approach, "press": _press, "close": _close, "open": _open,
+              "around": _around, "push": _push}
 
 
 @dataclass
