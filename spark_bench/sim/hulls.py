@@ -26,7 +26,7 @@ from scipy.spatial import ConvexHull, QhullError, cKDTree
 from spark_bench.asset.model import ArticulatedAsset, Link
 from spark_bench.sim.decompose import decompose_many, normalized
 from spark_bench.sim.options import ConvertOptions
-from spark_bench.sim.shape_cache import link_key, load_shapes, store_shapes
+from spark_bench.sim.shape_cache import as_cached, link_key, load_shapes, store_shapes
 from spark_bench.sim.shapes import CollisionReport, CollisionShape
 
 #: Most connected components an element is split into before it goes to CoACD whole (triangle soups).
@@ -308,9 +308,11 @@ def object_collision_shapes(asset: ArticulatedAsset, options: ConvertOptions | N
             budget = link_budget(options.hull_budget, geometry[name].diagonal, size)
             merged = merge_to_budget(link_shapes, budget, thickness, options.max_hull_vertices)
             report.merged += len(link_shapes) - len(merged)
-            link_shapes = shapes[name] = [_eroded(s, erosion) for s in merged]
+            link_shapes = [_eroded(s, erosion) for s in merged]
             if name in keys and not report.coacd.failed:
                 store_shapes(cache, keys[name], link_shapes, size)
+            # used as the cache gives them back, stored or not: a first and a later run build the same model
+            link_shapes = shapes[name] = as_cached(link_shapes, size)
         report.hulls[name] = len(link_shapes)
         for shape in link_shapes:
             report.methods[shape.method] = report.methods.get(shape.method, 0) + 1

@@ -91,7 +91,7 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     from spark_bench.paths import cache_dir
     from spark_bench.sim.phantom import find_phantom_blocks
     from spark_bench.sim.relief import relieve
-    from spark_bench.sim.shape_cache import load_contacts, object_key, store_contacts
+    from spark_bench.sim.shape_cache import contacts_as_cached, load_contacts, object_key, store_contacts
 
     mujoco = mujoco_module()
     cache = cache_dir("coacd") if prepared.options.use_cache else None
@@ -118,12 +118,14 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     prepared.excluded = {pair: depth for pair, depth in overlaps.items() if depth > limit}
     gap = 0.5 * prepared.options.clearance * prepared.size
     prepared.relief = relieve(prepared, lambda: probe_model(True), gap)
-    if prepared.relief:
-        _update_physics(prepared)
     prepared.phantom = find_phantom_blocks(prepared, probe_model(True), gap)
     prepared.excluded.update({(b.parent, b.child): overlaps.get((b.parent, b.child), 0.0) for b in prepared.phantom})
     if cache is not None and not prepared.report.coacd.failed:
         store_contacts(cache, key, prepared)
+    # the model is built from what the cache gives back, stored or not (see as_cached), and its masses from
+    # those shapes, as on a cache hit above
+    contacts_as_cached(prepared)
+    _update_physics(prepared)
 
 
 def _update_physics(prepared: PreparedObject) -> None:

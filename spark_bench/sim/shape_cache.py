@@ -59,6 +59,23 @@ def scaled(shape: CollisionShape, factor: float) -> CollisionShape:
                           faces=shape.faces)
 
 
+def as_cached(shapes: Sequence[CollisionShape], size: float) -> list[CollisionShape]:
+    """``shapes`` exactly as the cache gives them back: stored in units of ``size``, read and scaled back
+    (``x / size * size`` is not ``x`` to the last bit). Freshly computed shapes are passed through this
+    before they are used, so a first run (cache filled) and a later one (cache read), or a run without the
+    cache, simulate bit for bit the same model: contact-rich episodes diverge from a 1e-18 difference.
+
+    :param shapes: the shapes, in lengths of the object
+    :param size: the object's size
+    """
+    return [scaled(scaled(s, 1.0 / size), size) for s in shapes]
+
+
+def as_cached_length(value: float, size: float) -> float:
+    """A length exactly as the contact cache gives it back (stored in units of ``size``)."""
+    return float(value) / size * size
+
+
 def _hash_values(digest, array) -> None:
     """Hash float values rounded to 1e-9 (lengths are in units of the object's size: 1e-9 of it), so
     float noise does not change a key."""
@@ -111,8 +128,9 @@ def object_key(prepared) -> str:
     """Key of an object's contact resolution: every link's shapes before relief, the joints (lengths in
     units of the object's size: the decisions are relative to it), and the options that decide
     exclusions and relief. The ``contacts-N`` tag is bumped whenever the rules (rest overlaps, hinge
-    relief, phantom blockings) change."""
-    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-11".encode())
+    relief, phantom blockings) or what is stored change (12: the shapes stored are those used, as the link
+    cache gives them back, :func:`as_cached`)."""
+    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-12".encode())
     options = prepared.options
     size = prepared.size
     digest.update(json.dumps([options.exclude_overlap, options.clearance, list(options.base_quat)]).encode())
@@ -128,6 +146,19 @@ def object_key(prepared) -> str:
         for shape in prepared.shapes[name]:
             _hash_shape(digest, scaled(shape, 1.0 / size))
     return digest.hexdigest()
+
+
+def contacts_as_cached(prepared) -> None:
+    """Round every length the contact cache stores of ``prepared`` (its shapes, exclusion depths, relief and
+    phantom depths) as the cache gives them back (:func:`as_cached`), in place."""
+    size = prepared.size
+    prepared.shapes = {name: as_cached(shapes, size) for name, shapes in prepared.shapes.items()}
+    prepared.excluded = {pair: as_cached_length(d, size) for pair, d in prepared.excluded.items()}
+    for cut in prepared.relief:
+        cut.depth = as_cached_length(cut.depth, size)
+    for block in prepared.phantom:
+        block.depth = as_cached_length(block.depth, size)
+        block.surface_depth = as_cached_length(block.surface_depth, size)
 
 
 def store_contacts(cache: Path, key: str, prepared) -> None:
