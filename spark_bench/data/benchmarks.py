@@ -3,10 +3,12 @@
 ``synth-v1``: 50 procedural objects (``spark_bench.data.synth``, seed 0) over at least 20 categories,
 prepared with the default :class:`~spark_bench.data.prepare.PrepareOptions` (512 px renders, R=200).
 
-``spark-test``: the SPARK paper's own 42 test objects, PartNet-Mobility ids listed in SPARK's code
-(:data:`SPARK_TEST_IDS`). Their meshes cannot be shipped: :func:`prepare_listed` prepares the ones found
-in a user's PartNet-Mobility download (``spark-bench data prepare --src DIR --bench spark-test``), seen
-by SPARK's camera (radius 4, 40 degree field of view, straight at the front and level).
+Listed benchmarks: the field's named test splits, the PartNet-Mobility ids each method publishes
+(:mod:`spark_bench.data.splits`: ``spark-test``, the SPARK paper's own 42 test objects, seen by SPARK's
+camera; ``singapo-test``, ``cage-test``, ``freeart3d-test``, ``physx-anything-test``, ``real2code-test``),
+each with the file and commit its ids were read from and the camera its method states. Their meshes
+cannot be shipped: :func:`prepare_listed` prepares the ones found in a user's PartNet-Mobility download
+(``spark-bench data prepare --src DIR --bench NAME``) and lists the others as missing.
 
 Building is safe to interrupt: the objects are generated into a temporary folder renamed into place,
 the cases resume (each case is renamed into place when complete), and the benchmark counts as built
@@ -21,10 +23,11 @@ import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from spark_bench.data.camera import DEFAULT_DISTANCE, DEFAULT_FOV_DEG, SPARK_AZIMUTH_DEG, SPARK_ELEVATION_DEG
 from spark_bench.data.case import Benchmark
 from spark_bench.data.prepare import PrepareOptions, bench_lock, find_objects, prepare_benchmark
 from spark_bench.data.readers import read_json
+from spark_bench.data.splits import SPARK_TEST_IDS as SPARK_TEST_IDS  # re-exported: spark-test's ids
+from spark_bench.data.splits import SPARK_TEST_VIEW, SPLITS, Split, View
 from spark_bench.errors import InputError, SparkBenchError
 from spark_bench.paths import cache_dir
 
@@ -46,6 +49,8 @@ class BenchmarkSpec:
     :param options: prepare options
     :param ids: the object ids of a benchmark of listed real objects (prepared from the user's download
         with :func:`prepare_listed`, never generated); empty for a synth benchmark
+    :param source: where a listed benchmark's ids come from (``owner/repo:path@commit``, see
+        :class:`~spark_bench.data.splits.Split`); written into its manifest
     """
 
     name: str
@@ -54,6 +59,7 @@ class BenchmarkSpec:
     min_categories: int = 1
     options: PrepareOptions = field(default_factory=PrepareOptions)
     ids: tuple[str, ...] = ()
+    source: str = ""
 
     @property
     def is_listed(self) -> bool:
@@ -61,24 +67,26 @@ class BenchmarkSpec:
         return bool(self.ids)
 
 
-#: SPARK's test objects: the ``SELECT`` list of ``datasets/create_testset.py`` in SPARK's code
-#: (``mebam1/spark``), 42 PartNet-Mobility ids, in its order.
-SPARK_TEST_IDS = (
-    "100162", "100202", "100448", "100473", "101362", "102834", "103048", "103105", "12092", "12540",
-    "8867", "8897", "100021", "100051", "10090", "10101", "7221", "7236", "101773", "101931",
-    "103863", "103872", "10627", "10900", "100828", "101011", "101593", "102301", "35059", "44817",
-    "100550", "100825", "20411", "25913", "103477", "103482", "101323", "102632", "101377", "102155",
-    "103518", "103521",
-)
-#: SPARK's rendering (``datasets/preprocess/render.py``): camera on a sphere of radius 4, 40 degree field of
-#: view, azimuth 0 and elevation 0 of its mesh frame (our front view, level). Its 2048 px renders become the
+def view_options(view: View) -> PrepareOptions:
+    """The prepare options of a split's camera (the other options at their defaults)."""
+    return PrepareOptions(fov_deg=view.fov_deg, distance=view.distance, azimuth_deg=view.azimuth_deg,
+                          elevation_deg=view.elevation_deg)
+
+
+def listed_spec(split: Split) -> BenchmarkSpec:
+    """The listed benchmark of a published test split."""
+    return BenchmarkSpec(split.name, n_objects=len(split.ids), options=view_options(split.view),
+                         ids=split.ids, source=split.source)
+
+
+#: SPARK's camera for ``spark-test`` (``datasets/preprocess/render.py``: radius 4, 40 degree field of view,
+#: azimuth 0 and elevation 0 of its mesh frame, our front view, level). Its 2048 px renders become the
 #: benchmark's default 512 px (``--image-size`` changes it).
-SPARK_VIEW = PrepareOptions(fov_deg=DEFAULT_FOV_DEG, distance=DEFAULT_DISTANCE, azimuth_deg=SPARK_AZIMUTH_DEG,
-                            elevation_deg=SPARK_ELEVATION_DEG)
+SPARK_VIEW = view_options(SPARK_TEST_VIEW)
 
 BENCHMARKS: dict[str, BenchmarkSpec] = {
     "synth-v1": BenchmarkSpec("synth-v1", n_objects=50, seed=0, min_categories=20),
-    "spark-test": BenchmarkSpec("spark-test", n_objects=len(SPARK_TEST_IDS), options=SPARK_VIEW, ids=SPARK_TEST_IDS),
+    **{name: listed_spec(split) for name, split in SPLITS.items()},
 }
 DEFAULT_BENCHMARK = "synth-v1"
 
@@ -177,8 +185,8 @@ def build_benchmark(spec: BenchmarkSpec, folder: Path, workers: int = 1, progres
 def ensure_benchmark(name: str = DEFAULT_BENCHMARK, rebuild: bool = False, workers: int = 1,
                      progress: bool = True) -> Path:
     """The folder of a named benchmark, built on first use and reused after. A benchmark of listed real
-    objects (``spark-test``) is never built here: it must have been prepared into the cache from the
-    user's download (:func:`prepare_listed` with its default ``out``).
+    objects (``spark-test``, ``singapo-test``...) is never built here: it must have been prepared into the
+    cache from the user's download (:func:`prepare_listed` with its default ``out``).
 
     :param name: a key of :data:`BENCHMARKS`
     :param rebuild: delete and rebuild it (a build of other settings or generator version is rebuilt anyway)
@@ -240,10 +248,10 @@ def prepare_listed(spec: BenchmarkSpec, src: str | Path, out: str | Path | None 
     per object id) into a benchmark folder, one case per id; ids not found are skipped and reported (in the
     result and the manifest's ``missing``), an object that fails is recorded in the manifest's ``failed``.
 
-    :param spec: a listed benchmark (``spark-test``)
+    :param spec: a listed benchmark (``spark-test``, ``singapo-test``, ...)
     :param src: the folder of object folders
     :param out: the benchmark folder (default: the cache's, where ``eval --bench NAME`` finds it)
-    :param options: prepare options (default: the spec's, SPARK's camera for ``spark-test``)
+    :param options: prepare options (default: the spec's, e.g. SPARK's camera for ``spark-test``)
     :param workers: processes
     :param progress: show a progress bar
     :param overwrite: rebuild complete cases too
@@ -261,5 +269,6 @@ def prepare_listed(spec: BenchmarkSpec, src: str | Path, out: str | Path | None 
     out = Path(out) if out is not None else benchmark_dir(spec.name)
     manifest = prepare_benchmark(src, out, ids=found, options=options or spec.options, workers=workers,
                                  progress=progress, name=spec.name, overwrite=overwrite)
-    manifest = Benchmark(out).write_manifest({**manifest, "listed": list(spec.ids), "missing": missing})
+    manifest = Benchmark(out).write_manifest({**manifest, "listed": list(spec.ids), "missing": missing,
+                                              "source": spec.source})
     return ListedResult(manifest, found, missing, out)

@@ -33,9 +33,10 @@ def add_commands(subparsers) -> None:
                               "whose default is the cache folder `eval --bench NAME` reads)")
     prepare.add_argument("--ids", nargs="+", default=None, metavar="ID", help="only these object ids")
     prepare.add_argument("--bench", default=None, metavar="NAME",
-                         help="a listed benchmark (spark-test: the SPARK paper's 42 PartNet-Mobility test ids): "
-                              "prepare the listed objects found under --src with its camera, skip the others "
-                              "and report them")
+                         help=f"a listed benchmark, the PartNet-Mobility test ids a method publishes "
+                              f"({_listed_names()}): prepare the listed objects found under --src with the "
+                              f"camera its method states (the default view where it states none), skip the "
+                              f"others and report them as missing")
     _add_prepare_options(prepare)
     prepare.add_argument("--overwrite", action="store_true", help="rebuild cases that are already complete")
     prepare.set_defaults(func=run_prepare)
@@ -60,6 +61,13 @@ def add_commands(subparsers) -> None:
     export.add_argument("--out", type=Path, required=True, help="the folder to write (e.g. SPARK/image)")
     export.add_argument("--cases", help="comma-separated case ids (default: every case)")
     export.set_defaults(func=run_export_images)
+
+
+def _listed_names() -> str:
+    """``spark-test: SPARK, 42 ids; ...``: every published split (splits.py is plain data: cheap)."""
+    from spark_bench.data.splits import SPLITS
+
+    return "; ".join(f"{s.name}: {s.method}, {len(s.ids)} ids" for s in SPLITS.values())
 
 
 def _add_prepare_options(parser: argparse.ArgumentParser) -> None:

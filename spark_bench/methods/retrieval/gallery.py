@@ -268,12 +268,15 @@ def gallery_seeds(spec: SynthGallerySpec) -> dict[str, int]:
 
 
 def benchmark_seeds() -> dict[int, str]:
-    """The object seed of every object of every named benchmark (``BENCHMARKS``), with where it is used."""
+    """The object seed of every object of every named synth benchmark (``BENCHMARKS``), with where it is used
+    (a listed benchmark of real objects generates nothing)."""
     from spark_bench.data.benchmarks import BENCHMARKS
     from spark_bench.data.synth.generate import object_seed
 
     out: dict[int, str] = {}
     for name, bench in BENCHMARKS.items():
+        if bench.is_listed:
+            continue
         for i in range(bench.n_objects):
             out.setdefault(object_seed(bench.seed, i), f"{name} object {i}")
     return out
