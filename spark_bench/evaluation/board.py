@@ -47,6 +47,9 @@ class Entry:
     :param n_failed: failed cases
     :param metrics: per-benchmark numbers (None: n/a)
     :param rows: the run's rows
+    :param other_versions: why it is not ranked although its regime is (its rows were made with other releases
+        of the packages that can change a verdict than the board's, :func:`mark_version_mismatches`); empty
+        when it is comparable
     """
 
     label: str
@@ -59,6 +62,7 @@ class Entry:
     n_failed: int
     metrics: dict
     rows: list[dict] = field(default_factory=list, repr=False)
+    other_versions: str = ""
 
     @property
     def name(self) -> str:
@@ -66,7 +70,13 @@ class Entry:
 
     @property
     def ranked(self) -> bool:
-        return self.regime not in REFERENCE_REGIMES
+        return self.regime not in REFERENCE_REGIMES and not self.other_versions
+
+    @property
+    def versions(self) -> set[str]:
+        """The package versions its rows recorded (:func:`row_versions`; rows stored before versions were
+        recorded say none)."""
+        return {v for v in (row_versions(r) for r in self.rows) if v}
 
 
 @dataclass
@@ -116,6 +126,8 @@ class Leaderboard:
 
     :param convention: the metric convention of every row shown
     :param left_out: rows of the benchmark not shown, by the (other) convention they were scored under
+    :param versions_note: which entries are not ranked because their package versions differ
+        (:func:`mark_version_mismatches`), None when all are comparable
     """
 
     bench: str
@@ -123,6 +135,7 @@ class Leaderboard:
     categories: dict[str, list[Entry]] = field(default_factory=dict)
     convention: str = CONVENTION_VERSION
     left_out: dict[str, int] = field(default_factory=dict)
+    versions_note: str | None = None
 
     def tables(self, entries: list[Entry] | None = None) -> list[Table]:
         entries = self.entries if entries is None else entries
@@ -161,7 +174,46 @@ class Leaderboard:
             scored = ", ".join(f"{n} under {c or 'no convention'}" for c, n in sorted(self.left_out.items()))
             notes.append(f"Not shown: {sum(self.left_out.values())} result rows scored under older metric "
                          f"definitions ({scored}); re-run `spark-bench eval` to score them under {self.convention}.")
+        if self.versions_note:
+            notes.append(self.versions_note)
         return notes
+
+
+def row_versions(row: dict) -> str:
+    """The versions of the packages that can change a verdict a row was made with
+    (:data:`spark_bench.versions.VERDICT_PACKAGES`), as one comparable text (``""``: not recorded)."""
+    versions = (row.get("info") or {}).get("versions") or {}
+    return ", ".join(f"{name} {version}" for name, version in sorted(versions.items()))
+
+
+def mark_version_mismatches(entries: list[Entry]) -> str | None:
+    """Leave unranked the entries made with other package versions than the board's, and say why.
+
+    The board's versions are those of the most entries (ties: the first in order); an entry whose rows
+    recorded other versions, or several sets of them, gets ``other_versions`` (it is listed, never marked
+    best); entries whose rows recorded none (stored before versions were) are compared with anything.
+
+    :param entries: the board's entries (modified)
+    :returns: the note the board prints, or None when every entry is comparable
+    """
+    counts: dict[str, int] = {}
+    for entry in entries:
+        if len(entry.versions) == 1:
+            key = next(iter(entry.versions))
+            counts[key] = counts.get(key, 0) + 1
+    if not counts:
+        return None
+    board = max(counts, key=lambda k: counts[k])
+    odd = []
+    for entry in entries:
+        found = entry.versions
+        if found and found != {board}:
+            entry.other_versions = "; ".join(sorted(found))
+            odd.append(f"{entry.name}: {entry.other_versions}")
+    if not odd:
+        return None
+    return ("Not ranked, made with other releases of the packages that can change a verdict than the rest "
+            f"({board}): " + " | ".join(odd) + ". Re-run them with the same install to compare.")
 
 
 def part_class_title(name: str) -> str:

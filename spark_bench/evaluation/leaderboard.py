@@ -40,6 +40,7 @@ from spark_bench.evaluation.board import (
     Table,
     fmt_value,
     is_number,
+    mark_version_mismatches,
 )
 from spark_bench.evaluation.store import ResultsStore
 from spark_bench.metrics.names import HEADLINE_KEYS
@@ -125,7 +126,11 @@ def build_leaderboard(store: ResultsStore, bench: str | None = None, labels: lis
     categories: dict[str, list[Entry]] = {}
     for category in sorted({r["category"] for r in rows if r["category"]}):
         categories[category] = _entries([r for r in rows if r["category"] == category])
-    return Leaderboard(bench, _entries(rows), categories, CONVENTION_VERSION, left_out)
+        mark_version_mismatches(categories[category])
+    entries = _entries(rows)
+    note = mark_version_mismatches(entries)
+    entries.sort(key=lambda e: (e.ranked, e.label, e.variant))
+    return Leaderboard(bench, entries, categories, CONVENTION_VERSION, left_out, note)
 
 
 # ----- text formats ---------------------------------------------------------------------------------

@@ -37,6 +37,7 @@ from spark_bench.methods.base import GENERATION_MARKER, CaseInput, Generation, M
 from spark_bench.methods.registry import make_method
 from spark_bench.metrics.names import ARTICULATION_KEYS, JOINT_MEAN, METRIC_COLUMNS
 from spark_bench.rl import FINETUNE_STEPS
+from spark_bench.versions import verdict_versions
 
 DEFAULT_BENCH = "synth-v1"
 #: The episode video kept beside each case's fine-tuned policies (``eval --rl``).
@@ -358,6 +359,7 @@ def evaluate_case(task: CaseTask) -> list[dict]:
         r["timings"] = dict(stages.timings)
         r["finished_at"] = finished
         r["info"] = {**r.get("info", {}), "host": socket.gethostname(), "pid": os.getpid(),
+                     "versions": verdict_versions(),
                      "case_fingerprint": task.case_fingerprint}
     return rows
 
@@ -365,7 +367,7 @@ def evaluate_case(task: CaseTask) -> list[dict]:
 def _failed_rows(task: CaseTask, reason: str, stage: str = "worker") -> list[dict]:
     row = _base_row(task, "")
     row.update(status="failed", stage=stage, reason=reason, finished_at=now(),
-               info={"case_fingerprint": task.case_fingerprint})
+               info={"case_fingerprint": task.case_fingerprint, "versions": verdict_versions()})
     return [row]
 
 

@@ -336,3 +336,40 @@ def test_coverage_counts_the_joints_scored_and_what_left_the_others_out(tmp_path
     values = dict(zip(header.split(","), line.split(",")))
     assert (values["open_coverage_scored"], values["open_coverage_total"]) == ("3", "7")
     assert values["rl_coverage_total"] == "n/a"
+
+
+def test_rows_made_with_other_package_versions_are_listed_but_not_ranked(tmp_path):
+    """A run made with another MuJoCo (or CoACD, NumPy...) than the rest is shown, never marked best, and the
+    board says why; rows stored before versions were recorded compare with anything."""
+    new = {"mujoco": "4.0.0", "coacd": "1.0.14"}
+    old = {"mujoco": "3.2.0", "coacd": "1.0.14"}
+    with ResultsStore(tmp_path / "r.sqlite") as s:
+        s.put([_row("A", c, cd=0.3, axis_err=0.3, info={"versions": new}) for c in ("c1", "c2")])
+        s.put([_row("B", c, cd=0.2, axis_err=0.2, info={"versions": new}) for c in ("c1", "c2")])
+        s.put([_row("C", c, cd=0.1, axis_err=0.1, info={"versions": old}) for c in ("c1", "c2")])  # best, other MuJoCo
+        s.put([_row("D", c, cd=0.4, axis_err=0.4) for c in ("c1", "c2")])  # no versions recorded
+        board = build_leaderboard(s)
+    by_name = {e.name: e for e in board.entries}
+    assert not by_name["C"].ranked and "mujoco 3.2.0" in by_name["C"].other_versions
+    assert by_name["A"].ranked and by_name["B"].ranked and by_name["D"].ranked
+    shape = next(t for t in board.tables() if t.key == "shape")
+    ranks = shape.ranks()
+    best = {shape.entries[i].name for (i, metric), rank in ranks.items() if metric == "cd" and rank == 1}
+    assert best == {"B"}  # C's lower CD is not comparable
+    assert any("Not ranked" in n and "C: " in n and "mujoco 4.0.0" in n for n in board.notes())
+
+
+def test_every_results_row_records_the_verdict_package_versions(tmp_path):
+    from helpers_bench import FAST, make_tiny_bench
+
+    from spark_bench.evaluation.runner import run_eval
+    from spark_bench.methods.base import MethodSpec
+    from spark_bench.versions import VERDICT_PACKAGES
+
+    bench = make_tiny_bench(tmp_path, n=1)
+    run_eval(MethodSpec.create("oracle"), str(bench), FAST, db=tmp_path / "r.sqlite", workers=0,
+             runs_root=tmp_path / "runs", progress=False)
+    with ResultsStore(tmp_path / "r.sqlite") as s:
+        (row,) = s.rows()
+    versions = row["info"]["versions"]
+    assert set(versions) == set(VERDICT_PACKAGES) and versions["mujoco"] != "absent"
