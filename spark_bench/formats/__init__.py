@@ -5,6 +5,8 @@ fact comes from.
 - :mod:`.foreign`: what every format shares (the object read, into the benchmark frame, ``import.json``);
 - :mod:`.runs`: ``spark-bench import FORMAT``: ``DIR/<case id>/`` -> ``PRED/<case id>/`` with any reader of
   :data:`FORMATS`;
+- :mod:`.singapo`: SINGAPO / DIPO / CAGE (``object.json`` + ``plys/part_<i>.ply``);
+- :mod:`.freeart3d`: FreeArt3D (``sds_output/joint_info.json`` + ``part_meshes/``);
 - :mod:`.spark`: SPARK's run folders (its layout, the reader, ``spark-bench import spark``);
 - :mod:`.commands`: the ``import`` command.
 
@@ -15,4 +17,7 @@ geometry backend) use it.
 #: Format name -> its reader, ``module:function`` (imported when used): ``read_run(run_dir: Path) ->
 #: ForeignObject``, raising :class:`~spark_bench.errors.InputError` naming the file and the problem. A new
 #: format is one module with its reader and its facts, and one line here.
-FORMATS: dict[str, str] = {}
+FORMATS: dict[str, str] = {
+    "singapo": "spark_bench.formats.singapo:read_run",  # SINGAPO, DIPO and CAGE write the same object.json
+    "freeart3d": "spark_bench.formats.freeart3d:read_run",
+}

@@ -44,7 +44,8 @@ class ForeignObject:
     :param asset: the object in PartNet-Mobility's world convention (Z up), at the format's own scale
     :param record: what was read and applied: ``format`` (the format's name), ``files`` (every file read,
         relative to the run folder), ``facts`` (each conversion applied, with the file of the method's code
-        it comes from), anything else the format wants kept
+        it comes from), anything else the format wants kept (not under ``frame``, which :func:`to_benchmark`
+        writes: a reader's own frame facts go under ``format_frame``)
     :param articulated: False for a shape-only format (part meshes, no joints): the articulation metrics of
         its rows are n/a, not zero
     :param open_questions: keys of :data:`OPEN_QUESTIONS` the format leaves open
