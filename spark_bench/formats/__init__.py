@@ -7,6 +7,8 @@ fact comes from.
   :data:`FORMATS`;
 - :mod:`.singapo`: SINGAPO / DIPO / CAGE (``object.json`` + ``plys/part_<i>.ply``);
 - :mod:`.freeart3d`: FreeArt3D (``sds_output/joint_info.json`` + ``part_meshes/``);
+- :mod:`.parts`: shape-only methods, one mesh per part (PartCrafter, OmniPart);
+- :mod:`.anymesh`: Articulate AnyMesh (``mobility.json`` + ``mesh_parts/``);
 - :mod:`.spark`: SPARK's run folders (its layout, the reader, ``spark-bench import spark``);
 - :mod:`.commands`: the ``import`` command.
 
@@ -20,4 +22,6 @@ geometry backend) use it.
 FORMATS: dict[str, str] = {
     "singapo": "spark_bench.formats.singapo:read_run",  # SINGAPO, DIPO and CAGE write the same object.json
     "freeart3d": "spark_bench.formats.freeart3d:read_run",
+    "parts": "spark_bench.formats.parts:read_run",  # shape only: PartCrafter, OmniPart
+    "anymesh": "spark_bench.formats.anymesh:read_run",  # Articulate AnyMesh
 }
