@@ -19,7 +19,8 @@ class SparkDoorEnv(SparkArticulationEnv):
     m from the TCP's current position (world x, y, z; clipped to a workspace box around the object);
     ``a[3]`` commands the fingers: -1 fully open, +1 closed (each finger squeezes with at most 40 N).
 
-    **Observation space** ``Box(-10, 10, (19,), float32)`` (entries clipped to the bounds):
+    **Observation space** ``Box(-10, 10, (19,), float32)`` (entries clipped to the bounds; each entry is named
+    in :mod:`spark_bench.envs.observation`, e.g. ``obs[GRASP]`` for 8-10):
 
     ====== =====================================================================
     index  meaning

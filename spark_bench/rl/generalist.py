@@ -2,7 +2,7 @@
 (``benchmarks/train_generalist.py``) and shipped with the package (``spark_bench/rl/weights/``).
 
 **Observation.** A policy sees what any asset can supply: the environment's ``frame`` observation
-(:mod:`spark_bench.envs.base`: the gripper's state, the grasp point, the grasp frame and the joint),
+(:mod:`spark_bench.envs.observation`: the gripper's state, the grasp point, the grasp frame and the joint),
 expressed in the *joint frame* at the grasp point (:func:`policy_frames`: x the direction the grasp point
 moves as the told joint opens, the joint's axis for a drawer or the tangent of its arc for a door; y the
 fingers' closing direction made perpendicular to x; z the third), so one policy serves objects of any

@@ -92,18 +92,18 @@ AROUND_TOLERANCE = 0.015
 AROUND_STEPS = 15
 
 
-def _met(obs: np.ndarray, closing: float, closing_before: float) -> bool:
+def _met(touch: np.ndarray, closing: float, closing_before: float) -> bool:
     """Whether the hand, coming in on a door (the re-grasp's guarded approach, the way in behind it), has met
     it: a pad's touch reading passes :data:`REGRASP_TOUCH`, or the door is knocked towards closing (it moved
     so by more than :data:`PUSH_GUARD` in the last step and faster than in the step before: swinging shut by
     itself it only slows down).
 
-    :param obs: the environment's observation (its pads' touch readings)
+    :param touch: the pads' touch readings (the observation's, force / 10 N)
     :param closing: how far (m) the grasp point moved towards closing in the last step
     :param closing_before: the same in the step before
     """
     knocked = closing > PUSH_GUARD and closing > closing_before + 0.5 * PUSH_GUARD
-    return knocked or float(np.max(obs[OBS.TOUCH])) > REGRASP_TOUCH
+    return knocked or float(np.max(touch)) > REGRASP_TOUCH
 
 
 def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
@@ -117,9 +117,9 @@ def rotate_about(point: np.ndarray, pivot: np.ndarray, axis: np.ndarray, angle: 
 class Reading:
     """What one step of the opener reads of the observation, and what it derives first.
 
-    :param obs: the observation (for the pads' touch readings)
     :param tcp: the TCP's position
     :param grasp: the grasp point's position
+    :param touch: the pads' touch readings (force / 10 N, clipped to 1)
     :param closing: how far (m) the grasp point moved towards closing in the last step
     :param closing_before: the same in the step before
     :param press: the press offset turned with the part (zero unless an inside grip)
@@ -127,9 +127,9 @@ class Reading:
     :param hold: the finger command that holds the part
     """
 
-    obs: np.ndarray
     tcp: np.ndarray
     grasp: np.ndarray
+    touch: np.ndarray
     closing: float
     closing_before: float
     press: np.ndarray
@@ -358,7 +358,7 @@ class ScriptedOpener:
         # an inside grip travels with closed fingers and grips by opening them
         travel, hold = (1.0, -1.0) if self.inside_grip else (-1.0, 1.0)
         press = PRESS_OFFSET * self._turned(self.press, grasp)
-        return Reading(obs, tcp, grasp, closing, closing_before, press, travel, hold)
+        return Reading(tcp, grasp, obs[OBS.TOUCH], closing, closing_before, press, travel, hold)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         """The action for observation ``obs`` (the environments' layout, :mod:`spark_bench.envs.observation`)."""
@@ -415,7 +415,7 @@ class ScriptedOpener:
             target = r.tcp + step * min(1.0, REGRASP_STEP / max(float(np.linalg.norm(step)), 1e-9))
         limit = ALIGNED_APPROACH_STEPS if self.aligned else APPROACH_STEPS
         distance = float(np.linalg.norm(r.grasp - r.tcp))
-        pushed = ajar and _met(r.obs, r.closing, r.closing_before)
+        pushed = ajar and _met(r.touch, r.closing, r.closing_before)
         if pushed:  # close where the hand is, and stay there (not following the door)
             target = state.hold = r.tcp
         then = None
@@ -444,7 +444,7 @@ class ScriptedOpener:
         target = rotate_about(state.around[0], self.pivot, self.axis, angle)
         grip = -1.0 if len(state.around) == 4 else 1.0  # open while backing out, then closed
         distance = float(np.linalg.norm(target - r.tcp))
-        behind = len(state.around) == 1 and _met(r.obs, r.closing, r.closing_before)
+        behind = len(state.around) == 1 and _met(r.touch, r.closing, r.closing_before)
         then = None
         if (distance < AROUND_TOLERANCE or state.phase_steps > AROUND_STEPS or self._stalled(distance)
                 or behind):  # behind the door, touching it: push from here (chasing the waypoint shuts it)

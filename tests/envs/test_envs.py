@@ -12,6 +12,7 @@ from gymnasium.utils.env_checker import check_env
 
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.data.case import BenchmarkCase
+from spark_bench.envs import observation as OBS
 from spark_bench.envs.assets import asset_folder
 from spark_bench.envs.cabinet import procedural_cabinet
 from spark_bench.envs.grasp import find_grasp
@@ -30,7 +31,7 @@ def test_import_registers_both_environments():
 def test_check_env_on_procedural_cabinet(env_id):
     env = gym.make(env_id, asset="procedural:0")
     check_env(env.unwrapped, skip_render_check=True)
-    assert env.observation_space.shape == (19,)
+    assert env.observation_space.shape == (OBS.OBS_SIZE,)
     assert env.action_space.shape == (4,)
 
 
@@ -112,10 +113,11 @@ def trimesh_box(origin):
 def test_start_state_is_in_front_of_the_handle():
     env = gym.make("SparkDrawer-v0", asset="procedural:0")
     obs, info = env.reset(seed=0)
-    tcp, grasp = obs[0:3], obs[8:11]
+    tcp, grasp = obs[OBS.TCP], obs[OBS.GRASP]
     # the cabinet's front faces -X: the gripper starts ~0.1 m in front of (smaller x than) the handle
     assert 0.06 < grasp[0] - tcp[0] < 0.14
-    assert obs[14] == pytest.approx(0.0, abs=1e-9) and obs[4] == pytest.approx(1.0, abs=1e-6)
+    assert obs[OBS.JOINT_FRACTION] == pytest.approx(0.0, abs=1e-9)
+    assert obs[OBS.FINGERS] == pytest.approx(1.0, abs=1e-6)
     assert not info["is_success"] and 0.0 < info["reach"] < 1.0
 
 
@@ -246,16 +248,16 @@ def test_check_env_on_real_objects(real_object, object_id, env_ids):
         env = gym.make(env_id, asset=str(folder))
         check_env(env.unwrapped, skip_render_check=True)
         obs, info = env.reset(seed=0)
-        tcp, grasp = obs[0:3].astype(float), obs[8:11].astype(float)
+        tcp, grasp = obs[OBS.TCP].astype(float), obs[OBS.GRASP].astype(float)
         outward = env.unwrapped.scene.grasp.outward
         noise = np.sqrt(3.0) * START_NOISE  # the start's uniform noise, at most this far from its centre
         assert START_OFFSET - noise < (tcp - grasp) @ outward < START_OFFSET + noise, env_id
-        assert obs[14] == pytest.approx(0.0, abs=1e-9) and not info["is_success"]
+        assert obs[OBS.JOINT_FRACTION] == pytest.approx(0.0, abs=1e-9) and not info["is_success"]
         for _ in range(20):  # hold still (an action of zero keeps the TCP's target where the TCP is)
             obs, _, terminated, _, info = env.step(np.zeros(4, dtype=np.float32))
         assert not terminated and np.all(np.isfinite(obs))
         assert abs(env.unwrapped.joint_fraction) < 1e-3, (env_id, env.unwrapped.joint_fraction)
-        assert np.linalg.norm(obs[8:11] - grasp) < 1e-3  # the grasp point (on the part) has not moved
+        assert np.linalg.norm(obs[OBS.GRASP] - grasp) < 1e-3  # the grasp point (on the part) has not moved
         env.close()
 
 

@@ -9,7 +9,8 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import spark_bench  # noqa: F401  (registers the environments)
-from spark_bench.envs.base import FRAME_OBS_SIZE, OBS_SIZE
+from spark_bench.envs import observation as OBS
+from spark_bench.envs.observation import FRAME_OBS_SIZE, OBS_SIZE
 from spark_bench.rl.scripted import ground_truth_joint, rotate_about
 
 
@@ -38,27 +39,27 @@ def test_drawer_frame_is_the_grasp_and_the_ground_truth_axis():
     env = frame_env("SparkDrawer-v0")
     obs, _ = env.reset(seed=0)
     grasp = env.unwrapped.scene.grasp
-    outward, closing = obs[19:22], obs[22:25]
+    outward, closing = obs[OBS.OUTWARD], obs[OBS.CLOSING]
     np.testing.assert_allclose(outward, grasp.outward, atol=1e-6)
     np.testing.assert_allclose(closing, grasp.closing, atol=1e-6)
     assert abs(float(outward @ closing)) < 1e-6
     axis, _, joint_type = ground_truth_joint(env)
-    np.testing.assert_allclose(obs[25:28], axis, atol=1e-6)
-    assert joint_type == "prismatic" and obs[31] == 0.0 and np.all(obs[28:31] == 0.0)
+    np.testing.assert_allclose(obs[OBS.AXIS], axis, atol=1e-6)
+    assert joint_type == "prismatic" and obs[OBS.REVOLUTE] == 0.0 and np.all(obs[OBS.TO_AXIS] == 0.0)
     # a bar handle: pinched with the fingers approaching fully open, nothing to press on
-    assert obs[32] == 0.0 and obs[33] == -1.0 and np.all(obs[34:37] == 0.0)
+    assert obs[OBS.INSIDE_GRIP] == 0.0 and obs[OBS.APPROACH_GRIP] == -1.0 and np.all(obs[OBS.PRESS] == 0.0)
 
 
 def test_door_frame_turns_with_the_door_and_reports_its_hinge():
     env = frame_env("SparkDoor-v0")
     obs, _ = env.reset(seed=0)
     axis, pivot, _ = ground_truth_joint(env)
-    grasp = obs[8:11].astype(float)
-    to_axis = obs[28:31].astype(float)
+    grasp = obs[OBS.GRASP].astype(float)
+    to_axis = obs[OBS.TO_AXIS].astype(float)
     # the vector from the grasp point to its nearest point on the hinge line
     foot = pivot + ((grasp - pivot) @ axis) * axis
     np.testing.assert_allclose(to_axis, foot - grasp, atol=1e-5)
-    assert obs[31] == 1.0 and abs(float(to_axis @ axis)) < 1e-5
+    assert obs[OBS.REVOLUTE] == 1.0 and abs(float(to_axis @ axis)) < 1e-5
     # swing the door by 0.6 rad: the grasp frame turns with it about the hinge, the hinge stays
     u = env.unwrapped
     u.data.qpos[u._joint_q] += 0.6
@@ -66,11 +67,12 @@ def test_door_frame_turns_with_the_door_and_reports_its_hinge():
 
     mujoco_module().mj_forward(u.model, u.data)
     turned = u._obs()
-    np.testing.assert_allclose(turned[19:22], rotate_about(obs[19:22].astype(float), np.zeros(3), axis, 0.6), atol=1e-5)
-    np.testing.assert_allclose(turned[22:25], rotate_about(obs[22:25].astype(float), np.zeros(3), axis, 0.6), atol=1e-5)
-    np.testing.assert_allclose(turned[25:28], obs[25:28], atol=1e-7)
+    for direction in (OBS.OUTWARD, OBS.CLOSING):
+        swung = rotate_about(obs[direction].astype(float), np.zeros(3), axis, 0.6)
+        np.testing.assert_allclose(turned[direction], swung, atol=1e-5)
+    np.testing.assert_allclose(turned[OBS.AXIS], obs[OBS.AXIS], atol=1e-7)
     # the grasp point kept its distance to the hinge
-    assert np.linalg.norm(turned[28:31]) == pytest.approx(np.linalg.norm(to_axis), abs=1e-5)
+    assert np.linalg.norm(turned[OBS.TO_AXIS]) == pytest.approx(np.linalg.norm(to_axis), abs=1e-5)
 
 
 def test_joint_estimate_is_what_the_observation_reports():
@@ -81,15 +83,16 @@ def test_joint_estimate_is_what_the_observation_reports():
     told = frame_env("SparkDoor-v0", joint_estimate=(2.0 * wrong_axis, wrong_pivot, "prismatic"))
     own, _ = env.reset(seed=1)
     obs, _ = told.reset(seed=1)
-    np.testing.assert_array_equal(obs[:25], own[:25])  # the same scene: only the joint entries differ
-    np.testing.assert_allclose(obs[25:28], wrong_axis / np.linalg.norm(wrong_axis), atol=1e-6)  # normalized
-    assert obs[31] == 0.0 and np.all(obs[28:31] == 0.0)  # told prismatic: no hinge
+    joint = OBS.AXIS.start  # the same scene: only the joint entries differ
+    np.testing.assert_array_equal(obs[:joint], own[:joint])
+    np.testing.assert_allclose(obs[OBS.AXIS], wrong_axis / np.linalg.norm(wrong_axis), atol=1e-6)  # normalized
+    assert obs[OBS.REVOLUTE] == 0.0 and np.all(obs[OBS.TO_AXIS] == 0.0)  # told prismatic: no hinge
     told = frame_env("SparkDoor-v0", joint_estimate=(axis, wrong_pivot, "revolute"))
     obs, _ = told.reset(seed=1)
-    grasp = obs[8:11].astype(float)
+    grasp = obs[OBS.GRASP].astype(float)
     foot = wrong_pivot + ((grasp - wrong_pivot) @ axis) * axis
-    np.testing.assert_allclose(obs[28:31], foot - grasp, atol=1e-5)
-    assert not np.allclose(obs[28:31], own[28:31], atol=1e-3)
+    np.testing.assert_allclose(obs[OBS.TO_AXIS], foot - grasp, atol=1e-5)
+    assert not np.allclose(obs[OBS.TO_AXIS], own[OBS.TO_AXIS], atol=1e-3)
 
 
 @pytest.mark.parametrize("estimate,match", [
@@ -113,7 +116,7 @@ def test_inside_grip_reports_the_notch(tmp_path):
     env = gym.make("SparkDrawer-v0", asset=folder, joint="joint_0", observation="frame")
     obs, _ = env.reset(seed=0)
     grasp = env.unwrapped.scene.grasp
-    assert grasp.inside_grip and obs[32] == 1.0 and obs[33] == 1.0
-    press = obs[34:37].astype(float)
+    assert grasp.inside_grip and obs[OBS.INSIDE_GRIP] == 1.0 and obs[OBS.APPROACH_GRIP] == 1.0
+    press = obs[OBS.PRESS].astype(float)
     np.testing.assert_allclose(press, grasp.press, atol=1e-6)
-    assert np.linalg.norm(press) == pytest.approx(1.0, abs=1e-6) and abs(press @ obs[19:22]) < 1e-6
+    assert np.linalg.norm(press) == pytest.approx(1.0, abs=1e-6) and abs(press @ obs[OBS.OUTWARD]) < 1e-6

@@ -9,6 +9,7 @@ import gymnasium as gym
 import numpy as np
 
 import spark_bench  # noqa: F401  (registers the environments)
+from spark_bench.envs import observation as OBS
 from spark_bench.envs.assets import load_asset
 from spark_bench.rl.door_geometry import door_edge, turns_in_place
 from spark_bench.rl.scripted import (
@@ -47,7 +48,7 @@ def _released_then_reopened(env, seed: int, push: bool) -> tuple[float, float, s
             break
         obs, *_ = env.step(opener(obs))
     assert unwrapped.joint_fraction >= RELEASE and opener.regrasps == 0
-    grasp = obs[8:11].astype(float)
+    grasp = obs[OBS.GRASP].astype(float)
     swing = np.cross(axis, grasp - pivot)
     swing /= np.linalg.norm(swing)
     for _ in range(4):

@@ -8,7 +8,8 @@ import gymnasium as gym
 import numpy as np
 
 import spark_bench  # noqa: F401  (registers the environments)
-from spark_bench.envs.base import OBS_SIZE
+from spark_bench.envs import observation as OBS
+from spark_bench.envs.observation import OBS_SIZE
 from spark_bench.rl.scripted import (
     PREGRASP_OFFSET,
     PUSH_GUARD,
@@ -22,7 +23,7 @@ from spark_bench.rl.scripted import (
 def _obs(tcp, grasp, touch=(0.0, 0.0)) -> np.ndarray:
     """An observation of the environments' layout with what the opener reads: TCP, grasp point, pad touch."""
     obs = np.zeros(OBS_SIZE, dtype=np.float32)
-    obs[0:3], obs[8:11], obs[16:18] = tcp, grasp, touch
+    obs[OBS.TCP], obs[OBS.GRASP], obs[OBS.TOUCH] = tcp, grasp, touch
     return obs
 
 
@@ -113,7 +114,7 @@ def test_a_door_let_go_half_open_is_not_pushed_shut_by_the_hand_coming_back():
                 break
             obs, *_ = env.step(opener(obs))
         assert unwrapped.joint_fraction >= 0.5 and opener.regrasps == 0
-        grasp = obs[8:11].astype(float)
+        grasp = obs[OBS.GRASP].astype(float)
         swing = np.cross(axis, grasp - pivot)
         swing /= np.linalg.norm(swing)
         for _ in range(4):  # let go: fingers open, the hand runs on ahead of the handle

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import spark_bench  # noqa: F401  (registers the environments)
-from spark_bench.envs.base import FRAME_OBS_SIZE
+from spark_bench.envs import observation as OBS
+from spark_bench.envs.observation import FRAME_OBS_SIZE
 from spark_bench.rl.generalist import (
     N_FEATURES,
     GeneralistPolicy,
@@ -21,34 +22,36 @@ from spark_bench.rl.generalist import (
     to_world,
 )
 
-VECTOR_SLICES = [(5, 8), (8, 11), (11, 14), (19, 22), (22, 25), (25, 28), (28, 31), (34, 37)]
+#: The observation's world-frame vectors (turned with the object; the TCP position is only shifted).
+VECTORS = [OBS.TCP_VELOCITY, OBS.GRASP, OBS.TO_GRASP, OBS.OUTWARD, OBS.CLOSING, OBS.AXIS, OBS.TO_AXIS, OBS.PRESS]
 
 
 def random_frame_obs(rng: np.random.Generator) -> np.ndarray:
     """A plausible ``frame`` observation: unit outward / closing / axis, a hinge off the grasp point."""
     obs = np.zeros(FRAME_OBS_SIZE)
-    obs[0:3] = rng.normal(size=3)
-    obs[8:11] = obs[0:3] + 0.05 * rng.normal(size=3)
-    obs[11:14] = obs[8:11] - obs[0:3]
-    obs[18] = np.linalg.norm(obs[11:14])
-    obs[5:8] = 0.2 * rng.normal(size=3)
-    obs[3], obs[4], obs[14], obs[15], obs[16], obs[17] = 0.1, 0.7, 0.3, 0.05, 0.4, 0.0
+    obs[OBS.TCP] = rng.normal(size=3)
+    obs[OBS.GRASP] = obs[OBS.TCP] + 0.05 * rng.normal(size=3)
+    obs[OBS.TO_GRASP] = obs[OBS.GRASP] - obs[OBS.TCP]
+    obs[OBS.GRASP_DISTANCE] = np.linalg.norm(obs[OBS.TO_GRASP])
+    obs[OBS.TCP_VELOCITY] = 0.2 * rng.normal(size=3)
+    obs[OBS.WRIST], obs[OBS.FINGERS], obs[OBS.JOINT_FRACTION], obs[OBS.JOINT_VELOCITY] = 0.1, 0.7, 0.3, 0.05
+    obs[OBS.TOUCH] = 0.4, 0.0
     q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
-    obs[19:22], obs[22:25] = q[:, 0], q[:, 1]
+    obs[OBS.OUTWARD], obs[OBS.CLOSING] = q[:, 0], q[:, 1]
     axis = q[:, 2]
-    obs[25:28] = axis
+    obs[OBS.AXIS] = axis
     v = 0.4 * rng.normal(size=3)
-    obs[28:31] = v - (v @ axis) * axis
-    obs[31], obs[32], obs[33] = 1.0, 0.0, -1.0
+    obs[OBS.TO_AXIS] = v - (v @ axis) * axis
+    obs[OBS.REVOLUTE], obs[OBS.INSIDE_GRIP], obs[OBS.APPROACH_GRIP] = 1.0, 0.0, -1.0
     return obs
 
 
 def transformed(obs: np.ndarray, rotation: np.ndarray, shift: np.ndarray) -> np.ndarray:
     out = obs.copy()
-    for a, b in VECTOR_SLICES:
-        out[a:b] = rotation @ obs[a:b]
-    out[0:3] += shift
-    out[8:11] += shift
+    for vector in VECTORS:
+        out[vector] = rotation @ obs[vector]
+    out[OBS.TCP] += shift
+    out[OBS.GRASP] += shift
     return out
 
 
@@ -78,21 +81,22 @@ def test_the_policy_frame_points_where_the_told_joint_opens():
 
     rng = np.random.default_rng(1)
     obs = random_frame_obs(rng)
-    axis, to_axis = obs[25:28], obs[28:31]
+    axis, to_axis = obs[OBS.AXIS], obs[OBS.TO_AXIS]
     swing = np.cross(axis, -to_axis) / np.linalg.norm(to_axis)
     frame = policy_frames(obs)
     np.testing.assert_allclose(frame[:, 0], swing, atol=1e-6)
     np.testing.assert_allclose(frame.T @ frame, np.eye(3), atol=1e-9)
-    np.testing.assert_allclose(features(obs)[15:18], frame.T @ obs[19:22], atol=1e-5)
+    np.testing.assert_allclose(features(obs)[15:18], frame.T @ obs[OBS.OUTWARD], atol=1e-5)
     # pulling along x is pulling along the swing, whatever way the handle faces
     np.testing.assert_allclose(to_world(obs, [1.0, 0.0, 0.0, 1.0])[:3], np.clip(swing, -1, 1), atol=1e-6)
-    obs[31] = 0.0  # told prismatic: x is the axis
+    obs[OBS.REVOLUTE] = 0.0  # told prismatic: x is the axis
     np.testing.assert_allclose(policy_frames(obs)[:, 0], axis, atol=1e-6)
     # a closing direction along x (a lid's tab pinched across its thickness) leaves y to the outward one
-    obs[22:25] = axis
+    obs[OBS.CLOSING] = axis
     frame = policy_frames(obs)
     np.testing.assert_allclose(frame.T @ frame, np.eye(3), atol=1e-9)
-    assert abs(frame[:, 1] @ obs[19:22]) > 0.9 * np.linalg.norm(obs[19:22] - (obs[19:22] @ axis) * axis)
+    outward = obs[OBS.OUTWARD]
+    assert abs(frame[:, 1] @ outward) > 0.9 * np.linalg.norm(outward - (outward @ axis) * axis)
 
 
 def test_frame_actions_round_trip_and_clip():
@@ -113,15 +117,15 @@ def test_features_refuse_the_basic_observation():
 
 def test_memory_counts_steps_at_the_handle_holding_and_stalled():
     obs = np.zeros(FRAME_OBS_SIZE)
-    obs[18] = 0.005
+    obs[OBS.GRASP_DISTANCE] = 0.005
     memory = Memory()
     memory.reset(obs)
     assert memory.near == 1 and memory.grip == 0 and memory.stall == 1
-    obs[16] = obs[17] = 0.5
+    obs[OBS.TOUCH] = 0.5
     memory.step(np.array([0.0, 0.0, 0.0, 1.0]), obs)
     memory.step(np.array([0.0, 0.0, 0.0, 1.0]), obs)
     assert memory.near == 3 and memory.grip == 2 and memory.t == 2
-    obs[18], obs[5] = 0.2, 0.3  # moved away, fast
+    obs[OBS.GRASP_DISTANCE], obs[OBS.TCP_VELOCITY] = 0.2, (0.3, 0.0, 0.0)  # moved away, fast
     memory.step(np.array([1.0, 0.0, 0.0, 1.0]), obs)
     assert memory.near == 0 and memory.stall == 0 and memory.grip == 3
     np.testing.assert_allclose(memory.vector()[-4:], [1.0, 0.0, 0.0, 1.0])
@@ -217,8 +221,9 @@ def test_frame_noise_turns_only_the_grasp_frame_and_stays_consistent():
     assert max(angles) <= 0.35 + 1e-9 and min(angles) < 0.1 < 0.25 < max(angles)
     obs = random_frame_obs(rng).astype(np.float32)
     seen = perturb_frame(obs, rotation)
-    np.testing.assert_array_equal(np.delete(seen, np.s_[19:25]), np.delete(obs, np.s_[19:25]))
-    np.testing.assert_allclose(seen[19:22], rotation @ obs[19:22], atol=1e-6)
+    grasp_frame = np.r_[OBS.OUTWARD, OBS.CLOSING]  # the entries the noise turns
+    np.testing.assert_array_equal(np.delete(seen, grasp_frame), np.delete(obs, grasp_frame))
+    np.testing.assert_allclose(seen[OBS.OUTWARD], rotation @ obs[OBS.OUTWARD], atol=1e-6)
     # an action in the turned frame is the same world motion as its counterpart in the true frame
     action = np.array([0.4, 0.1, -0.2, 0.0])
     world = to_world(seen, action)

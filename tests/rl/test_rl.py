@@ -10,6 +10,7 @@ import pytest
 
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.cli import main
+from spark_bench.envs import observation as OBS
 from spark_bench.rl.scripted import ground_truth_joint, open_with_ground_truth, open_with_joint, rotate_about
 
 
@@ -176,7 +177,7 @@ def test_grip_command_spans_the_gripper_travel():
     env.reset(seed=0)
     for _ in range(15):  # held at a partial opening, the fingers settle there
         obs, *_ = env.step(np.array([0, 0, 0, grip_command(cfg, 0.01)], dtype=np.float32))
-    assert obs[4] * cfg.max_opening == pytest.approx(0.01, abs=0.001)
+    assert obs[OBS.FINGERS] * cfg.max_opening == pytest.approx(0.01, abs=0.001)
 
 
 #: synth-v1 objects (``object_seed(0, index)``, as the benchmark generates them) whose doors and lids the
@@ -203,10 +204,8 @@ def test_scripted_opener_opens_synth_v1_objects(tmp_path, category, index, joint
 
 def _obs(tcp, grasp) -> np.ndarray:
     """An observation of the environments' layout with only what the opener reads: TCP and grasp point."""
-    from spark_bench.envs.base import OBS_SIZE
-
-    obs = np.zeros(OBS_SIZE, dtype=np.float32)
-    obs[0:3], obs[8:11] = tcp, grasp
+    obs = np.zeros(OBS.OBS_SIZE, dtype=np.float32)
+    obs[OBS.TCP], obs[OBS.GRASP] = tcp, grasp
     return obs
 
 
