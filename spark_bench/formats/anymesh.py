@@ -67,7 +67,7 @@ import trimesh
 
 from spark_bench.asset.model import DEFAULT_REVOLUTE_UPPER, ArticulatedAsset, Joint, Link, Visual
 from spark_bench.errors import InputError
-from spark_bench.formats.foreign import ForeignObject
+from spark_bench.formats.foreign import ForeignObject, finite_vector
 from spark_bench.formats.parts import Y_UP_TO_OURS, inside
 
 FORMAT = "anymesh"
@@ -125,16 +125,6 @@ class Entry:
     direction: np.ndarray | None = None
 
 
-def _vector(value, path: Path, what: str) -> np.ndarray:
-    try:
-        out = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(path, f"{what} is not 3 numbers: {value!r}") from None
-    if out.shape != (3,) or not np.all(np.isfinite(out)):
-        raise InputError(path, f"{what} is not 3 finite numbers: {value!r}")
-    return out
-
-
 def read_entry(item, index: int, path: Path) -> Entry:
     """Entry ``index`` of ``mobility.json``, checked (see the module docstring).
 
@@ -164,8 +154,8 @@ def read_entry(item, index: int, path: Path) -> Entry:
     axis = data.get("axis")
     if not isinstance(axis, dict):
         raise InputError(path, f"part {name!r}: {kind} joint without jointData.axis")
-    origin = _vector(axis.get("origin"), path, f"part {name!r}: jointData.axis.origin")
-    direction = _vector(axis.get("direction"), path, f"part {name!r}: jointData.axis.direction")
+    origin = finite_vector(axis.get("origin"), path, f"part {name!r}: jointData.axis.origin")
+    direction = finite_vector(axis.get("direction"), path, f"part {name!r}: jointData.axis.direction")
     norm = float(np.linalg.norm(direction))
     if norm < 1e-9:
         raise InputError(path, f"part {name!r}: jointData.axis.direction {direction.tolist()} is zero")

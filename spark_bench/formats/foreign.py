@@ -57,6 +57,23 @@ class ForeignObject:
     open_questions: tuple[str, ...] = ("yaw", "scale")
 
 
+def finite_vector(value, path: Path, what: str) -> np.ndarray:
+    """``value`` (a JSON list) as 3 finite floats.
+
+    :param value: what the file holds
+    :param path: the file, for the error
+    :param what: what the value is, for the error (``joint 2: axis direction``)
+    :raises InputError: naming the file when it is not 3 finite numbers (NaN: Python's json reads it)
+    """
+    try:
+        out = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(path, f"{what} is not 3 numbers: {value!r}") from None
+    if out.shape != (3,) or not np.all(np.isfinite(out)):
+        raise InputError(path, f"{what} is not 3 finite numbers: {value!r}")
+    return out
+
+
 def rotation_z(angle: float) -> np.ndarray:
     """3x3 rotation by ``angle`` radians about Z."""
     c, s = math.cos(angle), math.sin(angle)
@@ -203,3 +220,23 @@ def row_fields(record: dict | None) -> dict:
                 "spark_alignment": record.get("alignment"), "spark_run": record.get("run")}
     return {"import_format": record.get("format"), "import_run": record.get("run"),
             "articulated": record.get("articulated", True)}
+
+
+class ImportOutcome:
+    """What every import report says of its cases (``self.cases``: items with an ``imported`` flag): which
+    were imported, which skipped, and the command's exit code (0 when at least one was imported, 1 when none
+    could be)."""
+
+    cases: list
+
+    @property
+    def imported(self) -> list:
+        return [c for c in self.cases if c.imported]
+
+    @property
+    def skipped(self) -> list:
+        return [c for c in self.cases if not c.imported]
+
+    @property
+    def exit_code(self) -> int:
+        return 0 if self.imported else 1

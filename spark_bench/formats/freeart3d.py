@@ -63,7 +63,7 @@ import trimesh
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
 from spark_bench.asset.transforms import axis_angle_matrix
 from spark_bench.errors import InputError
-from spark_bench.formats.foreign import ForeignObject
+from spark_bench.formats.foreign import ForeignObject, finite_vector
 
 FORMAT = "freeart3d"
 SDS_DIR = "sds_output"
@@ -128,16 +128,6 @@ def find_sds_dir(run_dir: Path) -> Path:
                                                      "did not run or failed)")
 
 
-def _vector(value, path: Path, what: str) -> np.ndarray:
-    try:
-        out = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(path, f"{what} is not 3 numbers: {value!r}") from None
-    if out.shape != (3,) or not np.all(np.isfinite(out)):
-        raise InputError(path, f"{what} is not 3 finite numbers: {value!r}")
-    return out
-
-
 def read_joint(entry, index: int, path: Path) -> PartJoint:
     """Entry ``index`` of ``joint_info.json``, checked (see the module docstring).
 
@@ -163,8 +153,8 @@ def read_joint(entry, index: int, path: Path) -> PartJoint:
     axis = entry.get("axis")
     if not isinstance(axis, dict):
         raise InputError(path, f"joint {index}: no axis object")
-    origin = _vector(axis.get("origin"), path, f"joint {index}: axis origin")
-    direction = _vector(axis.get("direction"), path, f"joint {index}: axis direction")
+    origin = finite_vector(axis.get("origin"), path, f"joint {index}: axis origin")
+    direction = finite_vector(axis.get("direction"), path, f"joint {index}: axis direction")
     norm = float(np.linalg.norm(direction))
     if norm < 1e-9:
         raise InputError(path, f"joint {index}: axis direction {direction.tolist()} is zero")

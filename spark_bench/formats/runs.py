@@ -25,7 +25,13 @@ from pathlib import Path
 
 from spark_bench.errors import InputError
 from spark_bench.formats import FORMATS
-from spark_bench.formats.foreign import ForeignObject, remove_stale_import, to_benchmark, write_import
+from spark_bench.formats.foreign import (
+    ForeignObject,
+    ImportOutcome,
+    remove_stale_import,
+    to_benchmark,
+    write_import,
+)
 
 Reader = Callable[[Path], ForeignObject]
 
@@ -66,7 +72,7 @@ class CaseImport:
 
 
 @dataclass
-class ImportReport:
+class ImportReport(ImportOutcome):
     """The outcome of :func:`import_runs`."""
 
     format: str
@@ -75,18 +81,6 @@ class ImportReport:
     bench: Path
     cases: list[CaseImport] = field(default_factory=list)
     unknown: list[str] = field(default_factory=list)
-
-    @property
-    def imported(self) -> list[CaseImport]:
-        return [c for c in self.cases if c.imported]
-
-    @property
-    def skipped(self) -> list[CaseImport]:
-        return [c for c in self.cases if not c.imported]
-
-    @property
-    def exit_code(self) -> int:
-        return 0 if self.imported else 1
 
     def to_dict(self) -> dict:
         return {"format": self.format, "runs": str(self.runs_dir), "out": str(self.out_dir), "bench": str(self.bench),

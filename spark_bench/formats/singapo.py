@@ -78,7 +78,7 @@ import trimesh
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
 from spark_bench.asset.transforms import rpy_to_matrix
 from spark_bench.errors import InputError
-from spark_bench.formats.foreign import ForeignObject
+from spark_bench.formats.foreign import ForeignObject, finite_vector
 
 FORMAT = "singapo"
 JSON_NAME = "object.json"
@@ -230,16 +230,6 @@ def check_tree(nodes: list[dict], path: Path) -> int:
     return roots[0]
 
 
-def _vector(value, path: Path, what: str) -> np.ndarray:
-    try:
-        out = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(path, f"{what} is not 3 numbers: {value!r}") from None
-    if out.shape != (3,) or not np.all(np.isfinite(out)):
-        raise InputError(path, f"{what} is not 3 finite numbers: {value!r}")
-    return out
-
-
 def read_joint(node: dict, index: int, path: Path) -> NodeJoint:
     """Node ``index``'s joint, checked (see the module docstring, *Joints*).
 
@@ -266,8 +256,8 @@ def read_joint(node: dict, index: int, path: Path) -> NodeJoint:
     axis = joint.get("axis")
     if not isinstance(axis, dict):
         raise InputError(path, f"node {index}: {kind} joint without an axis object")
-    origin = _vector(axis.get("origin"), path, f"node {index}: joint axis origin")
-    direction = _vector(axis.get("direction"), path, f"node {index}: joint axis direction")
+    origin = finite_vector(axis.get("origin"), path, f"node {index}: joint axis origin")
+    direction = finite_vector(axis.get("direction"), path, f"node {index}: joint axis direction")
     norm = float(np.linalg.norm(direction))
     if norm < 1e-9:
         raise InputError(path, f"node {index}: {kind} joint axis direction {direction.tolist()} is zero")

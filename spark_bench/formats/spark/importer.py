@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from spark_bench.errors import InputError
-from spark_bench.formats.foreign import remove_stale_import, write_import
+from spark_bench.formats.foreign import ImportOutcome, remove_stale_import, write_import
 from spark_bench.formats.spark import layout
 from spark_bench.formats.spark.reader import read_spark_run
 
@@ -68,7 +68,7 @@ class CaseImport:
 
 
 @dataclass
-class ImportReport:
+class ImportReport(ImportOutcome):
     """The outcome of :func:`import_runs`."""
 
     runs_dir: Path
@@ -79,18 +79,6 @@ class ImportReport:
     not_runs: list[str] = field(default_factory=list)
     unknown: list[str] = field(default_factory=list)
     superseded: list[str] = field(default_factory=list)
-
-    @property
-    def imported(self) -> list[CaseImport]:
-        return [c for c in self.cases if c.imported]
-
-    @property
-    def skipped(self) -> list[CaseImport]:
-        return [c for c in self.cases if not c.imported]
-
-    @property
-    def exit_code(self) -> int:
-        return 0 if self.imported else 1
 
     @property
     def label(self) -> str:
