@@ -21,6 +21,7 @@ import math
 from collections.abc import Iterable, Sequence
 
 from spark_bench.errors import SparkBenchError
+from spark_bench.metrics.align import similarity_scale
 from spark_bench.metrics.names import ARTICULATION_KEYS, JOINT_MEAN, METRIC_COLUMNS, SHAPE_KEYS
 from spark_bench.metrics.report import joint_errors, mean_by_part_class, mean_over_joints
 
@@ -87,6 +88,24 @@ def joint_coverage(rows: Sequence[dict], check: str) -> dict | None:
             "cases": len(results)}
 
 
+def alignment_scales(rows: Sequence[dict]) -> dict | None:
+    """The scales ``--align icp`` applied to a run's predictions before scoring them (a foreign method's
+    output comes in a unit box or its own units: the errors hold only at that scale): ``{"median", "min",
+    "max", "cases"}`` over the ``ok`` rows that were aligned; None when none was. Read from each row's stored
+    alignment matrix, so rows stored before the scale was recorded count too.
+
+    :param rows: result rows of one run and variant
+    """
+    scales = sorted(similarity_scale(m["alignment"]) for m in ((r.get("metrics") or {}) for r in rows
+                                                               if r["status"] == "ok")
+                    if m.get("align", "none") != "none" and m.get("alignment") is not None)
+    if not scales:
+        return None
+    n = len(scales)
+    median = scales[n // 2] if n % 2 else (scales[n // 2 - 1] + scales[n // 2]) / 2
+    return {"median": median, "min": scales[0], "max": scales[-1], "cases": n}
+
+
 def check_convention(rows: Sequence[dict]) -> str:
     """The one metric convention of ``rows`` (``""`` for rows that name none).
 
@@ -129,7 +148,8 @@ def by_part_class(rows: Sequence[dict]) -> dict[str, dict]:
 def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (), rl: bool = False) -> dict:
     """The per-benchmark metrics of one run's rows (one variant), keys
     :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``, + :data:`RL_RATES`), then :data:`JOINT_MEAN`;
-    with ``sim`` also ``open_coverage``, with ``rl`` also ``rl_coverage`` (:func:`joint_coverage`).
+    with ``sim`` also ``open_coverage``, with ``rl`` also ``rl_coverage`` (:func:`joint_coverage`); where
+    the predictions were aligned (``--align icp``), ``alignment_scale`` (:func:`alignment_scales`).
 
     :param rows: result rows of one run and variant (ok and failed), all of one metric convention
     :param sim: whether the sim stages were asked for (False: the rates are None)
@@ -150,6 +170,9 @@ def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (),
     out["open_success_rate"] = _rate(rows, lambda r: r.get("open_success")) if sim else None
     if "cd_open" in extra:
         out["cd_open"] = _mean(_value(r, "cd_open") for r in shape_ok)
+    aligned = alignment_scales(rows)
+    if aligned:
+        out["alignment_scale"] = aligned
     if sim:
         out["open_coverage"] = joint_coverage(rows, "open")
     if rl:

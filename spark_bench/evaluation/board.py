@@ -29,6 +29,8 @@ LATEX_HEADERS = {key: header(key, r"$\uparrow$", r"$\downarrow$") for key in HEA
 #: The coverage beside each opening rate (:func:`spark_bench.evaluation.aggregate.joint_coverage`): the rate's
 #: key -> its coverage key and the count column's header.
 COVERAGE = {"open_success_rate": ("open_coverage", "Open joints"), "rl_success_rate": ("rl_coverage", "RL joints")}
+#: The header of the scale ``--align icp`` applied (:func:`fmt_scale`), shown where any entry was aligned.
+SCALE_HEADER = "ICP scale"
 #: The paper's colours for best (Palette5) and second best (Palette4).
 PALETTE = {"Palette5": (253, 207, 158), "Palette4": (231, 188, 198)}
 
@@ -98,14 +100,21 @@ class Table:
         table: its joints), and beside each opening rate the joints it covers (:data:`COVERAGE`)."""
         if self.joints:
             return ["Joints"]
-        return ["Cases", "Failed", *(COVERAGE[m][1] for m in self.metrics if m in COVERAGE)]
+        scale = [SCALE_HEADER] if self.aligned else []
+        return ["Cases", "Failed", *(COVERAGE[m][1] for m in self.metrics if m in COVERAGE), *scale]
 
     def count_cells(self, entry: Entry) -> list[str]:
         """The count cells of ``entry``, see :meth:`count_headers`."""
         if self.joints:
             return [str(entry.metrics.get("n_joints", 0))]
         covered = [fmt_coverage(entry.metrics.get(COVERAGE[m][0])) for m in self.metrics if m in COVERAGE]
-        return [str(entry.n_cases), str(entry.n_failed), *covered]
+        scale = [fmt_scale(entry.metrics.get("alignment_scale"))] if self.aligned else []
+        return [str(entry.n_cases), str(entry.n_failed), *covered, *scale]
+
+    @property
+    def aligned(self) -> bool:
+        """Whether any entry's predictions were scaled by ``--align icp`` (then a column says by how much)."""
+        return any(e.metrics.get("alignment_scale") for e in self.entries)
 
     def ranks(self) -> dict[tuple[int, str], int]:
         """``{(entry index, metric): 1 or 2}`` for the best and second best ranked values."""
@@ -245,6 +254,19 @@ def fmt_coverage(coverage: dict | None) -> str:
     if not coverage:
         return "n/a"
     return f"{coverage['joints_scored']}/{coverage['joints_total']}"
+
+
+def fmt_scale(scales: dict | None) -> str:
+    """The scales ``--align icp`` applied to a run's predictions: ``1.00 (0.90-1.10)``, the median and the
+    range over its aligned cases; ``none`` for a run scored without alignment.
+
+    :param scales: :func:`spark_bench.evaluation.aggregate.alignment_scales`'s result
+    """
+    if not scales:
+        return "none"
+    if abs(scales["max"] - scales["min"]) < 5e-3:
+        return f"{scales['median']:.2f}"
+    return f"{scales['median']:.2f} ({scales['min']:.2f}-{scales['max']:.2f})"
 
 
 def coverage_line(coverage: dict | None) -> str:

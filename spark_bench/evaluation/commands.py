@@ -99,12 +99,19 @@ def run_eval_command(args) -> int:
     if args.json:
         print(json.dumps(summary.to_json()))
         return 0
-    from spark_bench.evaluation.board import coverage_line, fmt_value
+    from spark_bench.evaluation.board import coverage_line, fmt_scale, fmt_value
+
+    def shown(key: str, value) -> str:
+        if key.endswith("_coverage"):
+            return coverage_line(value)
+        if key == "alignment_scale":
+            return f"{fmt_scale(value)} over {value['cases']} aligned cases (median, range)"
+        return fmt_value(value)
 
     print(f"{summary.run.label} on {summary.run.bench}: {summary.n_cases} cases, {summary.n_failed} failed, "
           f"{summary.n_skipped} already done, {summary.seconds:.1f} s")
     for key, value in summary.metrics.items():
-        print(f"  {key:>18}  {coverage_line(value) if key.endswith('_coverage') else fmt_value(value)}")
+        print(f"  {key:>18}  {shown(key, value)}")
     for case_id, reason in list(summary.failures.items())[:20]:
         print(f"  failed {case_id}: {reason}", file=sys.stderr)
     return 0

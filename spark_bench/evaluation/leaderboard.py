@@ -230,6 +230,10 @@ def to_latex(board: Leaderboard, per_category: bool = False, per_part_class: boo
     return "\n".join(parts)
 
 
+#: The CSV columns of the scale ``--align icp`` applied (n/a for a run scored without alignment).
+SCALE_COLUMNS = ("alignment_scale_median", "alignment_scale_min", "alignment_scale_max")
+
+
 def to_csv(board: Leaderboard, per_category: bool = False, per_part_class: bool = False) -> str:
     """One CSV line per entry (and per category and entry with ``per_category``); every metric. With
     ``per_part_class`` two more columns, ``part_class`` and ``n_joints``, and one more line per GAPartNet part
@@ -239,13 +243,16 @@ def to_csv(board: Leaderboard, per_category: bool = False, per_part_class: bool 
     writer = csv.writer(buffer, lineterminator="\n")
     coverage = [name for key, _ in COVERAGE.values() for name in (f"{key}_scored", f"{key}_total")]
     writer.writerow(["bench", "category", "method", "label", "variant", "regime", "version", "config_hash",
-                     "n_cases", "n_failed", *keys, *coverage, *(["part_class", "n_joints"] if per_part_class else [])])
+                     "n_cases", "n_failed", *keys, *coverage, *SCALE_COLUMNS,
+                     *(["part_class", "n_joints"] if per_part_class else [])])
 
     def values(metrics: dict) -> list[str]:
         numbers = ["n/a" if not is_number(metrics.get(k)) else repr(float(metrics[k])) for k in keys]
         for key, _ in COVERAGE.values():
             found = metrics.get(key) or {}
             numbers += [str(found.get("joints_scored", "n/a")), str(found.get("joints_total", "n/a"))]
+        scales = metrics.get("alignment_scale") or {}
+        numbers += [repr(float(scales[k])) if k in scales else "n/a" for k in ("median", "min", "max")]
         return numbers
 
     groups = [("", board.entries)] + (list(board.categories.items()) if per_category else [])

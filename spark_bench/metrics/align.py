@@ -40,7 +40,7 @@ class Alignment:
 
     @property
     def scale(self) -> float:
-        return float(np.cbrt(np.linalg.det(self.matrix[:3, :3])))
+        return similarity_scale(self.matrix)
 
     @property
     def rotation(self) -> np.ndarray:
@@ -53,6 +53,24 @@ class Alignment:
     def apply_direction(self, direction: np.ndarray) -> np.ndarray:
         """The rotation only, on a direction (translation never leaks into axes)."""
         return self.rotation @ np.asarray(direction, dtype=np.float64)
+
+
+def similarity_scale(matrix) -> float:
+    """The uniform scale ``s`` of a similarity ``[[s R, t], [0, 1]]`` (the cube root of its determinant).
+
+    :param matrix: 4x4 similarity (a nested list, as a results row stores it, or an array)
+    """
+    return float(np.cbrt(np.linalg.det(np.asarray(matrix, dtype=np.float64)[:3, :3])))
+
+
+def similarity_yaw_deg(matrix) -> float:
+    """The turn about Z of a similarity ``[[s R, t], [0, 1]]`` whose ``R`` turns about Z, in degrees in
+    (-180, 180].
+
+    :param matrix: 4x4 similarity (a nested list or an array)
+    """
+    linear = np.asarray(matrix, dtype=np.float64)[:3, :3]
+    return float(np.degrees(np.arctan2(linear[1, 0], linear[0, 0])))
 
 
 def identity_alignment(cd: float = float("nan")) -> Alignment:

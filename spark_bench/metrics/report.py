@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from spark_bench import CONVENTION_VERSION
+from spark_bench.metrics.align import similarity_scale, similarity_yaw_deg
 from spark_bench.metrics.names import ARTICULATION_FAMILIES, JOINT_MEAN, SCALAR_PREFIXES, UNITS
 from spark_bench.metrics.shape import ShapeScores
 
@@ -159,12 +160,25 @@ class MetricsResult:
             "matching": [m.to_dict() for m in self.matches],
             "missing_joints": list(self.missing_joints), "extra_joints": list(self.extra_joints),
             "gt_part_classes": dict(self.part_classes), "align": self.align, "alignment": np.asarray(self.alignment).tolist(),
+            **alignment_found(self.align, self.alignment),
             "n_samples": self.n_samples, "n_match_samples": self.n_match_samples, "seed": self.seed,
             "thresholds": list(self.thresholds), "pred": self.pred_name, "gt": self.gt_name,
             "convention": self.convention, "units": dict(UNITS),
         })
         out[JOINT_MEAN] = mean_over_joints(joint_errors(out))
         return out
+
+
+def alignment_found(align: str, matrix) -> dict:
+    """What ``--align`` found, beside the errors it changes: ``alignment_scale`` (the uniform scale applied
+    to the prediction) and ``alignment_yaw_deg`` (its turn about the up axis), both None for ``none``.
+
+    :param align: ``none`` or ``icp``
+    :param matrix: the 4x4 similarity applied to the prediction
+    """
+    if align == "none":
+        return {"alignment_scale": None, "alignment_yaw_deg": None}
+    return {"alignment_scale": similarity_scale(matrix), "alignment_yaw_deg": similarity_yaw_deg(matrix)}
 
 
 # ----- per joint --------------------------------------------------------------------------------------

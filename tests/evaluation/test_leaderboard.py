@@ -373,3 +373,48 @@ def test_every_results_row_records_the_verdict_package_versions(tmp_path):
         (row,) = s.rows()
     versions = row["info"]["versions"]
     assert set(versions) == set(VERDICT_PACKAGES) and versions["mujoco"] != "absent"
+
+
+def _aligned(scale: float, yaw_deg: float) -> dict:
+    """A row's stored metrics after ``--align icp`` found ``scale`` and a turn of ``yaw_deg`` about Z."""
+    import numpy as np
+
+    from spark_bench.metrics.align import rotation_z
+
+    matrix = np.eye(4)
+    matrix[:3, :3] = scale * rotation_z(np.radians(yaw_deg))
+    matrix[:3, 3] = (0.1, -0.2, 0.0)
+    return {"align": "icp", "alignment": matrix.tolist()}
+
+
+def test_the_scale_the_alignment_applied_is_shown_beside_the_errors(tmp_path):
+    """A run scored with ``--align icp`` says by how much its predictions were scaled (median and range over
+    its aligned cases, from the stored matrices): in eval's summary, a Markdown column and the CSV; a run
+    scored without alignment says ``none``, and a board where nothing was aligned has no such column."""
+    from spark_bench.evaluation.aggregate import alignment_scales, summarize
+    from spark_bench.metrics.report import alignment_found
+
+    found = alignment_found("icp", _aligned(0.9, 90.0)["alignment"])
+    assert found["alignment_scale"] == pytest.approx(0.9) and found["alignment_yaw_deg"] == pytest.approx(90.0)
+    assert alignment_found("none", _aligned(0.9, 90.0)["alignment"]) == {"alignment_scale": None,
+                                                                          "alignment_yaw_deg": None}
+    rows = [_row("A", "c1", cd=0.1, metrics=_aligned(0.9, 90.0)), _row("A", "c2", cd=0.2, metrics=_aligned(1.1, 0.0)),
+            _row("A", "c3", cd=0.3, metrics=_aligned(1.0, -90.0)),
+            {**_row("A", "c4", metrics=_aligned(3.0, 0.0)), "status": "failed"},
+            _row("B", "c1", cd=0.1, metrics={"align": "none", "alignment": _aligned(2.0, 0.0)["alignment"]})]
+    scales = alignment_scales(rows[:4])
+    assert scales["cases"] == 3 and scales["median"] == pytest.approx(1.0)
+    assert (scales["min"], scales["max"]) == (pytest.approx(0.9), pytest.approx(1.1))
+    assert summarize(rows[:4])["alignment_scale"] == scales and "alignment_scale" not in summarize(rows[4:])
+    with ResultsStore(tmp_path / "r.sqlite") as s:
+        s.put(rows)
+        board = build_leaderboard(s)
+    text = render(board, "md")
+    assert "ICP scale" in text and "| 1.00 (0.90-1.10) |" in text and "| none |" in text
+    lines = render(board, "csv").splitlines()
+    by_label = {line.split(",")[3]: dict(zip(lines[0].split(","), line.split(","))) for line in lines[1:]}
+    assert float(by_label["A"]["alignment_scale_max"]) == pytest.approx(1.1)
+    assert by_label["B"]["alignment_scale_median"] == "n/a"
+    with ResultsStore(tmp_path / "plain.sqlite") as s:
+        s.put(rows[4:])
+        assert "ICP scale" not in render(build_leaderboard(s), "md")
