@@ -1,5 +1,6 @@
 """``spark-bench import FORMAT``: another program's output -> a predictions folder (one object folder per
-case). Today's format: ``spark`` (SPARK's run folders, :mod:`spark_bench.formats.spark`)."""
+case): ``import spark`` (SPARK's run folders, :mod:`spark_bench.formats.spark`) and one sub-command per format
+of :data:`spark_bench.formats.FORMATS` (:mod:`spark_bench.formats.runs`)."""
 
 from __future__ import annotations
 
