@@ -4,6 +4,12 @@ Importing the package registers the gymnasium environments ``SparkDrawer-v0`` an
 (when :mod:`spark_bench.envs` is present); heavy dependencies are imported lazily by each module.
 """
 
+# Before anything loads NumPy or torch (the environments' registration below does): the same CPU kernels on
+# every x86 machine (spark_bench.kernels).
+from spark_bench.kernels import pin_cpu_kernels as _pin_cpu_kernels
+
+_pin_cpu_kernels()
+
 __version__ = "0.2.0"
 
 #: Version of the metric definitions (docs/conventions.md "The benchmark frame", "Shape metrics",

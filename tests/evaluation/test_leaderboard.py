@@ -364,7 +364,8 @@ def test_every_results_row_records_the_verdict_package_versions(tmp_path):
 
     from spark_bench.evaluation.runner import run_eval
     from spark_bench.methods.base import MethodSpec
-    from spark_bench.versions import VERDICT_PACKAGES
+    from spark_bench.kernels import cpu_kernels
+    from spark_bench.versions import CPU_KERNELS, VERDICT_PACKAGES
 
     bench = make_tiny_bench(tmp_path, n=1)
     run_eval(MethodSpec.create("oracle"), str(bench), FAST, db=tmp_path / "r.sqlite", workers=0,
@@ -372,7 +373,8 @@ def test_every_results_row_records_the_verdict_package_versions(tmp_path):
     with ResultsStore(tmp_path / "r.sqlite") as s:
         (row,) = s.rows()
     versions = row["info"]["versions"]
-    assert set(versions) == set(VERDICT_PACKAGES) and versions["mujoco"] != "absent"
+    assert set(versions) == {*VERDICT_PACKAGES, CPU_KERNELS} and versions["mujoco"] != "absent"
+    assert versions[CPU_KERNELS] == cpu_kernels()
 
 
 def _aligned(scale: float, yaw_deg: float) -> dict:

@@ -16,7 +16,8 @@ ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "spark_bench"
 #: The order, lowest first; the README's architecture section states it (``ORDER_LINE``).
 LAYERS = (
-    ("errors", "jsonio", "paths", "lazy", "timing", "versions", "mujoco_gl"),
+    ("errors", "jsonio", "paths", "lazy", "timing", "kernels", "mujoco_gl"),
+    ("versions",),
     ("asset",),
     ("data",),
     ("metrics", "sim", "formats"),
