@@ -57,6 +57,22 @@ class ForeignObject:
     open_questions: tuple[str, ...] = ("yaw", "scale")
 
 
+def selected_case_ids(benchmark, cases: list[str] | None) -> list[str]:
+    """The benchmark's case ids an import covers: all of them, or ``cases`` in the benchmark's order.
+
+    :param benchmark: a :class:`~spark_bench.data.case.Benchmark`
+    :param cases: the case ids asked for (None: every case)
+    :raises InputError: naming the benchmark's manifest for a case id it does not hold
+    """
+    case_ids = benchmark.case_ids()
+    if cases:
+        unknown_ids = [c for c in cases if c not in case_ids]
+        if unknown_ids:
+            raise InputError(benchmark.manifest_path, f"no case {unknown_ids[0]!r} in this benchmark")
+        case_ids = [c for c in case_ids if c in set(cases)]
+    return case_ids
+
+
 def finite_vector(value, path: Path, what: str) -> np.ndarray:
     """``value`` (a JSON list) as 3 finite floats.
 

@@ -29,6 +29,7 @@ from spark_bench.formats.foreign import (
     ForeignObject,
     ImportOutcome,
     remove_stale_import,
+    selected_case_ids,
     to_benchmark,
     write_import,
 )
@@ -118,12 +119,7 @@ def import_runs(fmt: str, runs_dir: str | Path, bench: str | Path, out_dir: str 
 
     read = reader or reader_of(fmt)
     benchmark = Benchmark(Path(bench))
-    case_ids = benchmark.case_ids()
-    if cases:
-        unknown_ids = [c for c in cases if c not in case_ids]
-        if unknown_ids:
-            raise InputError(benchmark.manifest_path, f"no case {unknown_ids[0]!r} in this benchmark")
-        case_ids = [c for c in case_ids if c in set(cases)]
+    case_ids = selected_case_ids(benchmark, cases)
     runs_dir = Path(runs_dir)
     if not runs_dir.is_dir():
         raise InputError(runs_dir, "runs folder not found (one folder per case id, each one run's output)")

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from spark_bench.errors import InputError
-from spark_bench.formats.foreign import ImportOutcome, remove_stale_import, write_import
+from spark_bench.formats.foreign import ImportOutcome, remove_stale_import, selected_case_ids, write_import
 from spark_bench.formats.spark import layout
 from spark_bench.formats.spark.reader import read_spark_run
 
@@ -173,12 +173,7 @@ def import_runs(runs_dir: str | Path, bench: str | Path, out_dir: str | Path, ta
     from spark_bench.jsonio import to_json_text
 
     benchmark = Benchmark(Path(bench))
-    case_ids = benchmark.case_ids()
-    if cases:
-        unknown_ids = [c for c in cases if c not in case_ids]
-        if unknown_ids:
-            raise InputError(benchmark.manifest_path, f"no case {unknown_ids[0]!r} in this benchmark")
-        case_ids = [c for c in case_ids if c in set(cases)]
+    case_ids = selected_case_ids(benchmark, cases)
     runs, not_runs = find_runs(runs_dir)
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
