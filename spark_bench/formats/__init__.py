@@ -9,6 +9,7 @@ fact comes from.
 - :mod:`.freeart3d`: FreeArt3D (``sds_output/joint_info.json`` + ``part_meshes/``);
 - :mod:`.parts`: shape-only methods, one mesh per part (PartCrafter, OmniPart);
 - :mod:`.anymesh`: Articulate AnyMesh (``mobility.json`` + ``mesh_parts/``);
+- :mod:`.mjcf`: any MJCF, read through MuJoCo (PhysX-Anything's ``basic.xml``, Particulate's export, Real2Code);
 - :mod:`.spark`: SPARK's run folders (its layout, the reader, ``spark-bench import spark``);
 - :mod:`.commands`: the ``import`` command.
 
@@ -24,4 +25,5 @@ FORMATS: dict[str, str] = {
     "freeart3d": "spark_bench.formats.freeart3d:read_run",
     "parts": "spark_bench.formats.parts:read_run",  # shape only: PartCrafter, OmniPart
     "anymesh": "spark_bench.formats.anymesh:read_run",  # Articulate AnyMesh
+    "mjcf": "spark_bench.formats.mjcf:read_run",  # PhysX-Anything's basic.xml, Particulate, Real2Code
 }

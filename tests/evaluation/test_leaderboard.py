@@ -363,8 +363,8 @@ def test_every_results_row_records_the_verdict_package_versions(tmp_path):
     from helpers_bench import FAST, make_tiny_bench
 
     from spark_bench.evaluation.runner import run_eval
-    from spark_bench.methods.base import MethodSpec
     from spark_bench.kernels import cpu_kernels
+    from spark_bench.methods.base import MethodSpec
     from spark_bench.versions import CPU_KERNELS, VERDICT_PACKAGES
 
     bench = make_tiny_bench(tmp_path, n=1)
