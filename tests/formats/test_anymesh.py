@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from helpers_bench import make_tiny_bench
+from helpers_formats import refused
 
 from spark_bench.asset.transforms import axis_angle_matrix
 from spark_bench.data.case import Benchmark
@@ -36,11 +36,6 @@ TOL = 1e-5
 YAW_DEG = 31.0
 PARTNET_ROOT = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # Y up, front +Z -> ours
 NAMES = {"link_0": "drawer@1", "link_1": "door@1"}  # the cabinet's parts as the segmentation names them
-
-
-@pytest.fixture(scope="module")
-def bench(tmp_path_factory) -> Path:
-    return make_tiny_bench(tmp_path_factory.mktemp("bench"), n=2)
 
 
 @pytest.fixture(scope="module")
@@ -196,11 +191,7 @@ def _entries(run: Path) -> list[dict]:
 
 
 def _refused(run: Path, *words: str) -> InputError:
-    with pytest.raises(InputError) as info:
-        read_run(run)
-    message = str(info.value)
-    assert "\n" not in message and all(w in message for w in words), message
-    return info.value
+    return refused(read_run, run, *words)
 
 
 def test_nan_in_an_axis_is_refused(run):

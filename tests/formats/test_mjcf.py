@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from helpers_bench import make_tiny_bench
+from helpers_formats import refused
 from PIL import Image
 from scipy.spatial.transform import Rotation
 
@@ -44,11 +44,6 @@ TOL = 1e-5
 YAW_DEG = 31.0
 STAMP = "20260125_134829"  # infer.py: datetime.now().strftime("%Y%m%d_%H%M%S")
 REFQUAT = "0.5 -0.5 0.5 0.5"  # Real2Code's get_offset_xml
-
-
-@pytest.fixture(scope="module")
-def bench(tmp_path_factory) -> Path:
-    return make_tiny_bench(tmp_path_factory.mktemp("bench"), n=2)
 
 
 @pytest.fixture(scope="module")
@@ -477,11 +472,7 @@ def _edit(run: Path, old: str, new: str) -> None:
 
 
 def _refused(run: Path, *words: str) -> InputError:
-    with pytest.raises(InputError) as info:
-        read_run(run)
-    message = str(info.value)
-    assert "\n" not in message and all(w in message for w in words), message
-    return info.value
+    return refused(read_run, run, *words)
 
 
 def test_an_include_leaving_the_run_folder_is_refused(run, tmp_path):

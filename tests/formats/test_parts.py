@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from helpers_bench import make_tiny_bench
+from helpers_formats import refused
 from scipy.spatial import cKDTree
 
 from spark_bench.asset.transforms import axis_angle_matrix
@@ -38,11 +38,6 @@ TOL = 1e-5
 YAW_DEG = 31.0  # the input view's turn about the up axis, left open by the format
 PARTNET_ROOT = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # Y up, front +Z -> ours
 TO_GLB = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # TRELLIS to_glb: v @ TO_GLB
-
-
-@pytest.fixture(scope="module")
-def bench(tmp_path_factory) -> Path:
-    return make_tiny_bench(tmp_path_factory.mktemp("bench"), n=2)
 
 
 @pytest.fixture(scope="module")
@@ -214,11 +209,7 @@ def test_omnipart_part_files_left_before_merge_parts(gt, tmp_path):
 
 # ----- bad input ------------------------------------------------------------------------------------------
 def _refused(run: Path, *words: str) -> InputError:
-    with pytest.raises(InputError) as info:
-        read_run(run)
-    message = str(info.value)
-    assert "\n" not in message and all(w in message for w in words), message
-    return info.value
+    return refused(read_run, run, *words)
 
 
 def test_truncated_glb_is_refused_naming_it(gt, tmp_path):

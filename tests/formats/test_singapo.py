@@ -18,11 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from helpers_bench import make_tiny_bench
+from helpers_formats import refused
 
 from spark_bench.data.case import Benchmark
 from spark_bench.data.readers import load_object
-from spark_bench.errors import InputError
 from spark_bench.formats.foreign import read_import_record, to_benchmark
 from spark_bench.formats.runs import import_runs
 from spark_bench.formats.singapo import RAW_TO_OURS, read_run
@@ -30,11 +29,6 @@ from spark_bench.formats.singapo import RAW_TO_OURS, read_run
 # PLY written by trimesh keeps float64 vertices; normalizing by a box of them is exact to rounding.
 TOL = 1e-6
 OURS_TO_RAW = RAW_TO_OURS.T
-
-
-@pytest.fixture(scope="module")
-def bench(tmp_path_factory) -> Path:
-    return make_tiny_bench(tmp_path_factory.mktemp("bench"), n=2)
 
 
 # ----- writing runs as SINGAPO does ------------------------------------------------------------------------
@@ -244,13 +238,7 @@ def run(tmp_path) -> Path:
 
 
 def _refused(run: Path, file: str, *words: str) -> str:
-    with pytest.raises(InputError) as caught:
-        read_run(run)
-    message = str(caught.value)
-    assert caught.value.path.endswith(file), message
-    assert all(w in message for w in words), message
-    assert "\n" not in message
-    return message
+    return str(refused(read_run, run, *words, file=file))
 
 
 def test_a_truncated_ply_is_refused(run):
