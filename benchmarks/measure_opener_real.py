@@ -385,6 +385,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--root", type=Path, default=ROOT, help="folder of PartNet-Mobility objects")
     parser.add_argument("--ids", default=None, help="comma-separated object ids (default: every object)")
+    parser.add_argument("--half", choices=("tune", "holdout"), default=None,
+                        help="only the objects of this half of partnet_dev (benchmarks/dev_split.py): tune a rule "
+                             "on one, report the other")
     parser.add_argument("--episodes", type=int, default=2)
     parser.add_argument("--max-steps", type=int, default=None,
                         help="steps per episode (default: the environments' registered time limit)")
@@ -413,6 +416,11 @@ def main() -> None:
     if not args.root.is_dir():
         raise SystemExit(f"{args.root}: no such folder")
     ids = args.ids.split(",") if args.ids else sorted(p.name for p in args.root.iterdir() if (p / "mobility.urdf").is_file())
+    if args.half is not None:
+        from dev_split import read_halves
+
+        half = set(read_halves()[args.half])
+        ids = [i for i in ids if i in half]
     videos = Path(args.videos) if args.videos else None  # '' is no videos (Path('') would be the cwd)
     if videos is not None and videos.is_dir():  # no stale video of an earlier run's failure
         for old in videos.glob("*.mp4"):
