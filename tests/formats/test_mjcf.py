@@ -18,6 +18,7 @@ The runs are written here the way each method's code writes them, from a ground-
 
 from __future__ import annotations
 
+import json
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -564,3 +565,25 @@ def test_other_files_are_refused(run, tmp_path):
     (empty / "a.xml").write_text("<mujoco/>")
     (empty / "b.xml").write_text("<mujoco/>")
     _refused(empty, "2 *.xml files")
+
+
+def test_from_a_method_output_folder_to_the_leaderboard(bench, gt, tmp_path, isolated_home, capsys):
+    """The README's commands for another method, run as written: import the runs, score them with
+    ``--align icp``, print the leaderboard; the row is the method's label, its joints are right, and the scale
+    the alignment applied to the unit-box export stands beside the errors."""
+    from spark_bench.cli import main
+
+    runs, pred, db = tmp_path / "runs", tmp_path / "pred", tmp_path / "r.sqlite"
+    write_particulate(runs / "cab0", gt)
+    assert main(["import", "mjcf", "--runs", str(runs), "--bench", str(bench), "--out", str(pred)]) == 0
+    assert "cab1" in capsys.readouterr().out  # the case without a run is listed
+    assert main(["eval", "--method", "predictions", "--predictions", str(pred), "--bench", str(bench),
+                 "--label", "Particulate", "--align", "icp", "--no-sim", "--n-samples", "5000", "--db", str(db),
+                 "--cases", "cab0", "--workers", "0", "--no-progress", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary["metrics"]["axis_err"] < 1e-3 and summary["metrics"]["type_err"] == 0.0
+    scale = summary["metrics"]["alignment_scale"]
+    assert scale["cases"] == 1 and scale["median"] == pytest.approx(1.0, abs=0.11)
+    assert main(["leaderboard", "--db", str(db), "--format", "md"]) == 0
+    board = capsys.readouterr().out
+    assert "Particulate" in board and "ICP scale" in board
