@@ -9,6 +9,8 @@ fact comes from.
 - :mod:`.freeart3d`: FreeArt3D (``sds_output/joint_info.json`` + ``part_meshes/``);
 - :mod:`.parts`: shape-only methods, one mesh per part (PartCrafter, OmniPart);
 - :mod:`.anymesh`: Articulate AnyMesh (``mobility.json`` + ``mesh_parts/``);
+- :mod:`.urdf`: any method's URDF (URDFormer, Articulate-Anything, PhysX-Anything's ``basic.urdf``; FreeArt3D's
+  ``output.urdf`` through its ``joint_info.json``);
 - :mod:`.mjcf`: any MJCF, read through MuJoCo (PhysX-Anything's ``basic.xml``, Particulate's export, Real2Code);
 - :mod:`.spark`: SPARK's run folders (its layout, the reader, ``spark-bench import spark``);
 - :mod:`.commands`: the ``import`` command.
@@ -26,4 +28,6 @@ FORMATS: dict[str, str] = {
     "parts": "spark_bench.formats.parts:read_run",  # shape only: PartCrafter, OmniPart
     "anymesh": "spark_bench.formats.anymesh:read_run",  # Articulate AnyMesh
     "mjcf": "spark_bench.formats.mjcf:read_run",  # PhysX-Anything's basic.xml, Particulate, Real2Code
+    # any method's URDF: URDFormer, Articulate-Anything, PhysX-Anything (FreeArt3D's output.urdf via joint_info.json)
+    "urdf": "spark_bench.formats.urdf:read_run",
 }
