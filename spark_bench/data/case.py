@@ -284,6 +284,27 @@ class BenchmarkCase:
         bench_to_metres = self.to_metres()
         return similarity_asset(gt_bench, bench_to_metres), bench_to_metres
 
+    @property
+    def source_folder(self) -> Path | None:
+        """The object folder (or URDF file) the case was prepared from (``case.json``'s ``source``), or None
+        when the record names none. It may not exist on this machine (a benchmark prepared elsewhere)."""
+        source = self.record.get("source")
+        return Path(source) if isinstance(source, str) and source else None
+
+    def load_source(self):
+        """The object the case was prepared from, as the dataset gives it: its own meshes (not the
+        remesh), in its own frame and units, which are those of :meth:`gt_at_source_size` (``data prepare``
+        remeshes the source in its frame and only then normalizes it).
+
+        :raises InputError: naming the folder when the record names none or it is not on this machine
+        """
+        from spark_bench.data.readers import load_object
+
+        folder = self.source_folder
+        if folder is None or not folder.exists():
+            raise InputError(folder or self.record_path, "source object not found")
+        return load_object(folder)
+
     @classmethod
     def of_gt_folder(cls, folder: str | Path) -> BenchmarkCase | None:
         """The case whose ground truth is ``folder``, or None when ``folder`` is not a case's ``gt/``."""

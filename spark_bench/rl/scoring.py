@@ -26,6 +26,12 @@ one scripted episode planned from the predicted joint, ``eval``'s ``open`` stage
   prediction's joints are carried into ``gt_metres``: prediction world -> its benchmark frame (-> the
   metrics' ICP alignment) -> ground-truth world -> metres
   (:func:`spark_bench.data.case.prediction_to_gt_metres`).
+- **The object acted on** (:func:`object_acted_on`, a result's ``acts_on``): a case's source object as the
+  dataset gives it (``case.json``'s ``source``: its own meshes, in metres, in ``gt_metres``' frame), not
+  the prepared ground truth, whose watertight remesh fattens thin parts and fills the gaps of handles
+  (a drawer the gripper opens on the source finds nothing to hold on the remesh). The metrics keep the
+  remesh. When the source is not on this machine, or its drawers and doors are not the ground truth's
+  (names, types, axes, pivots, ranges), the policies act on ``gt_metres`` and ``acts_on`` says why.
 - **The oracle shortcut**: a prediction folder that is the ground-truth folder is loaded once.
 
 :func:`open_every_joint` is a diagnostic of the opener itself, on one object with its own joints.
@@ -33,6 +39,7 @@ one scripted episode planned from the predicted joint, ``eval``'s ``open`` stage
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -49,6 +56,15 @@ from spark_bench.rl.scripted import OpenResult, open_with_ground_truth, open_wit
 OPENING_TYPES = ("prismatic", "revolute")
 #: Step limit of a scripted episode in the scores (the ground-truth reference episode included).
 OPENING_STEPS = 200
+#: A result's ``acts_on`` when the policies act on the case's source object (:func:`object_acted_on`);
+#: otherwise it names what they act on and why.
+ACTS_ON_SOURCE = "source"
+#: How closely a source's drawers and doors must agree with the prepared ground truth's in metres to stand
+#: in for it: axis angle (radians), and pivot and prismatic range as a fraction of the object's diagonal
+#: (the ground truth went through the normalization and its files: on partnet_dev and real_objects it
+#: agrees to 1e-15, benchmarks/results/open_source.md).
+SOURCE_ANGLE_TOL = 1e-3
+SOURCE_LENGTH_TOL = 1e-3
 #: Why a ground-truth joint counts as not opened when the metrics matched no predicted joint with it.
 NOT_MATCHED = "no matched predicted joint"
 #: What left a joint out (a row's ``left_out_kind``): the grasp planner declined the part (nothing a parallel
@@ -123,7 +139,7 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS)
     environment), then the scene's stuck check, then one episode of the scripted opener with the joint's
     own parameters. The caller closes the result.
 
-    :param gt_metres: the ground truth at its real size
+    :param gt_metres: the object the policies act on, in metres (:func:`object_acted_on`)
     :param joint: one of its :func:`opening_joints`
     :param seed: the reference episode's reset seed
     :param max_steps: its step limit (and the environment's)
@@ -193,15 +209,75 @@ def predicted_joints_in_gt_metres(pred, pred_to_gt_metres) -> dict[str, tuple[np
     return out
 
 
+# ----- the object the policies act on --------------------------------------------------------------
+def source_mismatch(source, gt_metres) -> str | None:
+    """How a source object's drawers and doors differ from the prepared ground truth's in metres (the first
+    difference, one line), or None when they agree (:data:`SOURCE_ANGLE_TOL`, :data:`SOURCE_LENGTH_TOL`).
+
+    :param source: the case's source object as loaded
+    :param gt_metres: the case's ground truth at its real size
+    """
+    gt_joints = {joint.name: joint for joint in opening_joints(gt_metres)}
+    source_joints = {joint.name: joint for joint in opening_joints(source)}
+    if set(gt_joints) != set(source_joints):
+        return f"drawers and doors {sorted(source_joints)} are not the ground truth's {sorted(gt_joints)}"
+    length_tol = SOURCE_LENGTH_TOL * float(np.linalg.norm(np.ptp(gt_metres.bounds(), axis=0)))
+    gt_frames, source_frames = gt_metres.joint_frames(), source.joint_frames()
+    for name, joint in gt_joints.items():
+        other = source_joints[name]
+        (gt_point, gt_axis), (point, axis) = gt_frames[name], source_frames[name]
+        angle = float(np.arccos(np.clip(np.dot(unit(gt_axis), unit(axis)), -1.0, 1.0)))
+        range_tol = length_tol if joint.type == "prismatic" else SOURCE_ANGLE_TOL
+        if other.type != joint.type:
+            return f"joint {name} is {other.type}, the ground truth's {joint.type}"
+        if angle > SOURCE_ANGLE_TOL or np.linalg.norm(np.asarray(point) - gt_point) > length_tol:
+            return f"joint {name}'s axis line is not the ground truth's"
+        if max(abs(other.lower - joint.lower), abs(other.upper - joint.upper)) > range_tol:
+            return f"joint {name}'s range is not the ground truth's"
+    return None
+
+
+def object_acted_on(gt_folder: str | Path, gt_metres):
+    """``(object, acts_on)``: what the policies open, and what it is (a result's ``acts_on``).
+
+    A benchmark case's source object (``case.json``'s ``source``) as the dataset gives it, in metres:
+    :data:`ACTS_ON_SOURCE`. Otherwise ``gt_metres``, never silently: ``acts_on`` is ``"prepared gt (...)"``
+    with why (the source is not on this machine, unreadable, or its drawers and doors are not the ground
+    truth's: :func:`source_mismatch`), or ``"object folder"`` for a ground truth that is no case (in metres
+    already, acted on as it is).
+
+    :param gt_folder: the ground-truth object folder
+    :param gt_metres: its object at its real size (:func:`spark_bench.data.case.ground_truth_in_metres`)
+    """
+    from spark_bench.data.case import BenchmarkCase
+
+    case = BenchmarkCase.of_gt_folder(gt_folder)
+    if case is None:
+        return gt_metres, "object folder"
+    folder = case.source_folder
+    if folder is None or not folder.exists():
+        return gt_metres, f"prepared gt (source not found: {folder})"
+    try:
+        source = case.load_source()
+    except (InputError, OSError, ValueError) as exc:  # a broken download: the prepared gt still stands
+        return gt_metres, f"prepared gt (source unreadable: {one_line(exc)})"
+    differs = source_mismatch(source, gt_metres)
+    if differs is not None:
+        return gt_metres, f"prepared gt (source differs: {differs})"
+    return source, ACTS_ON_SOURCE
+
+
 @dataclass
 class Pairing:
     """A prediction and the ground truth it is scored on (:func:`load_pairing`).
 
     :param gt_bench: the ground truth as stored (a case's: benchmark frame)
-    :param gt_metres: the same at its real size, where the policies act
+    :param gt_metres: the object the policies act on, in metres: the case's source object when found
+        (:func:`object_acted_on`), else the ground truth at its real size; the frame of both
     :param pred: the prediction as stored (its own world frame); ``gt_bench`` itself for the oracle
     :param pred_to_gt_metres: 4x4 similarity from ``pred``'s world frame into ``gt_metres``'
     :param matched: ``{ground-truth joint: predicted joint}`` from the metrics' matching
+    :param acts_on: what ``gt_metres`` is (:func:`object_acted_on`)
     """
 
     gt_bench: object
@@ -209,6 +285,7 @@ class Pairing:
     pred: object
     pred_to_gt_metres: np.ndarray
     matched: dict[str, str]
+    acts_on: str = "object folder"
 
     @cached_property
     def estimates(self) -> dict[str, tuple[np.ndarray, np.ndarray, str]]:
@@ -244,7 +321,8 @@ def load_pairing(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, 
     """Load a prediction and its ground truth for a score.
 
     :param pred_folder: the predicted object folder
-    :param gt_folder: the ground-truth object folder (a benchmark case's ``gt/`` is brought to metres)
+    :param gt_folder: the ground-truth object folder (a benchmark case's ``gt/`` is brought to metres; its
+        source object, when on this machine, is what the policies act on: :func:`object_acted_on`)
     :param metrics: the prediction's metrics (``matching``: gt_joint / pred_joint pairs; ``alignment``)
     :param gt_bench: the object of ``gt_folder`` if the caller already loaded it (not modified)
     """
@@ -252,11 +330,12 @@ def load_pairing(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, 
     from spark_bench.data.case import ground_truth_in_metres, prediction_to_gt_metres
 
     gt_bench, gt_metres, bench_to_metres = ground_truth_in_metres(gt_folder, gt_bench)
+    acted_on, acts_on = object_acted_on(gt_folder, gt_metres)
     # the oracle's prediction is the ground-truth folder itself: loaded once (a real object takes seconds)
     same_folder = Path(pred_folder).resolve() == Path(gt_folder).resolve()
     pred = gt_bench if same_folder else load_object(pred_folder)
     frame = prediction_to_gt_metres(pred, gt_bench, metrics.get("alignment"), bench_to_metres)
-    return Pairing(gt_bench, gt_metres, pred, frame, matched_joints(metrics))
+    return Pairing(gt_bench, acted_on, pred, frame, matched_joints(metrics), acts_on)
 
 
 # ----- the scripted opening score -------------------------------------------------------------------
@@ -272,19 +351,33 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     :param max_steps: step limit per episode (the reference episode's too)
     :param gt_bench: the object of ``gt_folder`` if the caller already loaded it (not modified)
     :returns: ``{"success_rate": fraction opened of the joints scored (None when none is), "joints": {...},
-        "joints_total", "joints_scored", "left_out"}``; a joint left out has ``success`` None and a one-line
+        "joints_total", "joints_scored", "left_out", "acts_on"}`` (``acts_on``: :func:`object_acted_on`'s
+        word for what the episodes opened); a joint left out has ``success`` None and a one-line
         ``reason`` (module docstring); one not attempted has ``success`` False and ``why``; one attempted
         has ``success``, ``pred_joint``, ``max_fraction`` and ``steps``
     """
-    pairing = load_pairing(pred_folder, gt_folder, metrics, gt_bench)
+    return scripted_score(load_pairing(pred_folder, gt_folder, metrics, gt_bench), seed, max_steps)
+
+
+def scripted_score(pairing: Pairing, seed: int = 0, max_steps: int = OPENING_STEPS,
+                   only: Collection[str] | None = None) -> dict:
+    """:func:`open_with_predicted_joints` of a loaded pairing (what it returns).
+
+    :param pairing: the prediction and the object acted on (:func:`load_pairing`)
+    :param seed: environment reset seed (the reference episode's too)
+    :param max_steps: step limit per episode (the reference episode's too)
+    :param only: score only these ground-truth joints (a measurement of some; default: every drawer and door)
+    """
     joints: dict[str, dict] = {}
     for joint in opening_joints(pairing.gt_metres):
+        if only is not None and joint.name not in only:
+            continue
         judged = judge_joint(pairing.gt_metres, joint, seed, max_steps)
         try:
             joints[joint.name] = _scripted_row(judged, pairing, seed, max_steps)
         finally:
             judged.close()
-    return {"success_rate": scored_mean(joints), "joints": joints, **coverage(joints)}
+    return {"success_rate": scored_mean(joints), "joints": joints, **coverage(joints), "acts_on": pairing.acts_on}
 
 
 def _scripted_row(judged: JudgedJoint, pairing: Pairing, seed: int, max_steps: int) -> dict:

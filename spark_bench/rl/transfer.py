@@ -6,7 +6,9 @@ joints are opening tasks (drawers and doors), the one rule that leaves out a joi
 planner declines it, the scene says it is stuck, or the scripted opener fails with the ground-truth joint
 too: ``success`` None with the ``reason``, for every method alike), the pairing with the predicted joints
 and their frame (prediction world -> its benchmark frame -> the metrics' alignment -> ground-truth world
--> metres). For every ground-truth drawer and door not left out:
+-> metres), and the object acted on: a case's source object as the dataset gives it, not the remeshed
+ground truth, when it is on this machine (the result's ``acts_on`` says which). For every ground-truth
+drawer and door not left out:
 
 1. the predicted joint matched with it by the metrics picks the policy (the drawer policy for a predicted
    prismatic joint, the door policy for a revolute or continuous one) and is what the policy is told about
@@ -168,7 +170,8 @@ def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: d
         over the joints scored, None when none is; a joint left out has ``success`` and ``zero_shot`` None
         and its ``reason``; the holdable rates are over the scored joints a parallel gripper can hold
         (:func:`spark_bench.rl.tasks.holdable`); ``assets`` names the prediction and the ground truth by
-        path and content hash
+        path and content hash (the ground truth as stored: the metrics'), and ``acts_on`` what the episodes
+        opened (:func:`spark_bench.rl.scoring.object_acted_on`)
     """
     import torch
 
@@ -250,7 +253,7 @@ def _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, se
             "holdable_joints": len(held),
             "holdable_success_rate": scored_mean(held),
             "holdable_zero_shot_success_rate": scored_mean(held, "zero_shot"),
-            **coverage(joints),
+            **coverage(joints), "acts_on": pairing.acts_on,
             "assets": {"prediction": {"path": str(Path(pred_folder)), "sha256": asset_content_hash(pairing.pred)},
                        "ground_truth": {"path": str(Path(gt_folder)),
                                         "sha256": asset_content_hash(pairing.gt_bench)}},
