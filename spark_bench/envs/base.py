@@ -39,23 +39,26 @@ OBS_BOUND = 10.0
 
 
 @lru_cache(maxsize=16)
-def _cached_scene(key: str, kind: str, joint: str | None, visuals: bool = True) -> Scene:
+def _cached_scene(key: str, kind: str, joint: str | None, visuals: bool = True,
+                  end_effector: str = "gripper") -> Scene:
     asset, _ = load_asset(key)
-    return build_scene(asset, kind, joint, visuals=visuals)
+    return build_scene(asset, kind, joint, visuals=visuals, end_effector=end_effector)
 
 
-def make_scene(asset: AssetLike, kind: str, joint: str | None, visuals: bool = True) -> Scene:
-    """The compiled scene, cached per (asset, kind, joint, visuals) for assets given by name, so that the
-    copies of a vectorized environment share one model.
+def make_scene(asset: AssetLike, kind: str, joint: str | None, visuals: bool = True,
+               end_effector: str = "gripper") -> Scene:
+    """The compiled scene, cached per (asset, kind, joint, visuals, end-effector) for assets given by name, so
+    that the copies of a vectorized environment share one model.
 
     :param visuals: compile the visual meshes; an environment that never renders leaves them out (the
         physics is the same: visual geoms have no contacts and no mass) and a real object's scene then
         compiles about 7 s faster per joint
+    :param end_effector: ``gripper``, ``suction`` or ``auto`` (:func:`~spark_bench.envs.scene.build_scene`)
     """
     key = asset_key(asset)
     if key is None:
-        return build_scene(asset, kind, joint, visuals=visuals)
-    return _cached_scene(key, kind, joint, visuals)
+        return build_scene(asset, kind, joint, visuals=visuals, end_effector=end_effector)
+    return _cached_scene(key, kind, joint, visuals, end_effector)
 
 
 class SparkArticulationEnv(gym.Env):
@@ -76,6 +79,10 @@ class SparkArticulationEnv(gym.Env):
     :param observation: ``basic`` (19 entries) or ``frame`` (37: the grasp frame and the joint follow)
     :param joint_estimate: ``(axis, pivot, type)``, world frame at rest: the joint the ``frame``
         observation reports instead of the simulated one's (a prediction's joint, acting on the real object)
+    :param end_effector: ``gripper`` (the parallel gripper, the default), ``suction`` (a suction cup on the
+        part's front face, :mod:`spark_bench.envs.suction`) or ``auto`` (the cup where the grasp planner finds
+        nothing to pinch, the gripper everywhere else); the one chosen is ``self.end_effector`` and every
+        step's ``info["end_effector"]``
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": int(round(1.0 / (N_SUBSTEPS * TIMESTEP)))}
@@ -84,7 +91,7 @@ class SparkArticulationEnv(gym.Env):
     def __init__(self, asset: AssetLike = None, joint: str | None = None, target_fraction: float = 0.75,
                  reward_type: str = "dense", render_mode: str | None = None, width: int = 480,
                  height: int = 360, seed: int | None = None, observation: str = "basic",
-                 joint_estimate: tuple | None = None):
+                 joint_estimate: tuple | None = None, end_effector: str = "gripper"):
         if not 0.0 < target_fraction <= 1.0:
             raise ValueError(f"target_fraction must be in (0, 1], got {target_fraction}")
         if reward_type not in ("dense", "sparse"):
@@ -93,7 +100,10 @@ class SparkArticulationEnv(gym.Env):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         if observation not in OBSERVATIONS:
             raise ValueError(f"observation must be one of {OBSERVATIONS}, got {observation!r}")
-        self.scene = make_scene(asset, self.joint_kind, joint, visuals=render_mode is not None)
+        self.scene = make_scene(asset, self.joint_kind, joint, visuals=render_mode is not None,
+                                end_effector=end_effector)
+        self.end_effector = self.scene.end_effector
+        self._suction = self.end_effector == "suction"
         self.observation = observation
         self.target_fraction = float(target_fraction)
         self.reward_type = reward_type
@@ -117,13 +127,19 @@ class SparkArticulationEnv(gym.Env):
         self._tcp_q = slice(qadr[0], qadr[0] + 3)
         self._tcp_v = slice(vadr[0], vadr[0] + 3)
         assert qadr == list(range(qadr[0], qadr[0] + 3)) and vadr == list(range(vadr[0], vadr[0] + 3))
-        self._finger_q = np.array([m.jnt_qposadr[m.joint(n).id] for n in g.finger_joints])
         self._wrist_q = m.jnt_qposadr[m.joint(g.wrist_joint).id] if g.wrist_joint else None
         act = [m.actuator(n).id for n in g.slide_actuators]
         self._act_tcp = slice(act[0], act[0] + 3)
         assert act == list(range(act[0], act[0] + 3))
-        self._act_fingers = np.array([m.actuator(n).id for n in g.finger_actuators])
-        self._touch = np.array([m.sensor_adr[m.sensor(n).id] for n in g.touch_sensors])
+        if self._suction:  # one cup: its touch reading fills both pads' entries
+            self._finger_q = np.zeros(0, dtype=int)
+            self._act_fingers = np.zeros(0, dtype=int)
+            self._act_suction = m.actuator(g.suction_actuator).id
+            self._touch = np.repeat(m.sensor_adr[m.sensor(g.touch_sensor).id], 2)
+        else:
+            self._finger_q = np.array([m.jnt_qposadr[m.joint(n).id] for n in g.finger_joints])
+            self._act_fingers = np.array([m.actuator(n).id for n in g.finger_actuators])
+            self._touch = np.array([m.sensor_adr[m.sensor(n).id] for n in g.touch_sensors])
         jid = m.joint(self.scene.joint.name).id
         self._joint_q, self._joint_v = m.jnt_qposadr[jid], m.jnt_dofadr[jid]
         self._rest, self._open = self.scene.joint_range
@@ -131,7 +147,7 @@ class SparkArticulationEnv(gym.Env):
         self._body = m.body(self.scene.grasp_body).id
         self._local = self.scene.grasp_local.copy()
         self._gripper_config = g.config
-        self._max_opening = g.config.max_opening
+        self._max_opening = None if self._suction else g.config.max_opening
         self._low, self._high = self.scene.workspace[0], self.scene.workspace[1]
 
     def _index_frame(self, joint_estimate: tuple | None) -> None:
@@ -144,7 +160,9 @@ class SparkArticulationEnv(gym.Env):
         self._outward_local = to_body @ grasp.outward
         self._closing_local = to_body @ grasp.closing
         self._press_local = to_body @ grasp.press if grasp.inside_grip else np.zeros(3)
-        if grasp.inside_grip:
+        if self._suction:
+            self._approach_grip = -1.0  # the cup comes in released and sucks once on the face
+        elif grasp.inside_grip:
             self._approach_grip = 1.0  # closed: the fingers enter the notch, then open against its sides
         elif grasp.opening is not None:
             self._approach_grip = grip_command(self._gripper_config, grasp.opening)
@@ -191,7 +209,10 @@ class SparkArticulationEnv(gym.Env):
         out = np.empty(FRAME_OBS_SIZE if self._frame else OBS_SIZE, dtype=np.float32)
         out[OBS.TCP] = tcp
         out[OBS.WRIST] = d.qpos[self._wrist_q] if self._wrist_q is not None else 0.0
-        out[OBS.FINGERS] = (d.qpos[self._finger_q[0]] + d.qpos[self._finger_q[1]]) / (2 * self._max_opening)
+        if self._suction:
+            out[OBS.SUCTION] = d.ctrl[self._act_suction]
+        else:
+            out[OBS.FINGERS] = (d.qpos[self._finger_q[0]] + d.qpos[self._finger_q[1]]) / (2 * self._max_opening)
         out[OBS.TCP_VELOCITY] = d.qvel[self._tcp_v]
         out[OBS.GRASP] = grasp
         out[OBS.TO_GRASP] = grasp - tcp
@@ -250,25 +271,31 @@ class SparkArticulationEnv(gym.Env):
         start = start + self.np_random.uniform(-START_NOISE, START_NOISE, size=3)
         start = np.clip(start, self._low, self._high)
         d.qpos[self._tcp_q] = start
-        d.qpos[self._finger_q] = self._max_opening
         d.ctrl[self._act_tcp] = start
-        d.ctrl[self._act_fingers] = self._max_opening
+        if not self._suction:  # the cup starts released: mj_resetData zeroed its control
+            d.qpos[self._finger_q] = self._max_opening
+            d.ctrl[self._act_fingers] = self._max_opening
         mujoco.mj_forward(self.model, d)
         obs = self._obs()
         info = self._reward_terms(obs)
         info["is_success"] = bool(info["success"])
+        info["end_effector"] = self.end_effector
         return obs, info
 
     def step(self, action):
         a = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
         d = self.data
         d.ctrl[self._act_tcp] = np.clip(d.qpos[self._tcp_q] + MAX_STEP * a[:3], self._low, self._high)
-        d.ctrl[self._act_fingers] = finger_target(self._gripper_config, a[3])
+        if self._suction:  # a[3] > 0 sucks with that fraction of the cup's holding force, <= 0 releases
+            d.ctrl[self._act_suction] = min(max(a[3], 0.0), 1.0)
+        else:
+            d.ctrl[self._act_fingers] = finger_target(self._gripper_config, a[3])
         mujoco.mj_step(self.model, d, nstep=N_SUBSTEPS)
         obs = self._obs()
         terms = self._reward_terms(obs)
         reward = self._reward(terms)
         terms["is_success"] = bool(terms["success"])
+        terms["end_effector"] = self.end_effector
         if not np.all(np.isfinite(obs)):  # diverged physics: end the episode rather than feed NaNs
             obs = np.nan_to_num(obs, nan=0.0, posinf=0.0, neginf=0.0)
             return obs, 0.0, True, False, terms

@@ -106,6 +106,11 @@ class GraspTarget:
     :param clearance: room (m) left on each side of a pad placed in a gap beside the handle
     :param reason: why a parallel gripper cannot pull this part open (one line), or None when it can
     :param landing: an open pad comes down on the object (kept only when no other candidate is clear)
+    :param declined: why the planner declined the part, as a word (None when it did not): ``no_handle``
+        (nothing stands out of the front to pinch), ``too_wide`` (a handle wider than the open fingers),
+        ``blocked`` (the object stands in the hand's way in), ``button`` (a push button); a part declined
+        for the first two has nothing to pinch, and the environments' ``end_effector="auto"`` opens it with
+        the suction cup (:func:`~spark_bench.envs.suction.choose_end_effector`)
     """
 
     point: np.ndarray
@@ -121,6 +126,7 @@ class GraspTarget:
     clearance: float | None = None
     reason: str | None = None
     landing: bool = False
+    declined: str | None = None
 
     @property
     def inside_grip(self) -> bool:
@@ -304,7 +310,7 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
             raise ValueError(f"{asset.name}: the part moved by {joint} has no geometry")
         axis = unit(asset.joint_frames()[joint][1])
         return GraspTarget(point=np.asarray(part.vertices).mean(0), outward=-axis, long_axis=perpendicular_basis(axis)[0],
-                           has_handle=False, source="face",
+                           has_handle=False, source="face", declined="button",
                            reason=f"{joint}: a push button ({1000 * travel:.1f} mm of travel): pressed, not pulled open")
     if not isinstance(asset, RestMeshes):
         asset = RestMeshes(asset)
@@ -315,6 +321,7 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
         what = (asset.links[link].label or link).replace("_", " ")
         part = part_name(asset, joint)
         in_front = _moving_part_of(asset, link, joint)
+        grasp.declined = "blocked"
         if through and in_front is not None:  # a closed door before a tray: not the tray's own fault
             grasp.reason = (f"{joint}: the {part} lies behind the {what} ({in_front}), {1000 * distance:.0f} mm in "
                             "front of its grasp: that part must be opened first")
@@ -384,7 +391,8 @@ def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig
     if buttons and not too_wide:  # a microwave's door: a button releases it
         reason += f" (the object has {len(buttons)} push button{'s' * (len(buttons) > 1)}: a button may open it)"
     return GraspTarget(point=lateral @ basis + face * n, outward=n, long_axis=basis[0] if front.rotational else basis[1],
-                       has_handle=False, source="face", reason=f"{joint}: {reason}")
+                       has_handle=False, source="face", reason=f"{joint}: {reason}",
+                       declined="too_wide" if too_wide else "no_handle")
 
 
 def part_name(asset: ArticulatedAsset, joint: str) -> str:

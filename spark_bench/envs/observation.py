@@ -22,12 +22,20 @@ TCP_VELOCITY = slice(5, 8)
 GRASP = slice(8, 11)
 #: The grasp point minus the TCP.
 TO_GRASP = slice(11, 14)
+#: With the suction cup (``end_effector="suction"``) the same entries read: :data:`SUCTION` (where the
+#: gripper's finger opening is) the suction command, 0 released to 1 the cup's full holding force;
+#: :data:`CUP_TOUCH` (the two pads' entries) the cup's contact normal force / 10 N, clipped to 1, in both;
+#: ``frame``'s :data:`CLOSING` a direction across the approach, :data:`INSIDE_GRIP` 0, :data:`APPROACH_GRIP`
+#: -1 (released), :data:`PRESS` 0. The size of either layout does not change.
+SUCTION = FINGERS
 #: The joint's position as a fraction of its range (0 rest, 1 fully open).
 JOINT_FRACTION = 14
 #: The joint's velocity divided by its range.
 JOINT_VELOCITY = 15
 #: The two finger pads' contact normal forces / 10 N, clipped to 1.
 TOUCH = slice(16, 18)
+#: Suction cup: its contact normal force / 10 N, clipped to 1, in both entries.
+CUP_TOUCH = TOUCH
 #: The distance from the TCP to the grasp point.
 GRASP_DISTANCE = 18
 OBS_SIZE = 19

@@ -21,6 +21,14 @@ from spark_bench.envs.grasp import GraspTarget, find_grasp, part_name
 from spark_bench.envs.gripper import GripperConfig, GripperHandles, add_gripper, largest_pull
 from spark_bench.envs.handle_search import N_SAMPLES
 from spark_bench.envs.rest_meshes import RestMeshes
+from spark_bench.envs.suction import (
+    SuctionConfig,
+    SuctionHandles,
+    add_suction,
+    choose_end_effector,
+    largest_hold,
+    plan_suction,
+)
 from spark_bench.errors import InputError
 from spark_bench.mujoco_gl import mujoco_module
 
@@ -70,6 +78,9 @@ class Scene:
     :param free_fraction: the fraction of its range the joint reaches driven directly with the gripper's
         largest pull (:func:`stuck_reason`), when checked (the planner found a grasp): below
         :data:`JAM_FRACTION` the grasp's ``reason`` says why no policy of this gripper can open the part
+    :param end_effector: ``gripper`` (the parallel gripper: ``gripper`` holds :class:`GripperHandles`) or
+        ``suction`` (the suction cup, :mod:`spark_bench.envs.suction`: ``gripper`` holds its
+        :class:`~spark_bench.envs.suction.SuctionHandles`, ``grasp`` the cup's place)
     """
 
     model: mujoco.MjModel
@@ -78,11 +89,12 @@ class Scene:
     grasp: GraspTarget
     grasp_body: str
     grasp_local: np.ndarray
-    gripper: GripperHandles
+    gripper: GripperHandles | SuctionHandles
     workspace: np.ndarray
     rest_qpos: np.ndarray
     held_joints: tuple[str, ...] = ()
     free_fraction: float | None = None
+    end_effector: str = "gripper"
 
     @property
     def joint_range(self) -> tuple[float, float]:
@@ -255,6 +267,21 @@ def part_points(asset: ArticulatedAsset, joint: str, n: int = N_SAMPLES) -> np.n
     return _memo("part", asset, (joint, n), compute)
 
 
+def plan_cup(asset: ArticulatedAsset, joint: str, config: SuctionConfig | None = None) -> GraspTarget:
+    """The suction cup's place on the part moved by ``joint`` (:func:`~spark_bench.envs.suction.plan_suction`),
+    memoized per asset as :func:`plan_grasp` is.
+
+    :raises InputError: the part has no geometry, or no outward direction
+    """
+    def compute():
+        try:
+            return plan_suction(_memo("rest", asset, None, lambda: RestMeshes(asset)), joint, config)
+        except ValueError as exc:
+            raise InputError(asset.source or asset.name, str(exc)) from None
+
+    return _memo("cup", asset, (joint, repr(config)), compute)
+
+
 def prepared_object(asset: ArticulatedAsset):
     """The object as prepared for MuJoCo (:func:`spark_bench.sim.prepare`: collision shapes, masses, joint
     dynamics), memoized per asset: the same for every joint's environment."""
@@ -284,8 +311,10 @@ def hold_hinged_parts(spec, asset: ArticulatedAsset, joint: str) -> list[str]:
 
 
 def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
-                gripper: GripperConfig | None = None, visuals: bool = True) -> Scene:
-    """Compile the object with the gripper, for opening ``joint`` (or the first joint of ``kind``).
+                gripper: GripperConfig | None = None, visuals: bool = True, end_effector: str = "gripper",
+                suction: SuctionConfig | None = None) -> Scene:
+    """Compile the object with the gripper (or the suction cup), for opening ``joint`` (or the first joint of
+    ``kind``).
 
     :param asset: the object (benchmark frame or metres; Z up, front facing -X)
     :param kind: ``prismatic`` (drawers) or ``revolute`` (doors)
@@ -293,9 +322,15 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     :param gripper: gripper dimensions and gains
     :param visuals: compile the object's visual meshes (for rendering); without them the scene simulates the
         same (visual geoms have no contacts and no mass) and a real object's compiles 10-30x faster
+    :param end_effector: ``gripper``, ``suction`` or ``auto`` (the cup where the planner finds nothing to
+        pinch: :func:`~spark_bench.envs.suction.choose_end_effector`)
+    :param suction: the cup's dimensions and holding force
     """
     chosen = choose_joint(asset, kind, joint)
     grasp = plan_grasp(asset, chosen.name, gripper)
+    effector = choose_end_effector(end_effector, grasp.declined)
+    if effector == "suction":
+        grasp = plan_cup(asset, chosen.name, suction)
     from spark_bench.sim import build_spec
 
     spec = build_spec(asset, prepared=prepared_object(asset), visuals=visuals)
@@ -311,8 +346,12 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     spec.worldbody.add_light(pos=[-2.0, -1.0, 3.0], dir=[0.5, 0.25, -0.8], diffuse=[0.5, 0.5, 0.5])
     held = hold_hinged_parts(spec, asset, chosen.name)
     wrist = asset.joint_frames()[chosen.name][1] if chosen.is_rotational else None
-    handles = add_gripper(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
-                          workspace=workspace, config=fitted_gripper(grasp, gripper))
+    if effector == "suction":
+        handles = add_suction(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
+                              workspace=workspace, config=suction)
+    else:
+        handles = add_gripper(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
+                              workspace=workspace, config=fitted_gripper(grasp, gripper))
     try:
         model = spec.compile()
     except ValueError as exc:
@@ -330,7 +369,8 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
         raise InputError(asset.source or asset.name, f"MJCF has no body for link {body!r}")
     local = data.xmat[bid].reshape(3, 3).T @ (grasp.point - data.xpos[bid])
     scene = Scene(model=model, asset=asset, joint=chosen, grasp=grasp, grasp_body=body, grasp_local=local,
-                  gripper=handles, workspace=workspace, rest_qpos=data.qpos.copy(), held_joints=tuple(held))
+                  gripper=handles, workspace=workspace, rest_qpos=data.qpos.copy(), held_joints=tuple(held),
+                  end_effector=effector)
     if grasp.reason is None:  # a part no pull of this hand can open: say so, like a flush lid
         reason = stuck_reason(scene)
         if reason is not None:
@@ -358,12 +398,19 @@ def stuck_reason(scene: Scene) -> str | None:
     grasp point, until it stands still) it does not reach :data:`JAM_FRACTION` of its range. Driven then by
     :data:`OVERLOAD` times that force, it either opens (the part is too heavy for the gripper: its simulated
     mass, damping or friction; or caught on a collision shape that the harder pull forces through) or not
-    (its collision shapes hold it: jammed). Sets ``scene.free_fraction``."""
-    pull = largest_pull(scene.gripper.config)
+    (its collision shapes hold it: jammed). With the suction cup the force is the cup's largest hold
+    (:func:`~spark_bench.envs.suction.largest_hold`) and there is no second drive: a harder pull tears the cup
+    off. Sets ``scene.free_fraction``."""
+    cup = scene.end_effector == "suction"
+    pull = largest_hold(scene.gripper.config) if cup else largest_pull(scene.gripper.config)
     reached = scene.free_fraction = free_motion(scene, pull)
     if reached >= JAM_FRACTION:
         return None
     part = part_name(scene.asset, scene.joint.name)
+    if cup:  # the cup's holding force, not the hand's pull: a harder pull would tear the cup off
+        return (f"{scene.joint.name}: the simulated {part} is too heavy for the suction cup, or caught on its "
+                f"collision shapes: driven directly with the cup's largest hold ({pull:.0f} N at the grasp, nothing "
+                f"in the way) it stops at {reached:.2f} of its range, short of {JAM_FRACTION:.2f}")
     harder = free_motion(scene, OVERLOAD * pull)
     # a part that gives way to a harder pull may be heavy or caught on a shape a harder pull forces: say both
     why = (f"too heavy for the gripper, or caught on its collision shapes (pulled with {OVERLOAD * pull:.0f} N "

@@ -22,13 +22,14 @@ def run_rollout(args: argparse.Namespace) -> int:
     from spark_bench.rl.rollout import rollout, stats_json
 
     stats = rollout(args.env, asset=args.asset, policy=args.policy, episodes=args.episodes, seed=args.seed,
-                    joint=args.joint, video=args.video, max_episode_steps=args.max_episode_steps)
+                    joint=args.joint, video=args.video, max_episode_steps=args.max_episode_steps,
+                    end_effector=args.end_effector)
     if args.json:
         print(stats_json(stats))
     elif stats.reason is not None:
-        Console().print(f"[bold]{args.env}[/] {args.policy}: not attempted, {stats.reason}")
+        Console().print(f"[bold]{args.env}[/] {args.policy} ({stats.end_effector}): not attempted, {stats.reason}")
     else:
-        Console().print(f"[bold]{args.env}[/] {args.policy}: success rate {stats.success_rate:.2f} over "
+        Console().print(f"[bold]{args.env}[/] {args.policy} ({stats.end_effector}): success rate {stats.success_rate:.2f} over "
                         f"{stats.episodes} episodes, mean return {stats.mean_return:.2f}, "
                         f"mean largest opening {stats.mean_max_fraction:.2f} of the range")
     return 0
@@ -58,8 +59,10 @@ def add_commands(subparsers) -> None:
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--max-episode-steps", type=int, default=None)
     p.add_argument("--video", default=None, help="write the episodes to a .gif or .mp4")
-    p.add_argument("--json", action="store_true", help='print {"success_rate", "episodes", "mean_return", "mean_max_fraction"} as JSON '
-                   '(and "reason" when the scripted planner declines the part)')
+    p.add_argument("--end-effector", choices=("gripper", "suction", "auto"), default="gripper",
+                   help="the parallel gripper, a suction cup, or auto: the cup where the planner finds nothing to pinch")
+    p.add_argument("--json", action="store_true", help='print {"success_rate", "episodes", "mean_return", "mean_max_fraction", '
+                   '"end_effector"} as JSON (and "reason" when the scripted planner declines the part)')
     p.set_defaults(func=run_rollout)
 
     p = subparsers.add_parser("train", help="train PPO or SAC on an opening task (stable-baselines3)")

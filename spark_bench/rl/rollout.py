@@ -32,6 +32,7 @@ class RolloutStats:
     :param returns: per-episode return
     :param reason: why the scripted opener's planner declined the part (no handle, a flush lid...): then no
         episode ran, ``success_rate`` is 0 and the means are None
+    :param end_effector: what opened (or tried to open) the part: ``gripper`` or ``suction``
     """
 
     success_rate: float
@@ -41,6 +42,7 @@ class RolloutStats:
     successes: list[bool] = field(default_factory=list)
     returns: list[float] = field(default_factory=list)
     reason: str | None = None
+    end_effector: str = "gripper"
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -83,7 +85,8 @@ def run_episodes(env: gym.Env, policy, episodes: int, seed: int = 0, frames: lis
     return RolloutStats(success_rate=float(np.mean([r["success"] for r in runs])), episodes=episodes,
                         mean_return=float(np.mean([r["return"] for r in runs])),
                         mean_max_fraction=float(np.mean([r["max_fraction"] for r in runs])),
-                        successes=[r["success"] for r in runs], returns=[r["return"] for r in runs])
+                        successes=[r["success"] for r in runs], returns=[r["return"] for r in runs],
+                        end_effector=getattr(env.unwrapped, "end_effector", "gripper"))
 
 
 def write_video(frames: list[np.ndarray], path: str | Path, fps: int) -> Path:
@@ -111,7 +114,7 @@ def write_video(frames: list[np.ndarray], path: str | Path, fps: int) -> Path:
 
 def rollout(env_id: str, asset=None, policy: str = "scripted", episodes: int = 10, seed: int = 0,
             joint: str | None = None, video: str | Path | None = None,
-            max_episode_steps: int | None = None) -> RolloutStats:
+            max_episode_steps: int | None = None, end_effector: str = "gripper") -> RolloutStats:
     """Score ``policy`` on an environment.
 
     :param env_id: ``SparkDrawer-v0`` or ``SparkDoor-v0``
@@ -121,16 +124,17 @@ def rollout(env_id: str, asset=None, policy: str = "scripted", episodes: int = 1
     :param joint: the joint to open
     :param video: write the episodes to this ``.gif`` / ``.mp4``
     :param max_episode_steps: time limit (default: the registered one)
+    :param end_effector: ``gripper``, ``suction`` or ``auto`` (the environments' option)
     :returns: the scores; with the scripted policy on a part its planner declines, no episode runs and
         ``reason`` says why (no video is written then)
     """
     env = make_env(env_id, asset=asset, joint=joint, render_mode="rgb_array" if video else None,
-                   max_episode_steps=max_episode_steps)
+                   max_episode_steps=max_episode_steps, end_effector=end_effector)
     try:
         reason = env.unwrapped.scene.grasp.reason if policy == "scripted" else None
         if reason is not None:  # the planner says why a parallel gripper cannot open it: nothing to run
             return RolloutStats(success_rate=0.0, episodes=0, mean_return=None, mean_max_fraction=None,
-                                reason=reason)
+                                reason=reason, end_effector=env.unwrapped.end_effector)
         frames = [] if video else None
         stats = run_episodes(env, load_policy(policy), episodes, seed=seed, frames=frames)
         if video:
@@ -141,10 +145,10 @@ def rollout(env_id: str, asset=None, policy: str = "scripted", episodes: int = 1
 
 
 def stats_json(stats: RolloutStats) -> str:
-    """The CLI's JSON line: success rate, episodes, mean return, the mean largest fraction, and the
-    planner's ``reason`` when it declined the part."""
+    """The CLI's JSON line: success rate, episodes, mean return, the mean largest fraction, the planner's
+    ``reason`` when it declined the part, and the end-effector."""
     out = {"success_rate": stats.success_rate, "episodes": stats.episodes, "mean_return": stats.mean_return,
-           "mean_max_fraction": stats.mean_max_fraction}
+           "mean_max_fraction": stats.mean_max_fraction, "end_effector": stats.end_effector}
     if stats.reason is not None:
         out["reason"] = stats.reason
     return json.dumps(out)

@@ -495,6 +495,7 @@ class OpenResult:
     :param fraction: the joint's final position as a fraction of its range
     :param max_fraction: the largest fraction reached
     :param episode_return: the summed reward
+    :param end_effector: what opened (or tried to open) the part: ``gripper`` or ``suction``
     """
 
     success: bool
@@ -502,6 +503,7 @@ class OpenResult:
     fraction: float
     max_fraction: float
     episode_return: float
+    end_effector: str = "gripper"
 
 
 def ground_truth_joint(env: gym.Env) -> tuple[np.ndarray, np.ndarray, str]:
@@ -514,9 +516,14 @@ def ground_truth_joint(env: gym.Env) -> tuple[np.ndarray, np.ndarray, str]:
 def opener_for(env: gym.Env, axis, pivot, joint_type: str, pull_step: float = PULL_STEP) -> ScriptedOpener:
     """A :class:`ScriptedOpener` for ``env``'s grasp (its outward direction, its inside grip if the part
     has a notch, its pre-closed aligned approach if the pads go into gaps beside the handle), planned from
-    the given joint parameters."""
+    the given joint parameters; a :class:`~spark_bench.rl.suction_opener.SuctionOpener` for an environment
+    with the suction cup."""
     scene = env.unwrapped.scene
     grasp = scene.grasp
+    if scene.end_effector == "suction":
+        from spark_bench.rl.suction_opener import SuctionOpener
+
+        return SuctionOpener(axis, pivot, joint_type, grasp.outward, pull_step)
     approach_grip = lateral_tolerance = None
     if grasp.opening is not None and not grasp.inside_grip:
         approach_grip = grip_command(scene.gripper.config, grasp.opening)
@@ -556,7 +563,7 @@ def open_with_joint(env: gym.Env, axis, pivot, joint_type: str, seed: int | None
         if terminated or truncated or (success and stop_on_success):
             break
     return OpenResult(success=success, steps=steps, fraction=env.unwrapped.joint_fraction,
-                      max_fraction=best, episode_return=total)
+                      max_fraction=best, episode_return=total, end_effector=env.unwrapped.scene.end_effector)
 
 
 def open_with_ground_truth(env: gym.Env, seed: int | None = None, **kwargs) -> OpenResult:

@@ -1,0 +1,293 @@
+"""A floating suction cup: the second end-effector, for parts with nothing to pinch (a flush lid, a door or
+drawer front without a handle).
+
+Robot-learning benchmarks on PartNet-Mobility open such parts with a suction gripper on the part's
+surface: UMPNet (``real-stanford/umpnet``, ``sim.py``) moves a floating cup onto a surface point and joins
+it to the part with a PyBullet point-to-point constraint (``maxForce`` 2000), FlowBot3D (``r-pad/pybullet_envs``,
+``suction_gripper.py``) with a fixed constraint at the first contact; neither constraint ever lets go. Here
+the cup holds by MuJoCo's ``adhesion`` actuator (made for suction cups and gecko pads): while the cup's
+face touches the part it adds an attraction of up to :attr:`SuctionConfig.max_force` to its contacts.
+A pull along the face's normal stronger than that separates the cup, and a pull along the face is held by
+friction only (the adhesion's normal force times the cup's friction): a trajectory planned from a wrong
+axis tears the cup off or drags it over a part that does not follow.
+
+The cup is carried like the gripper's hand (:mod:`spark_bench.envs.gripper`): three world-aligned slide
+joints driven by position servos, gravity compensated, and for doors a passive spring-loaded wrist hinge
+parallel to the door's hinge through the cup's face, so that the cup turns with the face it holds. The
+hand frame's x is the approach direction; its origin, the *TCP*, is the centre of the cup's face.
+
+Where the cup goes (:func:`plan_suction`): a point of the part's front face (the face the planner pulls
+from: the front of a drawer, the outer face of a door or lid) with a flat patch under the whole cup,
+nothing standing out of the face beside it, central on a drawer, as far from the hinge as the patch allows
+on a door; approached along the face's normal.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from spark_bench.envs.features import LEVEL_BIN, NOTCH_CELL, rasterise_front
+from spark_bench.envs.gripper import PREFIX, GripperConfig, hand_rotation, largest_pull
+from spark_bench.mujoco_gl import mujoco_module
+
+mujoco = mujoco_module()
+
+#: The end-effectors of the environments' ``end_effector`` option; ``auto`` picks one per part
+#: (:func:`choose_end_effector`).
+END_EFFECTORS = ("gripper", "suction", "auto")
+#: Why the grasp planner declined a part (:attr:`~spark_bench.envs.grasp.GraspTarget.declined`) that
+#: ``auto`` opens with the cup instead: nothing to pinch (no handle, knob, notch or tab), or a handle wider
+#: than the open fingers. A part whose approach is blocked, or a push button, is not one.
+SUCTION_DECLINES = ("no_handle", "too_wide")
+#: A surface point stands out of the face (a handle's foot, a hinge knuckle) when it is this far (m) in front
+#: of the face's level; the cup keeps :data:`SIDE_CLEARANCE` (m) from any such point.
+PROUD = 0.003
+SIDE_CLEARANCE = 0.008
+#: Places whose lateral score (:func:`suction_point`) is within this (m) of the best are equally good.
+LEVER_TOLERANCE = 0.01
+
+
+@dataclass
+class SuctionConfig:
+    """Dimensions and gains of the suction cup.
+
+    :param cup_radius: the cup's radius, m (a 40 mm cup)
+    :param cup_length: the cup's and bellows' length along the approach, m
+    :param max_force: the largest pull (N) along the face's normal the cup holds: the theoretical holding
+        force of a 40 mm cup at 60 kPa below atmospheric pressure, ``F = dp * pi * r^2`` = 60 kPa x
+        1.26e-3 m^2 = 75 N (how vacuum-cup makers rate a cup, before their safety factor; 60 kPa is a common
+        working vacuum of an ejector). It is the gain of the cup's ``adhesion`` actuator
+    :param friction: sliding friction of the cup's lip (rubber on wood or paint): a pull along the face is
+        held up to about ``friction * max_force``
+    :param kp: stiffness of the translation servos, N/m (the gripper's: the same largest pull)
+    :param dampratio: damping ratio of the translation servos
+    :param force_limit: force limit of each translation servo, N
+    :param wrist_stiffness: spring of the passive wrist hinge (doors), N m/rad
+    :param wrist_damping: damping of the passive wrist hinge, N m s/rad
+    :param wrist_range: the wrist hinge turns this far (rad) either way
+    :param rgba: display colour
+    """
+
+    cup_radius: float = 0.02
+    cup_length: float = 0.03
+    max_force: float = 75.0
+    friction: float = 1.0
+    kp: float = 3000.0
+    dampratio: float = 0.35
+    force_limit: float = 150.0
+    wrist_stiffness: float = 0.3
+    wrist_damping: float = 0.3
+    wrist_range: float = 3.0
+    rgba: tuple = (0.85, 0.45, 0.1, 1.0)
+
+
+@dataclass
+class SuctionHandles:
+    """Names of the cup's elements in the compiled model (the gripper's :class:`GripperHandles` where the two
+    share a part: the carriage's slide joints and servos, the hand).
+
+    :param slide_joints: x, y, z translation joints
+    :param wrist_joint: the passive wrist hinge, or None
+    :param slide_actuators: x, y, z position actuators
+    :param suction_actuator: the cup's adhesion actuator (control 0 off to 1: :attr:`SuctionConfig.max_force`)
+    :param hand_body: the body whose frame is the TCP (the cup's face centre); the adhesion acts on its
+        contacts
+    :param cup_geom: the cup's collision geom
+    :param touch_sensor: the touch sensor at the cup's face
+    :param config: dimensions and gains
+    """
+
+    slide_joints: tuple[str, str, str]
+    wrist_joint: str | None
+    slide_actuators: tuple[str, str, str]
+    suction_actuator: str
+    hand_body: str
+    cup_geom: str
+    touch_sensor: str
+    config: SuctionConfig = field(default_factory=SuctionConfig)
+
+
+def largest_hold(config: SuctionConfig) -> float:
+    """The largest steady pull (N) the cup passes on to the part along the face's normal: the carriage's
+    largest pull (:func:`~spark_bench.envs.gripper.largest_pull`) or the cup's holding force, the smaller."""
+    return float(min(largest_pull(config), config.max_force))
+
+
+def _quat(rotation: np.ndarray) -> np.ndarray:
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation).reshape(-1))
+    return quat
+
+
+def _add_carriage(spec: mujoco.MjSpec, workspace: np.ndarray, cfg: SuctionConfig):
+    """The gravity-compensated carriage on three world-aligned servoed slides; returns it, the slide joints'
+    and the servos' names."""
+    carriage = spec.worldbody.add_body(name=f"{PREFIX}_carriage", gravcomp=1.0)
+    carriage.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.01, 0, 0], mass=0.5,
+                      contype=0, conaffinity=0, group=3)
+    slides, servos = [], []
+    for i, axis_name in enumerate("xyz"):
+        name = f"{PREFIX}_slide_{axis_name}"
+        carriage.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=np.eye(3)[i], limited=True,
+                           range=[float(workspace[0, i]), float(workspace[1, i])], armature=0.01)
+        act = spec.add_actuator(name=f"{name}_servo", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_position(kp=cfg.kp, dampratio=cfg.dampratio)
+        act.ctrlrange = [float(workspace[0, i]), float(workspace[1, i])]
+        act.forcerange = [-cfg.force_limit, cfg.force_limit]
+        act.forcelimited = True
+        slides.append(name)
+        servos.append(act.name)
+    return carriage, tuple(slides), tuple(servos)
+
+
+def add_suction(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
+                wrist_axis: np.ndarray | None = None, workspace: np.ndarray | None = None,
+                config: SuctionConfig | None = None) -> SuctionHandles:
+    """Add the floating suction cup to ``spec`` (in place) and return the names of its parts.
+
+    :param spec: the scene; the cup's bodies are children of its world body
+    :param approach: world direction from the cup's stalk to its face (towards the object)
+    :param closing: any world direction across the approach (fixes the hand frame's y)
+    :param wrist_axis: world axis of a passive wrist hinge through the cup's face, or None for a rigid wrist
+    :param workspace: ``[[min], [max]]`` world box the TCP may reach (the slide joints' ranges)
+    :param config: dimensions and holding force
+    """
+    cfg = config or SuctionConfig()
+    rotation = hand_rotation(approach, closing)
+    workspace = np.array([[-2.0] * 3, [2.0] * 3]) if workspace is None else workspace
+    carriage, slides, servos = _add_carriage(spec, workspace, cfg)
+    hand = carriage.add_body(name=f"{PREFIX}_hand", quat=_quat(rotation), gravcomp=1.0)
+    wrist = None
+    if wrist_axis is not None:
+        wrist = f"{PREFIX}_wrist"
+        hand.add_joint(name=wrist, type=mujoco.mjtJoint.mjJNT_HINGE, axis=rotation.T @ np.asarray(wrist_axis, float),
+                       stiffness=cfg.wrist_stiffness, damping=cfg.wrist_damping, limited=True,
+                       range=[-cfg.wrist_range, cfg.wrist_range], armature=0.002)
+    along_x = _quat(hand_rotation([0, 0, 1], [0, 1, 0]))  # a cylinder's axis (its z) along the hand's x
+    half = cfg.cup_length / 2
+    cup = hand.add_geom(name=f"{PREFIX}_cup", type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=[-half, 0, 0], quat=along_x,
+                        size=[cfg.cup_radius, half, 0], mass=0.1, rgba=list(cfg.rgba), contype=2, conaffinity=1,
+                        friction=[cfg.friction, 0.02, 0.001], condim=4, priority=1)
+    hand.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=[-cfg.cup_length - 0.04, 0, 0], quat=along_x,
+                  size=[0.008, 0.04, 0], mass=0.3, rgba=list(cfg.rgba), contype=0, conaffinity=0)
+    hand.add_site(name=f"{PREFIX}_cup_site", type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=[-0.002, 0, 0], quat=along_x,
+                  size=[cfg.cup_radius + 0.002, 0.004, 0], rgba=[0, 0, 0, 0])
+    sensor = spec.add_sensor(name=f"{PREFIX}_touch_cup", type=mujoco.mjtSensor.mjSENS_TOUCH,
+                             objtype=mujoco.mjtObj.mjOBJ_SITE, objname=f"{PREFIX}_cup_site")
+    act = spec.add_actuator(name=f"{PREFIX}_suction", target=hand.name, trntype=mujoco.mjtTrn.mjTRN_BODY)
+    act.set_to_adhesion(gain=cfg.max_force)
+    act.ctrlrange = [0.0, 1.0]
+    return SuctionHandles(slide_joints=slides, wrist_joint=wrist, slide_actuators=servos, suction_actuator=act.name,
+                          hand_body=hand.name, cup_geom=cup.name, touch_sensor=sensor.name, config=cfg)
+
+
+def choose_end_effector(end_effector: str, declined: str | None) -> str:
+    """The end-effector that opens a part: ``gripper`` or ``suction`` as asked; for ``auto`` the cup where
+    the grasp planner declined the part for lack of something to pinch (:data:`SUCTION_DECLINES`), the
+    gripper everywhere else (a handle, a notch, a tab; also a part declined for another reason, so that its
+    reason stands).
+
+    :param end_effector: one of :data:`END_EFFECTORS`
+    :param declined: why the planner declined the part (:attr:`~spark_bench.envs.grasp.GraspTarget.declined`)
+    :raises ValueError: an unknown end-effector
+    """
+    if end_effector not in END_EFFECTORS:
+        raise ValueError(f"end_effector must be one of {END_EFFECTORS}, got {end_effector!r}")
+    if end_effector == "auto":
+        return "suction" if declined in SUCTION_DECLINES else "gripper"
+    return end_effector
+
+
+def cup_footprint(front, config: SuctionConfig, cell: float = NOTCH_CELL) -> tuple[np.ndarray, np.ndarray]:
+    """Where the cup's centre may go on the front face: cells (:func:`~spark_bench.envs.features.rasterise_front`)
+    whose whole cup disc lies on the face, at least :data:`SIDE_CLEARANCE` from any of the part's surface
+    standing :data:`PROUD` out of it. Returns ``(the cells' centres in the front plane (K, 2), the image)``.
+
+    :param front: the part's :class:`~spark_bench.envs.features.Front`
+    :param config: the cup (its radius)
+    :param cell: the raster's cell, m
+    """
+    image, lo = rasterise_front(front.part, front.outward, front.basis, front.face, cell)
+    if image.size == 0:
+        return np.zeros((0, 2)), image
+    radius = int(np.ceil(config.cup_radius / cell))
+    yy, xx = np.mgrid[-radius:radius + 1, -radius:radius + 1]
+    disc = xx ** 2 + yy ** 2 <= radius ** 2
+    # outside the raster is not face: erode with the border counted as empty
+    inside = ndimage.binary_erosion(np.pad(image, radius + 1), structure=disc)[radius + 1:-radius - 1, radius + 1:-radius - 1]
+    rows, cols = np.nonzero(inside)
+    centres = lo + (np.stack([rows, cols], axis=1) + 0.5) * cell
+    proud = front.points[front.points @ front.outward > front.face + PROUD] @ front.basis.T
+    if len(proud) and len(centres):
+        from scipy.spatial import cKDTree
+
+        near, _ = cKDTree(proud).query(centres, distance_upper_bound=config.cup_radius + SIDE_CLEARANCE)
+        centres = centres[~np.isfinite(near)]
+    return centres, inside
+
+
+def suction_point(front, config: SuctionConfig) -> np.ndarray | None:
+    """The cup's place on the front face (world, at rest), or None when no flat patch holds the cup: of the
+    places :func:`cup_footprint` allows, the most central on a drawer, the farthest from the hinge on a door
+    or lid (the longest lever; :meth:`~spark_bench.envs.features.Front.point_scores`), and of those within
+    :data:`LEVER_TOLERANCE` of it the one nearest the middle of the allowed places (a door's free edge is a
+    line of equally good places: its middle, not a corner)."""
+    centres, _ = cup_footprint(front, config)
+    if len(centres) == 0:
+        return None
+    points = centres @ front.basis + front.face * front.outward
+    scores = front.point_scores(points)
+    near_best = points[scores <= scores.min() + LEVER_TOLERANCE]
+    middle = np.linalg.norm(near_best - points.mean(0), axis=1)
+    return near_best[int(np.argmin(middle))]
+
+
+def flat_patch_reason(joint: str, part: str, config: SuctionConfig) -> str:
+    """The one-line reason of a part whose front has no place for the cup."""
+    return (f"{joint}: no flat patch {1000 * 2 * config.cup_radius:.0f} mm across on the {part}'s front for the "
+            f"suction cup (within {1000 * LEVEL_BIN:.0f} mm of its face level, clear of what stands out of it)")
+
+
+def approach_config(config: SuctionConfig) -> GripperConfig:
+    """The gripper dimensions under which the planner's approach check
+    (:func:`~spark_bench.envs.pads.approach_blocked`) tests the cup's way in: rays from the cup's rim from its
+    face out."""
+    return GripperConfig(max_opening=config.cup_radius, finger_length=PROUD + 0.002, tip_beyond_tcp=0.0)
+
+
+def plan_suction(asset, joint: str, config: SuctionConfig | None = None, seed: int = 0):
+    """The cup's grasp on the part moved by ``joint``, world frame at rest: a
+    :class:`~spark_bench.envs.grasp.GraspTarget` with ``source="suction"``, ``grip="suction"``, the point
+    :func:`suction_point` chose and the front's outward direction; its ``reason`` says why the cup cannot
+    hold the part (no flat patch for it, or the object in its way in), else None.
+
+    :param asset: the object (or a :class:`~spark_bench.envs.rest_meshes.RestMeshes` of it)
+    :param joint: a movable joint's name
+    :param config: the cup (default :class:`SuctionConfig`)
+    :param seed: seed of the surface sampling
+    :raises ValueError: the part has no geometry, or its centroid lies on its hinge
+    """
+    from spark_bench.envs.grasp import APPROACH_CLEAR, GraspTarget, _front_of, part_name
+    from spark_bench.envs.pads import approach_blocked
+    from spark_bench.envs.rest_meshes import RestMeshes
+
+    cfg = config or SuctionConfig()
+    rest = asset if isinstance(asset, RestMeshes) else RestMeshes(asset)
+    front = _front_of(rest, joint, seed)
+    point = suction_point(front, cfg)
+    along = front.basis[0] if front.rotational else front.basis[1]
+    grasp = GraspTarget(point=point if point is not None else front.points.mean(0), outward=front.outward,
+                        long_axis=along, has_handle=False, source="suction", grip="suction")
+    if point is None:
+        grasp.reason = flat_patch_reason(joint, part_name(rest, joint), cfg)
+        return grasp
+    blocked = approach_blocked(rest, grasp, approach_config(cfg), APPROACH_CLEAR)
+    if blocked is not None:
+        link, distance, _ = blocked
+        what = (rest.links[link].label or link).replace("_", " ")
+        grasp.reason = (f"{joint}: the {what} stands in the suction cup's way to the {part_name(rest, joint)}, "
+                        f"{1000 * distance:.0f} mm in front of its face")
+    return grasp
