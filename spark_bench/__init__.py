@@ -13,10 +13,13 @@ _pin_cpu_kernels()
 __version__ = "0.2.0"
 
 #: Version of the metric definitions (docs/conventions.md "The benchmark frame", "Shape metrics",
-#: "Articulation metrics"), written into every results row. conv-2 (issue #16): PivotErr for every matched
-#: ground-truth revolute joint whatever the predicted type (FreeArt3D's rule); the mean over all joints
-#: (``joint_mean``) and the GAPartNet part class per joint are stored beside the per-object means.
-CONVENTION_VERSION = "spark-bench-conv-2"
+#: "Articulation metrics", "Opening score"), written into every results row. conv-2 (issue #16): PivotErr
+#: for every matched ground-truth revolute joint whatever the predicted type (FreeArt3D's rule); the mean
+#: over all joints (``joint_mean``) and the GAPartNet part class per joint are stored beside the per-object
+#: means. conv-3
+#: (issue #23): the opening score acts on the case's source object and opens a part with nothing to pinch
+#: with a suction cup; the metrics are conv-2's.
+CONVENTION_VERSION = "spark-bench-conv-3"
 
 
 def _register_envs() -> None:

@@ -62,7 +62,7 @@ def _rl_value(key: str):
 
 def joint_coverage(rows: Sequence[dict], check: str) -> dict | None:
     """How many ground-truth drawer and door joints an opening score covers over a run: ``{"joints_scored",
-    "joints_total", "left_out_kinds": {kind: count}, "cases"}`` summed over the ``ok`` rows where the stage
+    "joints_total", "left_out_kinds": {kind: count}, "scored_by": {end-effector: count}, "cases"}`` summed over the ``ok`` rows where the stage
     ran (``cases``: how many); None when it ran nowhere. Read from each case's per-joint rows (a joint left
     out has ``success`` None; its kind is ``left_out_kind``, ``unknown`` in rows stored before kinds were
     recorded), so older rows count too.
@@ -76,6 +76,7 @@ def joint_coverage(rows: Sequence[dict], check: str) -> dict | None:
         return None
     scored = total = 0
     kinds: dict[str, int] = {}
+    scored_by: dict[str, int] = {}
     for result in results:
         for joint in result["joints"].values():
             total += 1
@@ -84,8 +85,10 @@ def joint_coverage(rows: Sequence[dict], check: str) -> dict | None:
                 kinds[kind] = kinds.get(kind, 0) + 1
             else:
                 scored += 1
+                effector = joint.get("end_effector") or "gripper"  # rows from before the cup: the gripper
+                scored_by[effector] = scored_by.get(effector, 0) + 1
     return {"joints_scored": scored, "joints_total": total, "left_out_kinds": dict(sorted(kinds.items())),
-            "cases": len(results)}
+            "scored_by": dict(sorted(scored_by.items())), "cases": len(results)}
 
 
 def alignment_scales(rows: Sequence[dict]) -> dict | None:

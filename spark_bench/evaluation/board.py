@@ -279,6 +279,9 @@ def coverage_line(coverage: dict | None) -> str:
         return "n/a"
     text = (f"{coverage['joints_scored']}/{coverage['joints_total']} ground-truth drawer and door joints "
             f"scored in {coverage['cases']} cases")
+    cup = (coverage.get("scored_by") or {}).get("suction", 0)
+    if cup:
+        text += f" ({cup} with the suction cup)"
     kinds = coverage.get("left_out_kinds") or {}
     if kinds:
         text += "; left out: " + ", ".join(f"{kind} {n}" for kind, n in kinds.items())

@@ -9,11 +9,16 @@ one scripted episode planned from the predicted joint, ``eval``'s ``open`` stage
 - **Which ground-truth joints are opening tasks**: drawers and doors (:data:`OPENING_TYPES`, prismatic and
   revolute joints, :func:`opening_joints`); continuous joints (knobs, caps) have no opening task and are not
   reported. The environment of a joint type is :data:`spark_bench.envs.registration.ENV_OF_JOINT_TYPE`.
+- **Which end-effector opens a part** (:data:`SCORED_END_EFFECTOR`, ``auto``): the parallel gripper where
+  the grasp planner finds something to pinch, the suction cup on the part's front face where it finds
+  nothing (a flush lid, a handle-less drawer, a board: :mod:`spark_bench.envs.suction`); both plan from the
+  joint they are told, so a wrong axis fails with either. Every row says which (``end_effector``). The RL
+  transfer score keeps the gripper, the end-effector its policies were trained with.
 - **A joint nobody can open is left out**, for every method alike, whether or not the prediction matched
   it (:func:`judge_joint`): ``success`` None and a one-line ``reason``, the first of: the grasp planner
-  declines the part before any episode (no handle, knob, notch or tab: a flush lid, a button); the scene
-  says it is stuck (driven directly by the gripper's largest pull it does not open: too heavy, or jammed
-  by its collision shapes); the scripted opener fails with the ground-truth joint too (one episode, the
+  declines the part before any episode (the gripper finds nothing to pinch and the cup no flat patch, or
+  the hand's way in is blocked, or it is a push button); the scene says it is stuck (driven directly by
+  the end-effector's largest pull or hold it does not open: too heavy, or jammed by its collision shapes); the scripted opener fails with the ground-truth joint too (one episode, the
   score's seed and step limit); or, rarer, no environment can be made of it (``no opening task``: the
   model does not compile). Such a joint tests the opener or the object, not the prediction. Every
   result carries its coverage (:func:`coverage`): ``joints_total``, ``joints_scored``, ``left_out``.
@@ -67,6 +72,9 @@ SOURCE_ANGLE_TOL = 1e-3
 SOURCE_LENGTH_TOL = 1e-3
 #: Why a ground-truth joint counts as not opened when the metrics matched no predicted joint with it.
 NOT_MATCHED = "no matched predicted joint"
+#: The end-effector the scripted opening score opens each part with (:func:`judge_joint`): ``auto`` is the
+#: gripper where the planner finds something to pinch and the suction cup where it finds nothing.
+SCORED_END_EFFECTOR = "auto"
 #: What left a joint out (a row's ``left_out_kind``): the grasp planner declined the part (nothing a parallel
 #: gripper can pull), the scene found it stuck (the gripper's largest pull does not open it), the scripted
 #: opener failed with the ground-truth joint, or no environment could be made of it.
@@ -118,6 +126,7 @@ class JudgedJoint:
     :param env: its scripted opener's environment, open, when it is scored (reset by every episode: the
         scripted score runs the prediction's episode in it); None when left out
     :param kind: what left it out (one of :data:`LEFT_OUT_KINDS`), None when it is scored
+    :param end_effector: ``gripper`` or ``suction``: what opens (or would have opened) the part
     """
 
     name: str
@@ -126,6 +135,7 @@ class JudgedJoint:
     grasp: str = ""
     env: gym.Env | None = field(default=None, repr=False)
     kind: str | None = None
+    end_effector: str = "gripper"
 
     def close(self) -> None:
         """Close the environment, if open (idempotent)."""
@@ -134,29 +144,38 @@ class JudgedJoint:
             self.env = None
 
 
-def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS) -> JudgedJoint:
-    """Apply the one rule to a ground-truth joint: the planner first (a part it declines needs no
-    environment), then the scene's stuck check, then one episode of the scripted opener with the joint's
-    own parameters. The caller closes the result.
+def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
+                end_effector: str = SCORED_END_EFFECTOR) -> JudgedJoint:
+    """Apply the one rule to a ground-truth joint: the planner first (a part the gripper finds nothing to
+    pinch on goes to the suction cup with ``auto``; a part declined for the end-effector that would open it
+    needs no environment), then the scene's stuck check, then one episode of the scripted opener with the
+    joint's own parameters. The caller closes the result.
 
     :param gt_metres: the object the policies act on, in metres (:func:`object_acted_on`)
     :param joint: one of its :func:`opening_joints`
     :param seed: the reference episode's reset seed
     :param max_steps: its step limit (and the environment's)
+    :param end_effector: ``auto`` (:data:`SCORED_END_EFFECTOR`), ``gripper`` or ``suction``
+        (:func:`spark_bench.envs.suction.choose_end_effector`)
     """
     from spark_bench.envs.scene import plan_grasp
+    from spark_bench.envs.suction import choose_end_effector
 
     try:
-        planned = plan_grasp(gt_metres, joint.name).reason
+        grasp = plan_grasp(gt_metres, joint.name)
     except InputError as exc:  # no geometry, no outward direction: nothing to grasp
-        planned = one_line(exc)
-    if planned is not None:
-        return JudgedJoint(joint.name, joint.type, planned, kind="planner")
+        return JudgedJoint(joint.name, joint.type, one_line(exc), kind="planner")
+    effector = choose_end_effector(end_effector, grasp.declined)
+    if grasp.reason is not None and effector == "gripper":
+        return JudgedJoint(joint.name, joint.type, grasp.reason, kind="planner")
     try:
-        env = make_env(ENV_OF_JOINT_TYPE[joint.type], asset=gt_metres, joint=joint.name, max_episode_steps=max_steps)
-    except InputError as exc:  # the model does not compile...: not a method's fault
-        return JudgedJoint(joint.name, joint.type, f"no opening task: {one_line(exc)}", kind="no_task")
-    grasp = env.unwrapped.scene.grasp
+        env = make_env(ENV_OF_JOINT_TYPE[joint.type], asset=gt_metres, joint=joint.name, max_episode_steps=max_steps,
+                       end_effector=effector)
+    except InputError as exc:  # the model does not compile, the cup finds no face...: not a method's fault
+        return JudgedJoint(joint.name, joint.type, f"no opening task: {one_line(exc)}", kind="no_task",
+                           end_effector=effector)
+    scene = env.unwrapped.scene
+    grasp = scene.grasp
     try:
         reference = None if grasp.reason else open_with_ground_truth(env, seed=seed, max_steps=max_steps)
     except BaseException:
@@ -165,13 +184,17 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS)
     reason = left_out_reason(grasp.reason, reference)
     if reason is not None:
         env.close()
-        return JudgedJoint(joint.name, joint.type, reason, grasp.source, kind="stuck" if grasp.reason else "reference")
-    return JudgedJoint(joint.name, joint.type, None, grasp.source, env)
+        # a reason with no drive check run is the cup's planner (no flat patch, blocked); with one, stuck
+        kind = ("stuck" if scene.free_fraction is not None else "planner") if grasp.reason else "reference"
+        return JudgedJoint(joint.name, joint.type, reason, grasp.source, kind=kind, end_effector=effector)
+    return JudgedJoint(joint.name, joint.type, None, grasp.source, env, end_effector=effector)
 
 
 def coverage(joints: dict[str, dict]) -> dict:
-    """``{"joints_total", "joints_scored", "left_out": {joint: reason}, "left_out_kinds": {kind: count}}``:
-    how many joints a score's rates cover, and what left the others out (:data:`LEFT_OUT_KINDS`).
+    """``{"joints_total", "joints_scored", "left_out": {joint: reason}, "left_out_kinds": {kind: count},
+    "scored_by": {end-effector: count}}``: how many joints a score's rates cover, what left the others out
+    (:data:`LEFT_OUT_KINDS`), and which end-effector the scored ones were opened with (``gripper`` in rows
+    that do not say).
 
     :param joints: the score's per-joint rows (a row left out has ``success`` None, a ``reason`` and a
         ``left_out_kind``)
@@ -181,8 +204,14 @@ def coverage(joints: dict[str, dict]) -> dict:
     for row in left_out.values():
         kind = row.get("left_out_kind", "")
         kinds[kind] = kinds.get(kind, 0) + 1
+    scored_by: dict[str, int] = {}
+    for row in joints.values():
+        if row.get("success") is not None:
+            effector = row.get("end_effector", "gripper")
+            scored_by[effector] = scored_by.get(effector, 0) + 1
     return {"joints_total": len(joints), "joints_scored": len(joints) - len(left_out),
-            "left_out": {name: row["reason"] for name, row in left_out.items()}, "left_out_kinds": kinds}
+            "left_out": {name: row["reason"] for name, row in left_out.items()}, "left_out_kinds": kinds,
+            "scored_by": dict(sorted(scored_by.items()))}
 
 
 def scored_mean(joints: dict[str, dict], key: str = "success") -> float | None:
@@ -382,15 +411,16 @@ def scripted_score(pairing: Pairing, seed: int = 0, max_steps: int = OPENING_STE
 
 def _scripted_row(judged: JudgedJoint, pairing: Pairing, seed: int, max_steps: int) -> dict:
     """One ground-truth joint's row of the scripted opening score."""
+    effector = {"end_effector": judged.end_effector}
     if judged.reason is not None:
-        return {"success": None, "reason": judged.reason, "left_out_kind": judged.kind}
+        return {"success": None, "reason": judged.reason, "left_out_kind": judged.kind, **effector}
     pred_name, why = pairing.predicted_joint(judged.name)
     if why is not None:
-        return {"success": False, "why": why}
+        return {"success": False, "why": why, **effector}
     axis, pivot, pred_type = pairing.estimates[pred_name]
     result = open_with_joint(judged.env, axis, pivot, pred_type, seed=seed, max_steps=max_steps)
     return {"success": bool(result.success), "pred_joint": pred_name, "max_fraction": float(result.max_fraction),
-            "steps": int(result.steps)}
+            "steps": int(result.steps), "end_effector": result.end_effector}
 
 
 # ----- the opener's own diagnostic --------------------------------------------------------------------

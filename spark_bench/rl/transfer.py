@@ -191,7 +191,8 @@ def _plan_rows(pairing: Pairing, seed: int) -> tuple[dict[str, dict], dict[str, 
     joints: dict[str, dict] = {}
     plan: dict[str, list[str]] = {}
     for joint in opening_joints(pairing.gt_metres):
-        judged = judge_joint(pairing.gt_metres, joint, seed, OPENING_STEPS)
+        # the generalist was trained with the parallel gripper: its observations and actions are the gripper's
+        judged = judge_joint(pairing.gt_metres, joint, seed, OPENING_STEPS, end_effector="gripper")
         judged.close()  # the policies act in environments of their own (grasp-frame observations)
         pred_name, why = pairing.predicted_joint(joint.name)
         row = joints[joint.name] = {"type": joint.type, "pred_joint": pred_name, "zero_shot": 0.0, "success": 0.0}

@@ -189,7 +189,7 @@ def test_rows_of_older_conventions_left_out_and_noted(tmp_path):
     assert "per object (the mean over its joints), then averaged over objects" in md
     with ResultsStore(tmp_path / "old.sqlite") as s:
         s.put({**_row("old", "c1", axis_err=0.9), "convention": "spark-bench-conv-1"})
-        with pytest.raises(SparkBenchError, match=r"current metric definitions \(spark-bench-conv-2\).*"
+        with pytest.raises(SparkBenchError, match=r"current metric definitions \(spark-bench-conv-3\).*"
                                                   r"spark-bench-conv-1 \(1 rows\)"):
             build_leaderboard(s)
 
@@ -315,17 +315,19 @@ def test_coverage_counts_the_joints_scored_and_what_left_the_others_out(tmp_path
 
     old = _open_check((True, None), (None, None))
     old["open"]["joints"]["joint_1"].update(reason="planner said so")  # no left_out_kind: an older row
-    rows = [_row("A", "c1", checks=_open_check((True, None), (False, None), (None, "planner"))),
+    cup = _open_check((True, None), (False, None), (None, "planner"))
+    cup["open"]["joints"]["joint_0"]["end_effector"] = "suction"  # opened with the cup
+    rows = [_row("A", "c1", checks=cup),
             _row("A", "c2", checks=_open_check((None, "stuck"), (None, "planner"))),
             _row("A", "c3", checks=old),
             {**_row("A", "c4", checks=_open_check((True, None))), "status": "failed"}]
     coverage = joint_coverage(rows, "open")
-    assert coverage == {"joints_scored": 3, "joints_total": 7, "cases": 3,
+    assert coverage == {"joints_scored": 3, "joints_total": 7, "cases": 3, "scored_by": {"gripper": 2, "suction": 1},
                         "left_out_kinds": {"planner": 2, "stuck": 1, "unknown": 1}}
     assert joint_coverage(rows, "rl") is None
     assert summarize(rows)["open_coverage"] == coverage and "open_coverage" not in summarize(rows, sim=False)
-    assert coverage_line(coverage) == ("3/7 ground-truth drawer and door joints scored in 3 cases; "
-                                       "left out: planner 2, stuck 1, unknown 1")
+    assert coverage_line(coverage) == ("3/7 ground-truth drawer and door joints scored in 3 cases (1 with the "
+                                       "suction cup); left out: planner 2, stuck 1, unknown 1")
     with ResultsStore(tmp_path / "r.sqlite") as s:
         s.put(rows)
         board = build_leaderboard(s)

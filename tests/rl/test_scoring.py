@@ -42,11 +42,15 @@ def jammed_cabinet():
     return asset
 
 
-def flat_cabinet():
-    """The procedural cabinet with its drawer's bar handle removed: nothing for the planner to grasp."""
+def flat_cabinet(travel: float | None = None):
+    """The procedural cabinet with its drawer's bar handle removed: nothing for the gripper to pinch (the
+    suction cup's task); with ``travel`` (m) its drawer moves only so far: a push button, which no end-effector
+    pulls open."""
     flat = procedural_cabinet(seed=0)
     drawer = flat.links["link_0"]
     drawer.visuals, drawer.collisions = drawer.visuals[:5], drawer.collisions[:5]
+    if travel is not None:
+        flat.joints["joint_0"].upper = travel
     return flat
 
 
@@ -63,6 +67,11 @@ def jammed_dir(tmp_path_factory):
 @pytest.fixture(scope="module")
 def flat_dir(tmp_path_factory):
     return BenchmarkCase(write_case(tmp_path_factory.mktemp("bench"), "flat0", flat_cabinet())).gt_dir
+
+
+@pytest.fixture(scope="module")
+def button_dir(tmp_path_factory):
+    return BenchmarkCase(write_case(tmp_path_factory.mktemp("bench"), "button0", flat_cabinet(travel=0.005))).gt_dir
 
 
 @pytest.fixture(scope="module")
@@ -117,7 +126,7 @@ def test_unmatched_joint_counts_as_not_opened(gt_dir):
     door = next(j for j in gt.movable_joints() if j.type == "revolute")
     metrics = {"matching": [m for m in identity_matching(gt)["matching"] if m["gt_joint"] != door.name]}
     result = open_with_predicted_joints(gt_dir, gt_dir, metrics)
-    assert result["joints"][door.name] == {"success": False, "why": "no matched predicted joint"}
+    assert result["joints"][door.name] == {"success": False, "why": "no matched predicted joint", "end_effector": "gripper"}
     assert result["success_rate"] == pytest.approx(1 - 1 / len(result["joints"]))
 
 
@@ -134,7 +143,8 @@ def test_a_jammed_part_is_left_out_whether_or_not_the_prediction_matched_it(jamm
         assert result["joints_total"] == 2 and result["joints_scored"] == 1
         assert result["left_out"] == {"joint_0": joint["reason"]}
     assert matched["joints"]["joint_1"]["success"] is True and matched["success_rate"] == 1.0
-    assert unmatched["joints"]["joint_1"] == {"success": False, "why": "no matched predicted joint"}
+    assert unmatched["joints"]["joint_1"] == {"success": False, "why": "no matched predicted joint",
+                                              "end_effector": "gripper"}
     assert unmatched["success_rate"] == 0.0
 
 
@@ -151,18 +161,41 @@ def test_bad_normalization_is_a_clear_error(case_dir, tmp_path):
     assert str(broken.record_path) in str(info.value)
 
 
-def test_a_part_the_planner_declines_is_left_out_with_its_reason(flat_dir):
-    """A drawer with nothing to hold is no test of the prediction: left out (``success`` None) with the
-    planner's one-line reason, before any episode; the door is still scored."""
-    gt = load_object(flat_dir)
-    result = open_with_predicted_joints(flat_dir, flat_dir, identity_matching(gt))
+def test_a_part_the_planner_declines_is_left_out_with_its_reason(button_dir):
+    """A part no end-effector pulls open (a push button) is no test of the prediction: left out (``success``
+    None) with the planner's one-line reason, before any episode; the door is still scored."""
+    gt = load_object(button_dir)
+    result = open_with_predicted_joints(button_dir, button_dir, identity_matching(gt))
     entry = result["joints"]["joint_0"]
-    assert entry == {"success": None, "reason": entry["reason"], "left_out_kind": "planner"}
-    assert "no handle" in entry["reason"] and "\n" not in entry["reason"]
+    assert entry == {"success": None, "reason": entry["reason"], "left_out_kind": "planner", "end_effector": "gripper"}
+    assert "push button" in entry["reason"] and "\n" not in entry["reason"]
     assert result["joints"]["joint_1"]["success"] is True
     assert result["success_rate"] == 1.0  # the door alone is judged
     assert (result["joints_total"], result["joints_scored"], result["left_out"]) == (2, 1, {"joint_0": entry["reason"]})
     assert result["left_out_kinds"] == {"planner": 1}
+
+
+def test_a_part_with_nothing_to_pinch_is_opened_with_the_suction_cup(flat_dir, tmp_path):
+    """The handle-less drawer: the scripted score opens it with the suction cup planned from the predicted
+    joint (the row says so) and fails it planned from a wrong axis; the RL transfer score, whose policies
+    were trained with the gripper, leaves it out with the planner's reason."""
+    from spark_bench.rl.transfer import rl_transfer_score
+
+    gt = load_object(flat_dir)
+    result = open_with_predicted_joints(flat_dir, flat_dir, identity_matching(gt))
+    drawer = result["joints"]["joint_0"]
+    assert drawer["success"] is True and drawer["end_effector"] == "suction"
+    assert result["joints"]["joint_1"]["end_effector"] == "gripper"
+    assert (result["joints_scored"], result["scored_by"]) == (2, {"gripper": 1, "suction": 1})
+    wrong = gt.copy()
+    wrong.joints["joint_0"].axis = np.array([0.0, 1.0, 0.0])  # sideways: the cup slides off or drags nothing
+    write_object_folder(wrong, tmp_path / "wrong")
+    turned = open_with_predicted_joints(tmp_path / "wrong", flat_dir, identity_matching(gt))["joints"]["joint_0"]
+    assert turned["success"] is False and turned["end_effector"] == "suction"
+    rl = rl_transfer_score(flat_dir, flat_dir, {"matching": [{"gt_joint": "joint_0", "pred_joint": "joint_0"}]},
+                           finetune_steps=0)
+    assert rl["joints"]["joint_0"]["success"] is None and rl["joints"]["joint_0"]["left_out_kind"] == "planner"
+    assert "no handle" in rl["joints"]["joint_0"]["reason"]
 
 
 def test_the_oracle_ground_truth_is_loaded_once(gt_dir, tmp_path, object_loads):
@@ -232,15 +265,15 @@ def _reference_fails_on(joint_name: str, monkeypatch) -> None:
 
 
 @pytest.mark.parametrize("why", ["planner", "scene", "reference"])
-def test_both_scores_leave_out_the_same_joint_with_the_same_reason(why, flat_dir, jammed_dir, gt_dir,
+def test_both_scores_leave_out_the_same_joint_with_the_same_reason(why, button_dir, jammed_dir, gt_dir,
                                                                    monkeypatch):
     """The one rule, for the scripted opening score and the RL transfer score alike: the planner declines
-    the flat drawer, the scene finds the jammed one stuck, the opener fails the reference episode (here:
+    the push button, the scene finds the jammed drawer stuck, the opener fails the reference episode (here:
     made to, on the door). The joint is left out of both with the same reason, matched or not, and each
     result says how many joints its rate covers. Only the left-out joint is matched: no policy runs."""
     from spark_bench.rl.transfer import rl_transfer_score
 
-    folder, joint, words = {"planner": (flat_dir, "joint_0", "no handle"), "scene": (jammed_dir, "joint_0", "jammed"),
+    folder, joint, words = {"planner": (button_dir, "joint_0", "push button"), "scene": (jammed_dir, "joint_0", "jammed"),
                             "reference": (gt_dir, "joint_1", "fails with the ground-truth joint too")}[why]
     if why == "reference":
         _reference_fails_on(joint, monkeypatch)
@@ -250,7 +283,8 @@ def test_both_scores_leave_out_the_same_joint_with_the_same_reason(why, flat_dir
     reason = scripted["joints"][joint]["reason"]
     assert words in reason and "\n" not in reason
     kind = {"planner": "planner", "scene": "stuck", "reference": "reference"}[why]
-    assert scripted["joints"][joint] == {"success": None, "reason": reason, "left_out_kind": kind}
+    assert scripted["joints"][joint] == {"success": None, "reason": reason, "left_out_kind": kind,
+                                         "end_effector": "gripper"}
     assert rl["joints"][joint]["reason"] == reason and rl["joints"][joint]["left_out_kind"] == kind
     assert rl["joints"][joint]["success"] is None and rl["joints"][joint]["zero_shot"] is None
     for result in (scripted, rl):
@@ -262,11 +296,11 @@ def test_both_scores_leave_out_the_same_joint_with_the_same_reason(why, flat_dir
     assert rl["joints"][other]["why"] == scripted["joints"][other]["why"] == "no matched predicted joint"
 
 
-def test_every_joint_left_out_gives_no_rate(flat_dir, monkeypatch):
+def test_every_joint_left_out_gives_no_rate(button_dir, monkeypatch):
     """A ground truth whose every drawer and door is left out has no rate (None), not 0: the case is no
     test of any prediction."""
-    _reference_fails_on("joint_1", monkeypatch)  # the door; the planner declines the flat drawer
-    result = open_with_predicted_joints(flat_dir, flat_dir, {"matching": []})
+    _reference_fails_on("joint_1", monkeypatch)  # the door; the planner declines the push button
+    result = open_with_predicted_joints(button_dir, button_dir, {"matching": []})
     assert result["success_rate"] is None
     assert (result["joints_total"], result["joints_scored"]) == (2, 0) and set(result["left_out"]) == {"joint_0", "joint_1"}
     assert result["left_out_kinds"] == {"planner": 1, "reference": 1}
