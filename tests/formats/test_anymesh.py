@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from helpers_formats import refused
+from helpers_formats import assert_matches_ground_truth, refused
 
 from spark_bench.asset.transforms import axis_angle_matrix
 from spark_bench.data.case import Benchmark
@@ -90,15 +90,6 @@ def write_anymesh(run: Path, gt) -> list[dict]:
     return entries
 
 
-def _quarter_turn(imported, gt) -> np.ndarray:
-    """The quarter turn about Z the footprint squaring may leave (the one that fits the boxes)."""
-    box = gt.bounds()
-    turns = [axis_angle_matrix([0, 0, 1], k * math.pi / 2) for k in range(4)]
-    errors = [np.abs(np.sort((imported.mesh().vertices @ t.T)[:, :2].min(0)) - np.sort(box[0, :2])).max()
-              + np.abs((imported.mesh().vertices @ t.T).max(0) - box[1]).max() for t in turns]
-    return turns[int(np.argmin(errors))]
-
-
 def test_round_trip_against_the_ground_truth(bench, gt, tmp_path):
     runs, out = tmp_path / "runs", tmp_path / "pred"
     write_anymesh(runs / "cab0", gt)
@@ -106,19 +97,8 @@ def test_round_trip_against_the_ground_truth(bench, gt, tmp_path):
     assert [c.case_id for c in report.imported] == ["cab0"] and report.imported[0].articulated
 
     imported = load_object(out / "cab0")
-    turn = _quarter_turn(imported, gt)
-    got_points = imported.mesh().vertices @ turn.T
-    assert np.abs(np.stack([got_points.min(0), got_points.max(0)]) - gt.bounds()).max() < TOL
-    by_label = {imported.links[j.child].label: j for j in imported.movable_joints()}
-    got_frames, gt_frames = imported.joint_frames(), gt.joint_frames()
-    for joint in gt.movable_joints():
-        mine = by_label[NAMES[joint.child]]
-        assert mine.type == joint.type
-        point, direction = gt_frames[joint.name]
-        got_point, got_direction = (turn @ v for v in got_frames[mine.name])
-        assert np.linalg.norm(np.cross(got_direction, direction)) < 1e-6  # the same line, up to sign
-        if joint.type == "revolute":  # the pivot: on the ground truth's hinge line
-            assert np.linalg.norm(np.cross(got_point - point, direction)) < TOL
+    mine = assert_matches_ground_truth(imported, gt, NAMES, TOL)
+    by_label = {imported.links[j.child].label: j for j in mine.values()}
     assert by_label["door@1"].upper == pytest.approx(math.pi) and by_label["drawer@1"].upper == 0.0
 
     # and as the metrics see it (alignment by ICP, as `eval --align icp` scores an import)

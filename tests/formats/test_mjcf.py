@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from helpers_formats import refused
+from helpers_formats import assert_matches_ground_truth, refused
 from PIL import Image
 from scipy.spatial.transform import Rotation
 
@@ -131,39 +131,6 @@ def write_particulate(run: Path, gt, stamp: str = STAMP) -> Parts:
     return parts
 
 
-def _quarter_turn(imported, gt) -> np.ndarray:
-    """The quarter turn about Z the footprint squaring may leave: the one bringing the imported vertices
-    onto the ground truth's (the same meshes; a cabinet's box alone cannot tell a half turn)."""
-    from scipy.spatial import cKDTree
-
-    tree = cKDTree(gt.mesh().vertices)
-    turns = [axis_angle_matrix([0, 0, 1], k * math.pi / 2) for k in range(4)]
-    errors = [tree.query(imported.mesh().vertices @ t.T)[0].max() for t in turns]
-    return turns[int(np.argmin(errors))]
-
-
-def _compare_with_gt(imported, gt, labels: dict[str, str]) -> dict:
-    """Bounds, joint types, axes (up to sign) and pivots of ``imported`` against ``gt`` (up to the quarter
-    turn); ``labels``: gt child link -> the imported link's label. Returns the imported joint of each gt
-    joint."""
-    turn = _quarter_turn(imported, gt)
-    got_points = imported.mesh().vertices @ turn.T
-    assert np.abs(np.stack([got_points.min(0), got_points.max(0)]) - gt.bounds()).max() < TOL
-    by_label = {imported.links[j.child].label: j for j in imported.movable_joints()}
-    got_frames, gt_frames = imported.joint_frames(), gt.joint_frames()
-    out = {}
-    for joint in gt.movable_joints():
-        mine = by_label[labels[joint.child]]
-        assert mine.type == joint.type
-        point, direction = gt_frames[joint.name]
-        got_point, got_direction = (turn @ v for v in got_frames[mine.name])
-        assert np.linalg.norm(np.cross(got_direction, direction)) < 1e-6  # the same line, up to sign
-        if joint.type == "revolute":  # the pivot: on the ground truth's hinge line
-            assert np.linalg.norm(np.cross(got_point - point, direction)) < TOL
-        out[joint.name] = mine
-    return out
-
-
 def test_particulate_round_trip_against_the_ground_truth(bench, gt, tmp_path):
     runs, out = tmp_path / "runs", tmp_path / "pred"
     parts = write_particulate(runs / "cab0", gt, stamp="20260101_000000")  # an older export, not read
@@ -173,7 +140,7 @@ def test_particulate_round_trip_against_the_ground_truth(bench, gt, tmp_path):
 
     imported = load_object(out / "cab0")
     labels = {name: f"link_{k}" for k, name in enumerate(parts.names)}  # Particulate's body names
-    mine = _compare_with_gt(imported, gt, labels)
+    mine = assert_matches_ground_truth(imported, gt, labels, TOL)
     for joint in gt.movable_joints():  # degrees in the file, radians here; the unit box undone
         assert mine[joint.name].lower == pytest.approx(joint.lower, abs=TOL)
         assert mine[joint.name].upper == pytest.approx(joint.upper, abs=TOL)
@@ -296,7 +263,7 @@ def test_physx_anything_round_trip_against_the_ground_truth(bench, gt, tmp_path)
 
     imported = load_object(out / "cab0")
     labels = {name: f"grouppart_{g}" for g, name in enumerate(parts.names[1:], start=1)}
-    mine = _compare_with_gt(imported, gt, labels)
+    mine = assert_matches_ground_truth(imported, gt, labels, TOL)
     door = next(j for j in gt.movable_joints() if j.type == "revolute")
     assert mine[door.name].upper == pytest.approx(door.upper, abs=1e-9)  # radians, as written
 
