@@ -23,6 +23,7 @@ import time
 import traceback
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
+from functools import cache, partial
 from pathlib import Path
 
 from spark_bench import CONVENTION_VERSION, __version__
@@ -260,18 +261,24 @@ def _sim_checks(pred_folder: Path) -> dict:
     return out
 
 
-def _scripted_open(pred_folder: Path, gt_folder: Path, metrics: dict, seed: int, gt_bench=None) -> dict:
+def _load_pairing(pred_folder: Path, gt_folder: Path, metrics: dict, gt_bench):
+    from spark_bench.rl.scoring import load_pairing
+
+    return load_pairing(pred_folder, gt_folder, metrics, gt_bench)
+
+
+def _scripted_open(pred_folder: Path, gt_folder: Path, metrics: dict, seed: int, pairing: Callable) -> dict:
     from spark_bench.rl.scoring import open_with_predicted_joints
 
-    return open_with_predicted_joints(pred_folder, gt_folder, metrics, seed=seed, gt_bench=gt_bench)
+    return open_with_predicted_joints(pred_folder, gt_folder, metrics, seed=seed, pairing=pairing())
 
 
 def _rl_transfer(pred_folder: Path, gt_folder: Path, metrics: dict, out_dir: Path, options: EvalOptions,
-                 gt_bench=None) -> dict:
+                 pairing: Callable) -> dict:
     from spark_bench.rl.transfer import rl_transfer_score
 
     return rl_transfer_score(pred_folder, gt_folder, metrics, out_dir=out_dir, finetune_steps=options.rl_finetune_steps,
-                             seed=options.seed, video=out_dir / RL_VIDEO, gt_bench=gt_bench)
+                             seed=options.seed, video=out_dir / RL_VIDEO, pairing=pairing())
 
 
 def _success_rate(result: dict) -> float | None:
@@ -326,16 +333,19 @@ def evaluate_case(task: CaseTask) -> list[dict]:
         metrics = _mark_articulation(metrics, generation.articulation_metrics_valid)
         row.update(metrics=metrics, **_metric_columns(metrics))
         checks: dict = {}
+        # the prediction and the object the scores act on, loaded by the first score that asks and kept for the
+        # next (a real object's source takes seconds); a load that fails is not kept: each stage fails on its own
+        pairing = cache(partial(_load_pairing, generation.folder, gt_folder, metrics, gt_bench))
         if task.options.sim:
             checks["sim"] = _check_stage(stages, "sim", _sim_checks, generation.folder)
             row["sim_pass"] = checks["sim"].get("passed")
             checks["open"] = _check_stage(stages, "open", _scripted_open, generation.folder, gt_folder, metrics,
-                                          task.options.seed, gt_bench)  # loaded once, above
+                                          task.options.seed, pairing)
             row["open_success"] = _success_rate(checks["open"])
         if task.options.rl:
             checks["rl"] = _check_stage(stages, "rl", _rl_transfer, generation.folder, gt_folder, metrics,
                                         Path(task.generation_dir).with_name(Path(task.generation_dir).name + ".rl"),
-                                        task.options, gt_bench)
+                                        task.options, pairing)
             row["rl_success"] = _success_rate(checks["rl"])
         row.update(checks=checks, status="ok")
         rows = [row]

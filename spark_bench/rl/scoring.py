@@ -369,7 +369,7 @@ def load_pairing(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, 
 
 # ----- the scripted opening score -------------------------------------------------------------------
 def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, metrics: dict, seed: int = 0,
-                               max_steps: int = OPENING_STEPS, gt_bench=None) -> dict:
+                               max_steps: int = OPENING_STEPS, gt_bench=None, pairing: Pairing | None = None) -> dict:
     """The scripted opening score: every ground-truth drawer and door opened by one scripted episode
     planned from the matched predicted joint (:func:`spark_bench.rl.scripted.open_with_joint`).
 
@@ -379,13 +379,17 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     :param seed: environment reset seed (the reference episode's too)
     :param max_steps: step limit per episode (the reference episode's too)
     :param gt_bench: the object of ``gt_folder`` if the caller already loaded it (not modified)
+    :param pairing: the prediction and the object acted on, if the caller already loaded them
+        (:func:`load_pairing` of the same folders and metrics); used as they are
     :returns: ``{"success_rate": fraction opened of the joints scored (None when none is), "joints": {...},
         "joints_total", "joints_scored", "left_out", "acts_on"}`` (``acts_on``: :func:`object_acted_on`'s
         word for what the episodes opened); a joint left out has ``success`` None and a one-line
         ``reason`` (module docstring); one not attempted has ``success`` False and ``why``; one attempted
         has ``success``, ``pred_joint``, ``max_fraction`` and ``steps``
     """
-    return scripted_score(load_pairing(pred_folder, gt_folder, metrics, gt_bench), seed, max_steps)
+    if pairing is None:
+        pairing = load_pairing(pred_folder, gt_folder, metrics, gt_bench)
+    return scripted_score(pairing, seed, max_steps)
 
 
 def scripted_score(pairing: Pairing, seed: int = 0, max_steps: int = OPENING_STEPS,

@@ -150,7 +150,7 @@ def record_episode(kind: str, asset, joint: str, policy, path: str | Path, joint
 def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: dict,
                       out_dir: str | Path | None = None, finetune_steps: int = FINETUNE_STEPS, seed: int = 0,
                       episodes: int = EPISODES, weights: str | Path | None = None,
-                      video: str | Path | None = None, gt_bench=None) -> dict:
+                      video: str | Path | None = None, gt_bench=None, pairing: Pairing | None = None) -> dict:
     """Score a prediction by the generalist policy's success on the ground truth (see the module docstring).
 
     :param pred_folder: the predicted object folder
@@ -165,6 +165,9 @@ def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: d
     :param video: write the fine-tuned policy's episode on the first ground-truth joint it was run on there
         (``.gif`` / ``.mp4``)
     :param gt_bench: the object of ``gt_folder`` if the caller already loaded it (not modified)
+    :param pairing: the prediction and the object acted on, if the caller already loaded them
+        (:func:`~spark_bench.rl.scoring.load_pairing` of the same folders and metrics: ``eval`` loads them
+        once for both scores); used as they are
     :returns: ``{"success_rate", "zero_shot_success_rate", "holdable_success_rate", "joints",
         "joints_total", "joints_scored", "left_out", "finetune", "policy", "assets", ...}``; the rates are
         over the joints scored, None when none is; a joint left out has ``success`` and ``zero_shot`` None
@@ -179,7 +182,7 @@ def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: d
     torch.set_num_threads(1)  # small MLPs: one thread is faster than several contending for the cores
     try:
         return _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, seed, episodes, weights,
-                               video, gt_bench)
+                               video, gt_bench, pairing)
     finally:
         torch.set_num_threads(threads)
 
@@ -210,13 +213,14 @@ def _plan_rows(pairing: Pairing, seed: int) -> tuple[dict[str, dict], dict[str, 
 
 
 def _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, seed, episodes, weights, video,
-                    gt_bench=None) -> dict:
+                    gt_bench=None, pairing: Pairing | None = None) -> dict:
     from spark_bench.asset.ops import similarity_asset
     from spark_bench.rl.records import asset_content_hash
 
     t0, cpu0 = time.perf_counter(), time.process_time()
     record = weights_record(weights)
-    pairing = load_pairing(pred_folder, gt_folder, metrics, gt_bench)
+    if pairing is None:
+        pairing = load_pairing(pred_folder, gt_folder, metrics, gt_bench)
     joints, plan = _plan_rows(pairing, seed)
     tuned: dict[str, dict] = {}
     recorded = video is None

@@ -390,3 +390,29 @@ def test_a_case_prepared_again_is_scored_again_and_an_unchanged_one_is_not(tiny_
     moved.parent.mkdir()
     tiny_bench.rename(moved)
     assert run_eval(MethodSpec.create("oracle"), str(moved), FAST, **kwargs).n_skipped == 3
+
+
+def test_the_open_and_rl_scores_share_one_pairing(tmp_path, isolated_home, monkeypatch):
+    """``eval`` with the opening score and ``--rl``: the prediction and the object the scores act on (a real
+    object's source takes seconds to read) are loaded once per case, for both scores."""
+    import spark_bench.rl.scoring as scoring
+    import spark_bench.rl.transfer as transfer
+    from spark_bench.evaluation.runner import EvalOptions
+
+    calls: list[str] = []
+    real = scoring.load_pairing
+
+    def counting(pred_folder, gt_folder, metrics, gt_bench=None):
+        calls.append(str(pred_folder))
+        return real(pred_folder, gt_folder, metrics, gt_bench)
+
+    monkeypatch.setattr(scoring, "load_pairing", counting)
+    monkeypatch.setattr(transfer, "load_pairing", counting)  # the name the RL score imported
+    bench = make_tiny_bench(tmp_path, n=1)
+    summary = run_eval(MethodSpec.create("oracle"), str(bench), EvalOptions(sim=True, rl=True, n_samples=2000,
+                       rl_finetune_steps=0), db=tmp_path / "r.sqlite", workers=0, runs_root=tmp_path / "runs",
+                       progress=False)
+    assert summary.n_failed == 0 and len(calls) == 1
+    with ResultsStore(tmp_path / "r.sqlite") as store:
+        (row,) = store.rows(status="ok")
+    assert row["checks"]["open"]["joints_total"] == row["checks"]["rl"]["joints_total"] == 2
