@@ -246,14 +246,15 @@ def fmt_value(value, digits: int = 4) -> str:
 
 
 def fmt_coverage(coverage: dict | None) -> str:
-    """An opening rate's coverage for a table: ``scored/total`` ground-truth joints, ``n/a`` when the score
-    never ran.
+    """An opening rate's coverage for a table: ``scored/total`` ground-truth joints, with how many of the scored
+    ones the suction cup opened (``69/79 (10 by cup)``), ``n/a`` when the score never ran.
 
     :param coverage: :func:`spark_bench.evaluation.aggregate.joint_coverage`'s result
     """
     if not coverage:
         return "n/a"
-    return f"{coverage['joints_scored']}/{coverage['joints_total']}"
+    cup = (coverage.get("scored_by") or {}).get("suction", 0)
+    return f"{coverage['joints_scored']}/{coverage['joints_total']}" + (f" ({cup} by cup)" if cup else "")
 
 
 def fmt_scale(scales: dict | None) -> str:

@@ -333,7 +333,7 @@ def test_coverage_counts_the_joints_scored_and_what_left_the_others_out(tmp_path
         board = build_leaderboard(s)
     text = render(board, "md")
     sim_table = text.split("Sim-readiness", 1)[1]
-    assert "| Open joints |" in sim_table and "| 3/7 |" in sim_table
+    assert "| Open joints |" in sim_table and "| 3/7 (1 by cup) |" in sim_table
     header, line = render(board, "csv").splitlines()[:2]
     values = dict(zip(header.split(","), line.split(",")))
     assert (values["open_coverage_scored"], values["open_coverage_total"]) == ("3", "7")
