@@ -57,7 +57,6 @@ names no part, a cycle.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -66,8 +65,9 @@ import numpy as np
 import trimesh
 
 from spark_bench.asset.model import DEFAULT_REVOLUTE_UPPER, ArticulatedAsset, Joint, Link, Visual
+from spark_bench.data.readers import read_json
 from spark_bench.errors import InputError
-from spark_bench.formats.foreign import ForeignObject, finite_vector
+from spark_bench.formats.foreign import ForeignObject, axis_line
 from spark_bench.formats.parts import Y_UP_TO_OURS, inside
 
 FORMAT = "anymesh"
@@ -151,15 +151,8 @@ def read_entry(item, index: int, path: Path) -> Entry:
                                "(joint_estimation.py get_mobility_json); PartNet-Mobility's are in degrees")
     if kind == "fixed":
         return Entry(name, parent, kind)
-    axis = data.get("axis")
-    if not isinstance(axis, dict):
-        raise InputError(path, f"part {name!r}: {kind} joint without jointData.axis")
-    origin = finite_vector(axis.get("origin"), path, f"part {name!r}: jointData.axis.origin")
-    direction = finite_vector(axis.get("direction"), path, f"part {name!r}: jointData.axis.direction")
-    norm = float(np.linalg.norm(direction))
-    if norm < 1e-9:
-        raise InputError(path, f"part {name!r}: jointData.axis.direction {direction.tolist()} is zero")
-    return Entry(name, parent, kind, origin, direction / norm)
+    origin, direction = axis_line(data.get("axis"), path, f"part {name!r}: {kind} joint (jointData)")
+    return Entry(name, parent, kind, origin, direction)
 
 
 def load_entries(path: Path) -> list[Entry]:
@@ -167,10 +160,7 @@ def load_entries(path: Path) -> list[Entry]:
 
     :raises InputError: for a file that is not JSON or not a non-empty list, a bad entry, or a bad tree
     """
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise InputError(path, f"not a JSON file: {' '.join(str(exc).split())[:200]}") from None
+    data = read_json(path)
     if not isinstance(data, list) or not data:
         raise InputError(path, "not Articulate AnyMesh's mobility.json: expected a non-empty list of parts")
     entries = [read_entry(item, i, path) for i, item in enumerate(data)]

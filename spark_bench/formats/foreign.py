@@ -12,7 +12,6 @@ and the scale are left to ``eval --align icp``, whose alignment (scale included)
 
 from __future__ import annotations
 
-import json
 import math
 import shutil
 from dataclasses import dataclass
@@ -71,6 +70,26 @@ def selected_case_ids(benchmark, cases: list[str] | None) -> list[str]:
             raise InputError(benchmark.manifest_path, f"no case {unknown_ids[0]!r} in this benchmark")
         case_ids = [c for c in case_ids if c in set(cases)]
     return case_ids
+
+
+def axis_line(axis, path: Path, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(a point on the axis, its unit direction)`` of an ``{"origin": [...], "direction": [...]}`` object, as
+    SINGAPO / DIPO / CAGE, FreeArt3D and Articulate AnyMesh write a joint's axis.
+
+    :param axis: what the file holds
+    :param path: the file, for the error
+    :param what: whose axis, for the error (``node 3: prismatic joint``)
+    :raises InputError: naming the file when it is no such object, a value is not 3 finite numbers, or the
+        direction is zero
+    """
+    if not isinstance(axis, dict):
+        raise InputError(path, f"{what} without an axis object")
+    origin = finite_vector(axis.get("origin"), path, f"{what} axis origin")
+    direction = finite_vector(axis.get("direction"), path, f"{what} axis direction")
+    norm = float(np.linalg.norm(direction))
+    if norm < 1e-9:
+        raise InputError(path, f"{what} axis direction {direction.tolist()} is zero")
+    return origin, direction / norm
 
 
 def finite_vector(value, path: Path, what: str) -> np.ndarray:
@@ -214,13 +233,12 @@ def read_import_record(folder: str | Path) -> dict | None:
 
     :raises InputError: naming the file when it is there but not a JSON object
     """
+    from spark_bench.data.readers import read_json
+
     path = Path(folder) / IMPORT_RECORD
-    if not path.is_file():
+    data = read_json(path, default=None)
+    if data is None:
         return None
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise InputError(path, f"unreadable import record: {exc}") from None
     if not isinstance(data, dict):
         raise InputError(path, "import record is not a JSON object")
     return data

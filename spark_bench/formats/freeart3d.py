@@ -52,7 +52,6 @@ prismatic axis and writes the limits ``lower = s, upper = 0``, an upper limit be
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -62,8 +61,9 @@ import trimesh
 
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
 from spark_bench.asset.transforms import axis_angle_matrix
+from spark_bench.data.readers import read_json
 from spark_bench.errors import InputError
-from spark_bench.formats.foreign import ForeignObject, finite_vector
+from spark_bench.formats.foreign import ForeignObject, axis_line
 
 FORMAT = "freeart3d"
 SDS_DIR = "sds_output"
@@ -150,15 +150,8 @@ def read_joint(entry, index: int, path: Path) -> PartJoint:
     if kind == "revolute" and abs(hi) > 2 * math.pi + 1e-9:
         raise InputError(path, f"joint {index}: revolute range {hi} is beyond 2 pi: FreeArt3D writes radians "
                                "(looks like degrees)")
-    axis = entry.get("axis")
-    if not isinstance(axis, dict):
-        raise InputError(path, f"joint {index}: no axis object")
-    origin = finite_vector(axis.get("origin"), path, f"joint {index}: axis origin")
-    direction = finite_vector(axis.get("direction"), path, f"joint {index}: axis direction")
-    norm = float(np.linalg.norm(direction))
-    if norm < 1e-9:
-        raise InputError(path, f"joint {index}: axis direction {direction.tolist()} is zero")
-    return PartJoint(kind, origin, direction / norm, hi)
+    origin, direction = axis_line(entry.get("axis"), path, f"joint {index}:")
+    return PartJoint(kind, origin, direction, hi)
 
 
 def load_joints(path: Path) -> list[PartJoint]:
@@ -166,10 +159,7 @@ def load_joints(path: Path) -> list[PartJoint]:
 
     :raises InputError: when it is not JSON, not a non-empty list, or an entry is bad
     """
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise InputError(path, f"not a JSON file: {exc}") from None
+    data = read_json(path)
     if not isinstance(data, list) or not data:
         raise InputError(path, "not FreeArt3D's joint_info: expected a non-empty list of joints")
     return [read_joint(entry, i, path) for i, entry in enumerate(data)]

@@ -77,8 +77,9 @@ import trimesh
 
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
 from spark_bench.asset.transforms import rpy_to_matrix
+from spark_bench.data.readers import read_json
 from spark_bench.errors import InputError
-from spark_bench.formats.foreign import ForeignObject, finite_vector
+from spark_bench.formats.foreign import ForeignObject, axis_line
 
 FORMAT = "singapo"
 JSON_NAME = "object.json"
@@ -169,10 +170,7 @@ def load_tree(path: Path) -> tuple[list[dict], dict]:
 
     :raises InputError: when it is not JSON, or holds no list of node objects
     """
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise InputError(path, f"not a JSON file: {exc}") from None
+    data = read_json(path)
     if not isinstance(data, dict):
         raise InputError(path, "not a SINGAPO object: the JSON is not an object")
     key = next((k for k in TREE_KEYS if k in data), None)
@@ -253,18 +251,11 @@ def read_joint(node: dict, index: int, path: Path) -> NodeJoint:
                                "range [0, r])")
     if kind == "fixed":
         return NodeJoint(kind, np.zeros(3), None, 0.0)
-    axis = joint.get("axis")
-    if not isinstance(axis, dict):
-        raise InputError(path, f"node {index}: {kind} joint without an axis object")
-    origin = finite_vector(axis.get("origin"), path, f"node {index}: joint axis origin")
-    direction = finite_vector(axis.get("direction"), path, f"node {index}: joint axis direction")
-    norm = float(np.linalg.norm(direction))
-    if norm < 1e-9:
-        raise InputError(path, f"node {index}: {kind} joint axis direction {direction.tolist()} is zero")
+    origin, direction = axis_line(joint.get("axis"), path, f"node {index}: {kind} joint")
     if kind == "revolute" and abs(hi) > FULL_TURN_DEG + 1e-6:
         raise InputError(path, f"node {index}: revolute range {hi} is beyond a full turn (degrees, at most "
                                f"{FULL_TURN_DEG:g})")
-    return NodeJoint(kind, origin, direction / norm, hi)
+    return NodeJoint(kind, origin, direction, hi)
 
 
 def check_degrees(joints: dict[int, NodeJoint], path: Path) -> None:

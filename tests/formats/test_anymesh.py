@@ -245,6 +245,6 @@ def test_other_files_are_refused(run):
     (run / "mobility.json").write_text('{"parts": []}')
     _refused(run, "expected a non-empty list of parts")
     (run / "mobility.json").write_text("[{")
-    _refused(run, "not a JSON file")
+    _refused(run, "malformed JSON")
     (run / "mobility.json").unlink()
     assert _refused(run, "no Articulate AnyMesh mobility.json").path.endswith("mobility.json")

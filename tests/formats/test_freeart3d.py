@@ -219,7 +219,7 @@ def test_a_file_that_is_not_the_format_is_refused(run, tmp_path):
     info.write_text(json.dumps({"joint_type": "Revolute"}))  # run_estimate's info_dict, not recon's list
     _refused(run, "joint_info.json", "expected a non-empty list of joints")
     info.write_text("[{")
-    _refused(run, "joint_info.json", "not a JSON file")
+    _refused(run, "joint_info.json", "malformed JSON")
     empty = tmp_path / "empty"
     empty.mkdir()
     _refused(empty, "sds_output/joint_info.json", "no FreeArt3D joint_info.json")

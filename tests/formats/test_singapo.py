@@ -258,7 +258,7 @@ def test_a_mesh_path_leaving_the_run_folder_is_refused(run, tmp_path):
 def test_nan_in_an_axis_is_refused(run):
     _edit(run, lambda t: t[1]["joint"]["axis"].update(direction=[0.0, float("nan"), 0.0]))
     assert "NaN" in (run / "object.json").read_text()  # json.dump writes NaN, json.load reads it back
-    _refused(run, "object.json", "node 1: joint axis direction is not 3 finite numbers")
+    _refused(run, "object.json", "node 1: revolute joint axis direction is not 3 finite numbers")
 
 
 def test_a_zero_axis_on_a_moving_part_is_refused(run):
@@ -314,7 +314,7 @@ def test_a_file_that_is_not_the_format_is_refused(tmp_path):
     run.mkdir()
     _refused(run, "run", "no SINGAPO output")
     (run / "object.json").write_text("{\"diffuse")
-    _refused(run, "object.json", "not a JSON file")
+    _refused(run, "object.json", "malformed JSON")
     (run / "object.json").write_text(json.dumps({"parts": []}))
     _refused(run, "object.json", "not a SINGAPO object: no 'diffuse_tree'")
     (run / "object.json").write_text(json.dumps({"diffuse_tree": {"0": {}}}))
