@@ -120,10 +120,56 @@ def hand_rotation(approach: np.ndarray, closing: np.ndarray) -> np.ndarray:
     return np.stack([x, y, np.cross(x, y)], axis=1)
 
 
-def _quat(rotation: np.ndarray) -> np.ndarray:
+def rotation_quat(rotation: np.ndarray) -> np.ndarray:
+    """MuJoCo's quaternion (w, x, y, z) of a 3x3 rotation."""
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation).reshape(-1))
     return quat
+
+
+def add_carriage(spec: mujoco.MjSpec, workspace: np.ndarray, cfg) -> tuple:
+    """The gravity-compensated carriage every end-effector rides on: three world-aligned slides, each with a
+    position servo (``cfg.kp``, ``cfg.dampratio``, ``cfg.force_limit``). Returns it, the slide joints' names
+    and the servos' names.
+
+    :param spec: the scene
+    :param workspace: ``[[min], [max]]`` world box the TCP may reach (the slides' ranges)
+    :param cfg: the end-effector's config (:class:`GripperConfig`, or the suction cup's)
+    """
+    carriage = spec.worldbody.add_body(name=f"{PREFIX}_carriage", gravcomp=1.0)
+    carriage.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.01, 0, 0], mass=0.5,
+                      contype=0, conaffinity=0, group=3)
+    slides, servos = [], []
+    for i, axis_name in enumerate("xyz"):
+        name = f"{PREFIX}_slide_{axis_name}"
+        carriage.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=np.eye(3)[i], limited=True,
+                           range=[float(workspace[0, i]), float(workspace[1, i])], armature=0.01)
+        act = spec.add_actuator(name=f"{name}_servo", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_position(kp=cfg.kp, dampratio=cfg.dampratio)
+        act.ctrlrange = [float(workspace[0, i]), float(workspace[1, i])]
+        act.forcerange = [-cfg.force_limit, cfg.force_limit]
+        act.forcelimited = True
+        slides.append(name)
+        servos.append(act.name)
+    return carriage, slides, servos
+
+
+def add_wrist(hand, rotation: np.ndarray, wrist_axis: np.ndarray | None, cfg) -> str | None:
+    """A passive wrist hinge on ``hand`` about the world axis ``wrist_axis`` (None: a rigid wrist, no joint);
+    returns its name.
+
+    :param hand: the hand body (its frame turned by ``rotation``)
+    :param rotation: the hand's rotation in the world
+    :param wrist_axis: world axis of the hinge, or None
+    :param cfg: the end-effector's config (``wrist_stiffness``, ``wrist_damping``, ``wrist_range``)
+    """
+    if wrist_axis is None:
+        return None
+    wrist = f"{PREFIX}_wrist"
+    hand.add_joint(name=wrist, type=mujoco.mjtJoint.mjJNT_HINGE, axis=rotation.T @ np.asarray(wrist_axis, float),
+                   stiffness=cfg.wrist_stiffness, damping=cfg.wrist_damping, limited=True,
+                   range=[-cfg.wrist_range, cfg.wrist_range], armature=0.002)
+    return wrist
 
 
 def add_gripper(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
@@ -143,39 +189,16 @@ def add_gripper(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
     if workspace is None:
         workspace = np.array([[-2.0] * 3, [2.0] * 3])
     p = PREFIX
-    carriage = spec.worldbody.add_body(name=f"{p}_carriage", gravcomp=1.0)
-    carriage.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.01, 0, 0], mass=0.5,
-                      contype=0, conaffinity=0, group=3)
-    slides, slide_acts = [], []
-    for i, axis_name in enumerate("xyz"):
-        axis = np.zeros(3)
-        axis[i] = 1.0
-        name = f"{p}_slide_{axis_name}"
-        carriage.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis, limited=True,
-                           range=[float(workspace[0, i]), float(workspace[1, i])], armature=0.01)
-        act = spec.add_actuator(name=f"{name}_servo", target=name,
-                                trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        act.set_to_position(kp=cfg.kp, dampratio=cfg.dampratio)
-        act.ctrlrange = [float(workspace[0, i]), float(workspace[1, i])]
-        act.forcerange = [-cfg.force_limit, cfg.force_limit]
-        act.forcelimited = True
-        slides.append(name)
-        slide_acts.append(act.name)
-
-    hand = carriage.add_body(name=f"{p}_hand", quat=_quat(rotation), gravcomp=1.0)
-    wrist = None
-    if wrist_axis is not None:
-        wrist = f"{p}_wrist"
-        hand.add_joint(name=wrist, type=mujoco.mjtJoint.mjJNT_HINGE, axis=rotation.T @ np.asarray(wrist_axis, float),
-                       stiffness=cfg.wrist_stiffness, damping=cfg.wrist_damping, limited=True,
-                       range=[-cfg.wrist_range, cfg.wrist_range], armature=0.002)
+    carriage, slides, slide_acts = add_carriage(spec, workspace, cfg)
+    hand = carriage.add_body(name=f"{p}_hand", quat=rotation_quat(rotation), gravcomp=1.0)
+    wrist = add_wrist(hand, rotation, wrist_axis, cfg)
     color = list(cfg.rgba)
     length, tip = cfg.finger_length, cfg.tip_beyond_tcp
     palm_x = tip - length - 0.012
     hand.add_geom(name=f"{p}_palm", type=mujoco.mjtGeom.mjGEOM_BOX, pos=[palm_x, 0, 0],
                   size=[0.012, cfg.max_opening + 0.015, 0.02], mass=0.4, rgba=color, contype=2, conaffinity=1)
     hand.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=[palm_x - 0.06, 0, 0], size=[0.015, 0.05, 0],
-                  quat=_quat(hand_rotation([0, 0, 1], [0, 1, 0])), mass=0.2, rgba=color, contype=0,
+                  quat=rotation_quat(hand_rotation([0, 0, 1], [0, 1, 0])), mass=0.2, rgba=color, contype=0,
                   conaffinity=0)
     fingers, finger_joints, finger_acts, sensors = [], [], [], []
     pad_half = cfg.pad_thickness / 2

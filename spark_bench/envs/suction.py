@@ -30,7 +30,15 @@ import numpy as np
 from scipy import ndimage
 
 from spark_bench.envs.features import LEVEL_BIN, NOTCH_CELL, rasterise_front
-from spark_bench.envs.gripper import PREFIX, GripperConfig, hand_rotation, largest_pull
+from spark_bench.envs.gripper import (
+    PREFIX,
+    GripperConfig,
+    add_carriage,
+    add_wrist,
+    hand_rotation,
+    largest_pull,
+    rotation_quat,
+)
 from spark_bench.mujoco_gl import mujoco_module
 
 mujoco = mujoco_module()
@@ -75,12 +83,13 @@ class SuctionConfig:
     cup_length: float = 0.03
     max_force: float = 75.0
     friction: float = 1.0
-    kp: float = 3000.0
-    dampratio: float = 0.35
-    force_limit: float = 150.0
-    wrist_stiffness: float = 0.3
-    wrist_damping: float = 0.3
-    wrist_range: float = 3.0
+    # the carriage and the wrist are the gripper's (the same servos, the same largest pull): its defaults
+    kp: float = GripperConfig.kp
+    dampratio: float = GripperConfig.dampratio
+    force_limit: float = GripperConfig.force_limit
+    wrist_stiffness: float = GripperConfig.wrist_stiffness
+    wrist_damping: float = GripperConfig.wrist_damping
+    wrist_range: float = GripperConfig.wrist_range
     rgba: tuple = (0.85, 0.45, 0.1, 1.0)
 
 
@@ -116,33 +125,6 @@ def largest_hold(config: SuctionConfig) -> float:
     return float(min(largest_pull(config), config.max_force))
 
 
-def _quat(rotation: np.ndarray) -> np.ndarray:
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation).reshape(-1))
-    return quat
-
-
-def _add_carriage(spec: mujoco.MjSpec, workspace: np.ndarray, cfg: SuctionConfig):
-    """The gravity-compensated carriage on three world-aligned servoed slides; returns it, the slide joints'
-    and the servos' names."""
-    carriage = spec.worldbody.add_body(name=f"{PREFIX}_carriage", gravcomp=1.0)
-    carriage.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.01, 0, 0], mass=0.5,
-                      contype=0, conaffinity=0, group=3)
-    slides, servos = [], []
-    for i, axis_name in enumerate("xyz"):
-        name = f"{PREFIX}_slide_{axis_name}"
-        carriage.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=np.eye(3)[i], limited=True,
-                           range=[float(workspace[0, i]), float(workspace[1, i])], armature=0.01)
-        act = spec.add_actuator(name=f"{name}_servo", target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-        act.set_to_position(kp=cfg.kp, dampratio=cfg.dampratio)
-        act.ctrlrange = [float(workspace[0, i]), float(workspace[1, i])]
-        act.forcerange = [-cfg.force_limit, cfg.force_limit]
-        act.forcelimited = True
-        slides.append(name)
-        servos.append(act.name)
-    return carriage, tuple(slides), tuple(servos)
-
-
 def add_suction(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
                 wrist_axis: np.ndarray | None = None, workspace: np.ndarray | None = None,
                 config: SuctionConfig | None = None) -> SuctionHandles:
@@ -158,15 +140,10 @@ def add_suction(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
     cfg = config or SuctionConfig()
     rotation = hand_rotation(approach, closing)
     workspace = np.array([[-2.0] * 3, [2.0] * 3]) if workspace is None else workspace
-    carriage, slides, servos = _add_carriage(spec, workspace, cfg)
-    hand = carriage.add_body(name=f"{PREFIX}_hand", quat=_quat(rotation), gravcomp=1.0)
-    wrist = None
-    if wrist_axis is not None:
-        wrist = f"{PREFIX}_wrist"
-        hand.add_joint(name=wrist, type=mujoco.mjtJoint.mjJNT_HINGE, axis=rotation.T @ np.asarray(wrist_axis, float),
-                       stiffness=cfg.wrist_stiffness, damping=cfg.wrist_damping, limited=True,
-                       range=[-cfg.wrist_range, cfg.wrist_range], armature=0.002)
-    along_x = _quat(hand_rotation([0, 0, 1], [0, 1, 0]))  # a cylinder's axis (its z) along the hand's x
+    carriage, slides, servos = add_carriage(spec, workspace, cfg)
+    hand = carriage.add_body(name=f"{PREFIX}_hand", quat=rotation_quat(rotation), gravcomp=1.0)
+    wrist = add_wrist(hand, rotation, wrist_axis, cfg)
+    along_x = rotation_quat(hand_rotation([0, 0, 1], [0, 1, 0]))  # a cylinder's axis (its z) along the hand's x
     half = cfg.cup_length / 2
     cup = hand.add_geom(name=f"{PREFIX}_cup", type=mujoco.mjtGeom.mjGEOM_CYLINDER, pos=[-half, 0, 0], quat=along_x,
                         size=[cfg.cup_radius, half, 0], mass=0.1, rgba=list(cfg.rgba), contype=2, conaffinity=1,
@@ -180,7 +157,7 @@ def add_suction(spec: mujoco.MjSpec, approach: np.ndarray, closing: np.ndarray,
     act = spec.add_actuator(name=f"{PREFIX}_suction", target=hand.name, trntype=mujoco.mjtTrn.mjTRN_BODY)
     act.set_to_adhesion(gain=cfg.max_force)
     act.ctrlrange = [0.0, 1.0]
-    return SuctionHandles(slide_joints=slides, wrist_joint=wrist, slide_actuators=servos, suction_actuator=act.name,
+    return SuctionHandles(slide_joints=tuple(slides), wrist_joint=wrist, slide_actuators=tuple(servos), suction_actuator=act.name,
                           hand_body=hand.name, cup_geom=cup.name, touch_sensor=sensor.name, config=cfg)
 
 
