@@ -18,6 +18,7 @@ Rows scored under different metric conventions (the ``convention`` column) are n
 from __future__ import annotations
 
 import math
+import statistics
 from collections.abc import Iterable, Sequence
 
 from spark_bench.errors import SparkBenchError
@@ -104,9 +105,7 @@ def alignment_scales(rows: Sequence[dict]) -> dict | None:
                     if m.get("align", "none") != "none" and m.get("alignment") is not None)
     if not scales:
         return None
-    n = len(scales)
-    median = scales[n // 2] if n % 2 else (scales[n // 2 - 1] + scales[n // 2]) / 2
-    return {"median": median, "min": scales[0], "max": scales[-1], "cases": n}
+    return {"median": statistics.median(scales), "min": scales[0], "max": scales[-1], "cases": len(scales)}
 
 
 def check_convention(rows: Sequence[dict]) -> str:

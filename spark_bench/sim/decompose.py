@@ -10,8 +10,9 @@ do not depend on which copy was decomposed first (``tests/sim/test_scale_cache.p
 are stored normalized as ``<cache>/coacd/<key[:2]>/<key>.npz`` and written atomically, so concurrent
 conversions share one cache safely.
 
-CoACD parallelizes its search inside a call with OpenMP (its hulls do not depend on the thread count:
-the same on 1, 2, 4, 8 and 16 threads, measured); independent calls run in worker processes
+CoACD parallelizes its search inside a call with OpenMP; its hulls did not depend on the thread count where
+measured (one non-convex test mesh, a ring beside a bar, threshold 0.05: the same hulls on 1, 2, 4, 8 and 16
+threads). Independent calls run in worker processes
 (:mod:`spark_bench.sim.coacd_worker`, started as scripts), largest mesh first, dealt round-robin. A
 worker crash (CoACD segfaults or aborts on some degenerate inputs) or a call that runs over
 :data:`JOB_TIMEOUT_S` costs only its own mesh, which then falls back to its convex hull;
