@@ -93,5 +93,5 @@ def test_an_imported_spark_run_says_what_was_read(tmp_path):
     assert method.generate(CaseInput(benchmark.case("cab1"), frozenset()), tmp_path / "out").info == {
         "source": str(preds / "cab1")}
     (preds / "cab1" / "import.json").write_text("{not json")
-    with pytest.raises(InputError, match="cab1/import.json: unreadable import record"):
+    with pytest.raises(InputError, match="cab1/import.json: malformed JSON"):
         method.generate(CaseInput(benchmark.case("cab1"), frozenset()), tmp_path / "out")
