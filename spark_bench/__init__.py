@@ -18,8 +18,10 @@ __version__ = "0.2.0"
 #: over all joints (``joint_mean``) and the GAPartNet part class per joint are stored beside the per-object
 #: means. conv-3
 #: (issue #23): the opening score acts on the case's source object and opens a part with nothing to pinch
-#: with a suction cup; the metrics are conv-2's.
-CONVENTION_VERSION = "spark-bench-conv-3"
+#: with a suction cup; the metrics are conv-2's. conv-4 (issue #23): simulated masses follow the thin-wall
+#: rule (a shell of its material's wall thickness, never more than the solid), which moves sim-readiness
+#: verdicts and opening scores; the metrics are conv-2's.
+CONVENTION_VERSION = "spark-bench-conv-4"
 
 
 def _register_envs() -> None:

@@ -131,8 +131,10 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
 def _update_physics(prepared: PreparedObject) -> None:
     """Masses and joint dynamics from the current shapes."""
     asset, options = prepared.asset, prepared.options
-    prepared.mass = {name: link_mass_properties(prepared.shapes.get(name, []),
-                                                options.density_of(asset.category, name))
+    moving = {name for joint in asset.movable_joints() for name in asset.moving_links(joint.name)}
+    materials = {name: options.material_of(asset.category, name, name in moving) for name in asset.links}
+    prepared.mass = {name: link_mass_properties(prepared.shapes.get(name, []), materials[name].density,
+                                                materials[name].wall)
                      for name in asset.links}
     prepared.dynamics = {j.name: _dynamics_of(prepared, j.name) for j in asset.movable_joints()}
 

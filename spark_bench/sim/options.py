@@ -10,29 +10,60 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-#: Densities in kg/m^3 of the materials objects are made of. Panels are modelled as solid hulls, so
-#: wood and plastic are the panel material itself; appliances are hollow sheet-metal boxes whose parts
-#: PartNet models as solid slabs, so they get an effective density (an oven door comes out ~15 kg).
-MATERIAL_DENSITY = {
-    "wood": 600.0,        # particle board / pine furniture panels
-    "metal": 2700.0,      # solid metal parts (aluminium)
-    "sheet_metal": 800.0,  # appliance casings, doors and racks: hollow sheet metal, modelled solid
-    "plastic": 1050.0,    # ABS / polypropylene
-    "glass": 2500.0,
-    "ceramic": 2300.0,
-    "default": 800.0,
+
+@dataclass(frozen=True)
+class Material:
+    """What a part is made of.
+
+    :param density: kg/m^3 of the material itself
+    :param wall: thickness (m) of the walls a part of this material is built from, None for a solid
+        part: a closed part is a shell of this thickness over its outer surface, never more than its
+        solid (:func:`spark_bench.sim.physical.shell_fraction`)
+    """
+
+    density: float
+    wall: float | None = None
+
+
+#: Materials objects are made of. PartNet-Mobility models a suitcase, a microwave or a chest lid as a
+#: closed solid, but the real part is a shell: a thin-walled part is not a solid block. Sources (the
+#: table in ``benchmarks/results/masses.md`` checks the rule against real products' masses):
+#:
+#: - wood: particle board 620-660 kg/m^3 (swisskrono.pl technical data), pine ~500; cabinet bodies,
+#:   doors and shelves of 18 mm board (thehousemag.com/?p=10126)
+#: - plastic: ABS 1020-1080 kg/m^3 (24kjx.com.cn/news/915-en.html); injection-moulded walls 1.2-3.0 mm
+#:   for ABS, 1.0-2.5 mm for PP (gudmould.com/news/2169.html): 2.5 mm
+#: - sheet_metal: steel 7850 kg/m^3; appliance shells of 0.5-1.0 mm cold-rolled sheet
+#:   (foodequipmentparts.net, steelgalvanized.com), doubled by a door's inner panel, glass and liner:
+#:   1.5 mm of steel per unit of outer surface gives a 60 x 50 x 6 cm oven door 8.6 kg (cited 15-30 lb)
+#: - steel_plate: safes, bodies of at least 3 mm steel, doors 6 mm or more (safes4less.com.au)
+#: - glass: 2500 kg/m^3, 4 mm float glass 10 kg/m^2 (hnsaluminium.co.uk)
+#: - metal, ceramic: solid (a faucet lever, a kettlebell; a toilet's fixed bowl)
+MATERIALS = {
+    "wood": Material(600.0, 0.018),
+    "plastic": Material(1050.0, 0.0025),
+    "sheet_metal": Material(7850.0, 0.0015),
+    "steel_plate": Material(7850.0, 0.003),
+    "glass": Material(2500.0, 0.004),
+    "metal": Material(2700.0),
+    "ceramic": Material(2300.0),
+    "default": Material(800.0),
 }
 
 #: Material of an object by PartNet-Mobility category (lower case); unknown categories use ``default``.
 CATEGORY_MATERIAL = {
     "storagefurniture": "wood", "table": "wood", "door": "wood", "chair": "wood", "box": "wood",
     "oven": "sheet_metal", "microwave": "sheet_metal", "refrigerator": "sheet_metal",
-    "dishwasher": "sheet_metal", "washingmachine": "sheet_metal", "safe": "sheet_metal", "trashcan": "plastic", "toilet": "ceramic",
-    "bottle": "plastic", "camera": "plastic", "laptop": "plastic", "kettlebell": "metal",
+    "dishwasher": "sheet_metal", "washingmachine": "sheet_metal", "safe": "steel_plate", "trashcan": "plastic",
+    "toilet": "ceramic", "bottle": "plastic", "camera": "plastic", "laptop": "plastic", "kettlebell": "metal",
     "bucket": "plastic", "kitchenpot": "metal", "faucet": "metal", "window": "glass",
     "dispenser": "plastic", "lighter": "plastic", "printer": "plastic", "phone": "plastic",
     "remote": "plastic", "stapler": "metal", "suitcase": "plastic",
 }
+
+#: Material of the moving parts where it differs from the body's: a ceramic toilet's seat and lid are
+#: plastic. (Only which links move is used, so a prediction gets the same rule as the ground truth.)
+MOVING_PART_MATERIAL = {"toilet": "plastic"}
 
 
 @dataclass
@@ -112,8 +143,9 @@ class ConvertOptions:
     :param decompose_visuals: a link with no ``<collision>`` gets hulls from its visual meshes
 
     Physics
-    :param density: kg/m^3 for every link; None picks it from :data:`CATEGORY_MATERIAL`
-    :param link_density: per-link density overrides, by link name
+    :param density: kg/m^3 of every link, as solid parts; None picks each link's :class:`Material` from
+        :data:`CATEGORY_MATERIAL` (:meth:`material_of`)
+    :param link_density: per-link density overrides (solid), by link name
     :param joint_damping: damping of every hinge (N m s/rad) and slide (N s/m), scaled by the part's
         mass and size (see :mod:`spark_bench.sim.physical`); a URDF ``<dynamics damping>`` wins
     :param joint_armature: rotor inertia added to each joint, as a fraction of the part's own inertia
@@ -149,14 +181,22 @@ class ConvertOptions:
     base_pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
     base_quat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
 
-    def density_of(self, category: str, link: str) -> float:
-        """Density (kg/m^3) of ``link`` of an object of ``category``."""
+    def material_of(self, category: str, link: str, moving: bool = False) -> Material:
+        """The :class:`Material` of ``link`` of an object of ``category``: a density given in the options
+        makes a solid part of that density; otherwise the category's material (:data:`CATEGORY_MATERIAL`,
+        :data:`MOVING_PART_MATERIAL` for a ``moving`` link).
+
+        :param category: PartNet-Mobility category (any case and spacing)
+        :param link: link name
+        :param moving: whether a joint moves the link
+        """
         if link in self.link_density:
-            return float(self.link_density[link])
+            return Material(float(self.link_density[link]))
         if self.density is not None:
-            return float(self.density)
-        material = CATEGORY_MATERIAL.get(category.lower().replace(" ", ""), "default")
-        return MATERIAL_DENSITY[material]
+            return Material(float(self.density))
+        key = category.lower().replace(" ", "")
+        name = MOVING_PART_MATERIAL.get(key) if moving else None
+        return MATERIALS[name or CATEGORY_MATERIAL.get(key, "default")]
 
     def to_dict(self) -> dict:
         """Plain JSON-able dict (written beside the converted model)."""

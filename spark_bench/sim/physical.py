@@ -1,8 +1,13 @@
 """Physical properties: mass and inertia from the collision hulls and a density, joint dynamics defaults.
 
-The hulls are the solid model of a link (thin panels already thickened), so its mass is
-``density * sum(hull volumes)`` and its inertia the sum of the hulls' inertias about the common center
-of mass. A sum of physical inertias is physical, so the principal moments satisfy the triangle
+The hulls are the solid model of a link (thin panels already thickened). A part of a thin-walled
+material (:class:`~spark_bench.sim.options.Material`) is a shell: a suitcase, a microwave door or a chest
+lid that PartNet-Mobility models as a closed solid weighs what walls of the material's thickness over its
+outer surface weigh. The mass is ``density * min(sum(hull volumes), area * wall)``, ``area`` the area of
+the convex hull of the link's hulls (:func:`shell_fraction`): a panel thinner than two walls stays solid,
+a closed box becomes its walls. The hulls keep their shares of that mass (an effective density: a shell's
+inertia about its center is up to ~1.7 times that of the same mass spread as a solid, which this
+understates), and the inertia is the sum of the hulls' inertias about the common center of mass. A sum of physical inertias is physical, so the principal moments satisfy the triangle
 inequality up to rounding; :func:`principal_inertia` enforces it with a small margin anyway, because
 MuJoCo rejects a body whose moments violate it by more than its tolerance.
 
@@ -26,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import trimesh
+from scipy.spatial import ConvexHull, QhullError
 
 from spark_bench.sim.shapes import CollisionShape
 
@@ -46,7 +52,8 @@ class MassProperties:
     :param mass: kg
     :param com: (3,) center of mass
     :param inertia: (3, 3) inertia tensor about the center of mass, link axes
-    :param volume: m^3 of solid the mass came from (0 for a helper link)
+    :param volume: m^3 of the link's solid model (0 for a helper link): its mass is less than
+        ``density * volume`` for a shell
     """
 
     mass: float
@@ -88,8 +95,38 @@ def shape_mass_properties(shape: CollisionShape, density: float) -> tuple[float,
     return density * volume, shape.origin[:3, 3].copy(), density * rotation @ local @ rotation.T, volume
 
 
-def link_mass_properties(shapes: Sequence[CollisionShape], density: float) -> MassProperties:
-    """Mass properties of a link made of ``shapes`` with a uniform ``density`` (kg/m^3)."""
+def shell_fraction(shapes: Sequence[CollisionShape], wall: float | None) -> float:
+    """The fraction of a link's solid that walls of thickness ``wall`` fill: ``min(1, area * wall /
+    volume)``, ``area`` the convex hull's area of all ``shapes``, ``volume`` their summed volume.
+
+    1 for a solid material (``wall`` None), for no volume, and for shapes whose points span no volume.
+
+    :param shapes: the link's collision shapes (link frame)
+    :param wall: wall thickness (m) of the link's material
+    """
+    if wall is None or not shapes:
+        return 1.0
+    volume = sum(shape_mass_properties(s, 1.0)[3] for s in shapes)
+    points = np.concatenate([s.to_trimesh().vertices for s in shapes])
+    try:
+        area = float(ConvexHull(points, qhull_options="Qt").area)
+    except QhullError:  # coplanar or too few points: no shell to speak of
+        return 1.0
+    if volume <= 0 or not np.isfinite(area):
+        return 1.0
+    return float(min(1.0, area * wall / volume))
+
+
+def link_mass_properties(shapes: Sequence[CollisionShape], density: float,
+                         wall: float | None = None) -> MassProperties:
+    """Mass properties of a link made of ``shapes`` of a material of ``density`` (kg/m^3) built with
+    walls of thickness ``wall`` (m, None: solid; see the module docstring).
+
+    :param shapes: the link's collision shapes (link frame)
+    :param density: kg/m^3 of the material
+    :param wall: wall thickness of the material, None for a solid part
+    """
+    density = density * shell_fraction(shapes, wall)
     parts = [shape_mass_properties(s, density) for s in shapes]
     parts = [p for p in parts if p[0] > 0]
     if not parts:

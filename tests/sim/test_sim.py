@@ -16,12 +16,13 @@ from spark_bench.sim.hulls import (
     thicken_points,
     vertex_components,
 )
-from spark_bench.sim.options import CoacdParams, ConvertOptions
+from spark_bench.sim.options import MATERIALS, CoacdParams, ConvertOptions, Material
 from spark_bench.sim.physical import (
     inertia_is_valid,
     joint_dynamics,
     link_mass_properties,
     principal_inertia,
+    shell_fraction,
 )
 from spark_bench.sim.shapes import CollisionShape
 
@@ -152,14 +153,42 @@ def test_joint_dynamics_scale_with_part_and_hold_gravity():
     assert urdf.damping == 7.0
 
 
-def test_density_by_category_and_override():
+def test_material_by_category_moving_part_and_override():
     options = ConvertOptions()
-    assert options.density_of("StorageFurniture", "link_0") == 600.0
-    assert options.density_of("Oven", "link_0") == 800.0
-    assert options.density_of("Unknown", "link_0") == 800.0
+    assert options.material_of("StorageFurniture", "link_0") == MATERIALS["wood"]
+    assert options.material_of("Safe", "link_0").wall == pytest.approx(0.003)
+    assert options.material_of("Unknown", "link_0") == MATERIALS["default"]
+    assert options.material_of("Toilet", "link_0") == MATERIALS["ceramic"]
+    assert options.material_of("Toilet", "link_1", moving=True) == MATERIALS["plastic"]  # seat and lid
+    assert options.material_of("Storage Furniture", "link_1", moving=True) == MATERIALS["wood"]
     options = ConvertOptions(density=1000.0, link_density={"link_1": 50.0})
-    assert options.density_of("StorageFurniture", "link_0") == 1000.0
-    assert options.density_of("StorageFurniture", "link_1") == 50.0
+    assert options.material_of("StorageFurniture", "link_0") == Material(1000.0)  # solid, as given
+    assert options.material_of("StorageFurniture", "link_1") == Material(50.0)
+
+
+def _box_shape(size, center=(0.0, 0.0, 0.0)) -> CollisionShape:
+    origin = np.eye(4)
+    origin[:3, 3] = center
+    return CollisionShape(kind="box", method="given", origin=origin, size=np.asarray(size, float))
+
+
+def test_thin_walled_part_weighs_its_walls_and_a_panel_stays_solid():
+    # a closed 55 x 40 x 20 cm suitcase half modelled solid: 2.5 mm of ABS over its 0.82 m^2 of surface
+    solid = link_mass_properties([_box_shape((0.55, 0.40, 0.20))], 1050.0)
+    shell = link_mass_properties([_box_shape((0.55, 0.40, 0.20))], 1050.0, wall=0.0025)
+    area = 2 * (0.55 * 0.40 + 0.40 * 0.20 + 0.55 * 0.20)
+    assert solid.mass == pytest.approx(1050.0 * 0.044)
+    assert shell.mass == pytest.approx(1050.0 * area * 0.0025, rel=1e-6)  # 2.15 kg, not 46 kg
+    assert shell.mass < 0.05 * solid.mass
+    np.testing.assert_allclose(shell.inertia, solid.inertia * shell.mass / solid.mass, rtol=1e-9)
+    # an 18 mm door panel is thinner than two walls of 18 mm: it stays solid
+    panel = [_box_shape((0.60, 0.018, 0.70))]
+    assert shell_fraction(panel, 0.018) == 1.0
+    assert link_mass_properties(panel, 600.0, wall=0.018).mass == pytest.approx(600.0 * 0.6 * 0.018 * 0.7)
+    # two hulls of one link: the walls are over their common outer surface, not each hull's
+    halves = [_box_shape((0.5, 0.4, 0.1), (0, 0, 0.05)), _box_shape((0.5, 0.4, 0.1), (0, 0, -0.05))]
+    assert shell_fraction(halves, 0.003) == pytest.approx(2 * (0.2 + 0.1 + 0.08) * 0.003 / 0.04)
+    assert shell_fraction(halves, None) == 1.0 and shell_fraction([], 0.003) == 1.0
 
 
 def test_mesh_key_is_translation_and_scale_invariant_and_parameter_sensitive():
