@@ -161,13 +161,17 @@ def _generate_objects(spec: BenchmarkSpec, folder: Path, progress: bool) -> Path
     return objects
 
 
-def build_benchmark(spec: BenchmarkSpec, folder: Path, workers: int = 1, progress: bool = True) -> Path:
-    """Generate and prepare ``spec`` into ``folder`` (resuming whatever is there); returns ``folder``."""
+def build_benchmark(spec: BenchmarkSpec, folder: Path, workers: int = 1, progress: bool = True,
+                    isolate: bool = False) -> Path:
+    """Generate and prepare ``spec`` into ``folder`` (resuming whatever is there); returns ``folder``.
+
+    :param isolate: render in spawned processes only (:func:`~spark_bench.data.prepare.prepare_benchmark`)
+    """
     folder.mkdir(parents=True, exist_ok=True)
     bench = Benchmark(folder)
     objects = _generate_objects(spec, folder, progress)
     manifest = prepare_benchmark(objects, folder, options=spec.options, workers=workers, progress=progress,
-                                 name=spec.name)
+                                 name=spec.name, isolate=isolate)
     if manifest["failed"]:
         first = next(iter(manifest["failed"].items()))
         raise SparkBenchError(f"benchmark {spec.name}: {len(manifest['failed'])} case(s) failed, "
@@ -183,7 +187,7 @@ def build_benchmark(spec: BenchmarkSpec, folder: Path, workers: int = 1, progres
 
 
 def ensure_benchmark(name: str = DEFAULT_BENCHMARK, rebuild: bool = False, workers: int = 1,
-                     progress: bool = True) -> Path:
+                     progress: bool = True, isolate: bool = False) -> Path:
     """The folder of a named benchmark, built on first use and reused after. A benchmark of listed real
     objects (``spark-test``, ``singapo-test``...) is never built here: it must have been prepared into the
     cache from the user's download (:func:`prepare_listed` with its default ``out``).
@@ -192,6 +196,8 @@ def ensure_benchmark(name: str = DEFAULT_BENCHMARK, rebuild: bool = False, worke
     :param rebuild: delete and rebuild it (a build of other settings or generator version is rebuilt anyway)
     :param workers: processes for the preparation
     :param progress: show progress bars while building
+    :param isolate: a build renders in spawned processes only, so that this process opens no OpenGL
+        context (:func:`~spark_bench.data.prepare.prepare_benchmark`; ``eval`` forks workers after it)
     """
     spec = benchmark_spec(name)
     folder = benchmark_dir(name)
@@ -215,7 +221,7 @@ def ensure_benchmark(name: str = DEFAULT_BENCHMARK, rebuild: bool = False, worke
         if folder.exists() and (rebuild or _is_stale(spec, folder)):
             shutil.rmtree(folder)
         if not is_built(folder, spec):  # another process may have finished it while we waited
-            build_benchmark(spec, folder, workers=workers, progress=progress)
+            build_benchmark(spec, folder, workers=workers, progress=progress, isolate=isolate)
     Benchmark(folder).manifest()  # a readable manifest, or an input error naming it
     return folder
 

@@ -404,7 +404,7 @@ def _previous(bench: Benchmark, options: PrepareOptions) -> dict:
 def prepare_benchmark(src: str | Path, out: str | Path, ids: Sequence[str] | None = None,
                       options: PrepareOptions | None = None, workers: int = 1, progress: bool = True,
                       name: str | None = None, overwrite: bool = False, contact_sheet: bool = True,
-                      on_result=None) -> dict:
+                      on_result=None, isolate: bool = False) -> dict:
     """Prepare every object under ``src`` into the benchmark folder ``out``; returns the manifest.
 
     Complete cases already in ``out`` are kept (resume); a failing object is recorded in the
@@ -419,6 +419,9 @@ def prepare_benchmark(src: str | Path, out: str | Path, ids: Sequence[str] | Non
     :param overwrite: rebuild complete cases too
     :param contact_sheet: write ``contact_sheet.png`` at the end
     :param on_result: called with each :class:`CaseResult` (timings), skipped ones included
+    :param isolate: render in spawned processes even with one worker, so that this process opens no OpenGL
+        context: a process that forks workers afterwards must not have rendered (``eval`` builds its
+        benchmark and then forks; workers that render after such a fork hang in EGL's set-up)
     """
     options = options or PrepareOptions()
     out = Path(out)
@@ -438,7 +441,7 @@ def prepare_benchmark(src: str | Path, out: str | Path, ids: Sequence[str] | Non
                 todo[case_id] = path
         created = old.get("created")
         write_manifest(bench, name, options, failed, str(Path(src).resolve()), created)
-        for result in _run(todo, bench, options, workers, progress):
+        for result in _run(todo, bench, options, workers, progress, isolate):
             if result.reason is not None:
                 failed[result.case_id] = result.reason
             if on_result:
@@ -452,12 +455,12 @@ def prepare_benchmark(src: str | Path, out: str | Path, ids: Sequence[str] | Non
 
 
 def _run(todo: dict[str, Path], bench: Benchmark, options: PrepareOptions, workers: int,
-         progress: bool) -> Iterator[CaseResult]:
+         progress: bool, isolate: bool = False) -> Iterator[CaseResult]:
     from tqdm import tqdm
 
     bar = tqdm(total=len(todo), desc="prepare", unit="case", disable=not progress or not todo)
     try:
-        if workers <= 1 or len(todo) <= 1:
+        if not isolate and (workers <= 1 or len(todo) <= 1):
             for case_id, path in todo.items():
                 bar.set_postfix_str(case_id)
                 yield _prepare_one(path, bench.case_dir(case_id), options)
@@ -467,7 +470,7 @@ def _run(todo: dict[str, Path], bench: Benchmark, options: PrepareOptions, worke
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
         # spawn: each worker opens its own OpenGL context, none inherited from a fork
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        with ProcessPoolExecutor(max(1, workers), mp_context=multiprocessing.get_context("spawn")) as pool:
             futures = [pool.submit(_prepare_one, path, bench.case_dir(case_id), options)
                        for case_id, path in todo.items()]
             for future in as_completed(futures):

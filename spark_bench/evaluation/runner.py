@@ -153,7 +153,9 @@ def resolve_bench(bench: str | None) -> tuple[str, Path]:
         return Benchmark(path).name, path.resolve()
     from spark_bench.data.benchmarks import ensure_benchmark
 
-    folder = Path(ensure_benchmark(bench))
+    # built in spawned processes: this process forks the evaluation's workers next, and a worker that
+    # renders (retrieval, the opener's videos) hangs in EGL's set-up after a fork from a process that rendered
+    folder = Path(ensure_benchmark(bench, isolate=True))
     return bench, folder
 
 

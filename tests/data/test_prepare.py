@@ -315,6 +315,29 @@ def test_named_benchmark_builds_once(isolated_home, monkeypatch):
     assert benchmarks.BENCHMARKS["synth-v1"].n_objects == 50
 
 
+def test_eval_builds_its_benchmark_without_rendering_in_its_own_process(isolated_home, monkeypatch):
+    # eval forks its workers after building the benchmark; a worker that renders after a fork from a
+    # process that rendered hangs in EGL's set-up (`eval --config ours_retrieval.toml` from an empty home
+    # did): the build renders in spawned processes only
+    _synth()
+    from spark_bench.data import benchmarks, prepare
+    from spark_bench.evaluation.runner import resolve_bench
+
+    spec = benchmarks.BenchmarkSpec("synth-tiny", n_objects=2, seed=0, min_categories=1, options=FAST)
+    monkeypatch.setitem(benchmarks.BENCHMARKS, "synth-tiny", spec)
+
+    def rendered_here(*args, **kwargs):
+        raise RuntimeError("a case was prepared (rendered) in the evaluating process")
+
+    monkeypatch.setattr(prepare, "prepare_case", rendered_here)  # spawned workers import the real one
+    name, folder = resolve_bench("synth-tiny")
+    assert name == "synth-tiny" and benchmarks.is_built(folder, spec)
+    assert len(read_manifest(folder)["cases"]) == 2
+    # without isolate, one worker prepares in this process: the patched preparation fails every case
+    manifest = prepare.prepare_benchmark(folder / "objects", isolated_home / "other", options=FAST, progress=False)
+    assert len(manifest["failed"]) == 2 and all("evaluating process" in r for r in manifest["failed"].values())
+
+
 def test_link_color_of_a_link_without_visuals():
     assert link_color(Link("empty")) == (0.7, 0.7, 0.7, 1.0)
 
