@@ -95,26 +95,23 @@ def shape_mass_properties(shape: CollisionShape, density: float) -> tuple[float,
     return density * volume, shape.origin[:3, 3].copy(), density * rotation @ local @ rotation.T, volume
 
 
-def shell_fraction(shapes: Sequence[CollisionShape], wall: float | None) -> float:
+def shell_fraction(volume: float, points: np.ndarray, wall: float | None) -> float:
     """The fraction of a link's solid that walls of thickness ``wall`` fill: ``min(1, area * wall /
-    volume)``, ``area`` the convex hull's area of all ``shapes``, ``volume`` their summed volume.
+    volume)``, ``area`` the area of the convex hull of ``points``.
 
-    1 for a solid material (``wall`` None), for no volume, and for shapes whose points span no volume.
+    1 for a solid material (``wall`` None), for no volume, and for points that span no volume.
 
-    :param shapes: the link's collision shapes (link frame)
+    :param volume: the link's solid volume, m^3 (the sum of its hulls')
+    :param points: (N, 3) vertices of the link's collision shapes (link frame)
     :param wall: wall thickness (m) of the link's material
     """
-    if wall is None or not shapes:
+    if wall is None or volume <= 0 or len(points) < 4:
         return 1.0
-    volume = sum(shape_mass_properties(s, 1.0)[3] for s in shapes)
-    points = np.concatenate([s.to_trimesh().vertices for s in shapes])
     try:
-        area = float(ConvexHull(points, qhull_options="Qt").area)
-    except QhullError:  # coplanar or too few points: no shell to speak of
+        area = float(ConvexHull(np.asarray(points, np.float64), qhull_options="Qt").area)
+    except QhullError:  # coplanar points: no shell to speak of
         return 1.0
-    if volume <= 0 or not np.isfinite(area):
-        return 1.0
-    return float(min(1.0, area * wall / volume))
+    return float(min(1.0, area * wall / volume)) if np.isfinite(area) else 1.0
 
 
 def link_mass_properties(shapes: Sequence[CollisionShape], density: float,
@@ -126,21 +123,22 @@ def link_mass_properties(shapes: Sequence[CollisionShape], density: float,
     :param density: kg/m^3 of the material
     :param wall: wall thickness of the material, None for a solid part
     """
-    density = density * shell_fraction(shapes, wall)
-    parts = [shape_mass_properties(s, density) for s in shapes]
-    parts = [p for p in parts if p[0] > 0]
+    parts = [p for p in (shape_mass_properties(s, 1.0) for s in shapes) if p[0] > 0]  # unit density
     if not parts:
         inertia = np.eye(3) * HELPER_MASS * 1e-4  # a 1 g point with a 1 cm radius of gyration
         return MassProperties(HELPER_MASS, np.zeros(3), inertia, 0.0)
-    masses = np.array([p[0] for p in parts])
+    volume = float(sum(p[3] for p in parts))
+    if wall is not None:
+        density *= shell_fraction(volume, np.concatenate([s.to_trimesh().vertices for s in shapes]), wall)
+    masses = np.array([p[0] for p in parts]) * density
     coms = np.array([p[1] for p in parts])
     mass = float(masses.sum())
     com = (masses[:, None] * coms).sum(0) / mass
     inertia = np.zeros((3, 3))
-    for m, c, inert, _ in parts:
+    for m, (_, c, inert, _) in zip(masses, parts):
         d = c - com
-        inertia += inert + m * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
-    return MassProperties(mass, com, 0.5 * (inertia + inertia.T), float(sum(p[3] for p in parts)))
+        inertia += density * inert + m * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
+    return MassProperties(mass, com, 0.5 * (inertia + inertia.T), volume)
 
 
 def principal_inertia(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

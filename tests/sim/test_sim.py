@@ -183,12 +183,16 @@ def test_thin_walled_part_weighs_its_walls_and_a_panel_stays_solid():
     np.testing.assert_allclose(shell.inertia, solid.inertia * shell.mass / solid.mass, rtol=1e-9)
     # an 18 mm door panel is thinner than two walls of 18 mm: it stays solid
     panel = [_box_shape((0.60, 0.018, 0.70))]
-    assert shell_fraction(panel, 0.018) == 1.0
     assert link_mass_properties(panel, 600.0, wall=0.018).mass == pytest.approx(600.0 * 0.6 * 0.018 * 0.7)
-    # two hulls of one link: the walls are over their common outer surface, not each hull's
+    # two hulls of one link: the walls are over their common outer surface (0.5 x 0.4 x 0.2), not each hull's
     halves = [_box_shape((0.5, 0.4, 0.1), (0, 0, 0.05)), _box_shape((0.5, 0.4, 0.1), (0, 0, -0.05))]
-    assert shell_fraction(halves, 0.003) == pytest.approx(2 * (0.2 + 0.1 + 0.08) * 0.003 / 0.04)
-    assert shell_fraction(halves, None) == 1.0 and shell_fraction([], 0.003) == 1.0
+    two = link_mass_properties(halves, 1050.0, wall=0.003)
+    assert two.mass == pytest.approx(1050.0 * 2 * (0.2 + 0.1 + 0.08) * 0.003, rel=1e-6)
+    assert two.volume == pytest.approx(0.04)  # the solid model's volume is kept
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    assert shell_fraction(0.04, corners * [0.5, 0.4, 0.2], None) == 1.0
+    assert shell_fraction(0.0, corners, 0.003) == 1.0
+    assert shell_fraction(1.0, corners * [1, 1, 0], 0.003) == 1.0  # flat points: no shell
 
 
 def test_mesh_key_is_translation_and_scale_invariant_and_parameter_sensitive():
