@@ -20,8 +20,10 @@ __version__ = "0.2.0"
 #: (issue #23): the opening score acts on the case's source object and opens a part with nothing to pinch
 #: with a suction cup; the metrics are conv-2's. conv-4 (issue #23): simulated masses follow the thin-wall
 #: rule (a shell of its material's wall thickness, never more than the solid), which moves sim-readiness
-#: verdicts and opening scores; the metrics are conv-2's.
-CONVENTION_VERSION = "spark-bench-conv-4"
+#: verdicts and opening scores; the metrics are conv-2's. conv-5 (issue #23): a PartNet-Mobility joint written
+#: without <axis> or <limit> takes them from mobility_v2.json (the ground truth of such objects changes), and a
+#: flat-faced part turned off the coordinate planes is decomposed in its own planes' frame.
+CONVENTION_VERSION = "spark-bench-conv-5"
 
 
 def _register_envs() -> None:

@@ -6,7 +6,9 @@ same part decomposes once: on a second conversion, for identical parts at differ
 handles of a cabinet), and for the same part at another scale (a benchmark case's ground truth in the
 benchmark frame, which the sim checks convert, and in metres, which the opener converts). CoACD runs
 on the normalized mesh (:func:`normalized`), so a key's hulls, placed back by each mesh's own frame,
-do not depend on which copy was decomposed first (``tests/sim/test_scale_cache.py``). Results
+do not depend on which copy was decomposed first (``tests/sim/test_scale_cache.py``). A flat-faced
+mesh turned away from the coordinate planes is turned into the frame of its own planes first
+(:func:`flat_frame`), as CoACD cuts along the coordinate planes only. Results
 are stored normalized as ``<cache>/coacd/<key[:2]>/<key>.npz`` and written atomically, so concurrent
 conversions share one cache safely.
 
@@ -51,12 +53,14 @@ Hull = tuple[np.ndarray, np.ndarray]  # (vertices (V, 3) float64, faces (F, 3) i
 class DecomposeStats:
     """What :func:`decompose_many` did: calls run, cache hits, CPU seconds spent in CoACD, and the
     meshes CoACD failed on (index in the input -> why: the worker's signal or exit status and the last
-    line it printed, or the time limit), which got their convex hull instead."""
+    line it printed, or the time limit), which got their convex hull instead; and how many meshes were
+    decomposed turned into their own planes' frame (:func:`flat_frame`)."""
 
     calls: int = 0
     cache_hits: int = 0
     coacd_cpu_s: float = 0.0
     failed: dict[int, str] = field(default_factory=dict)
+    turned: int = 0
 
 
 def mesh_key(vertices: np.ndarray, faces: np.ndarray, params: CoacdParams) -> str:
@@ -134,6 +138,84 @@ def normalized(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     return np.round((vertices - center) / extent / GRID) * GRID, center, extent
 
 
+#: Faces whose normals are within this angle of a frame axis lie on that axis's planes.
+FLAT_TOLERANCE_DEG = 3.0
+#: :func:`flat_frame` turns a mesh whose faces lie on three orthogonal plane families covering at least
+#: this share of its area...
+FLAT_MIN_SHARE = 0.7
+#: ... and at least this much more of it than the coordinate planes do (faces within
+#: :data:`ALIGNED_DEG` of them), when turned more than :data:`ALIGNED_DEG` from them.
+FLAT_GAIN = 0.1
+ALIGNED_DEG = 1.0
+
+
+def _plane_share(normals: np.ndarray, area: np.ndarray, axes: np.ndarray, degrees: float) -> float:
+    """The share of the area whose face normals are within ``degrees`` of one of ``axes`` (rows)."""
+    near = np.max(np.abs(normals @ axes.T), axis=1) > np.cos(np.radians(degrees))
+    return float(area[near].sum() / area.sum())
+
+
+def flat_frame(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
+    """The rotation ``R`` (rows: the new axes) that makes a mostly flat-faced mesh axis-aligned, or None.
+
+    CoACD cuts only along the coordinate planes (and its ``pca`` option turns by the covariance of the
+    vertices, which is arbitrary for a cube-like part or an unevenly meshed one). A box-like part turned
+    in its own file (a predicted cabinet carcass 7 degrees off the vertical: 74 faces) then gets cut
+    into ever thinner slivers: CoACD ran past 600 s on it, and took 1 s once turned back. The frame is
+    that of the part's own planes: the normal direction carrying the most face area, the one
+    orthogonal to it carrying the most, and their cross product (each the area-weighted mean of the
+    normals within :data:`FLAT_TOLERANCE_DEG` of it). It is used only where these three plane families
+    carry at least :data:`FLAT_MIN_SHARE` of the area (curved and free-form parts keep their frame) and
+    :data:`FLAT_GAIN` more than the coordinate planes, turned more than :data:`ALIGNED_DEG` (an
+    axis-aligned part decomposes exactly as before; so does one whose planes are as well served by the
+    axes, such as an octagonal prism).
+    Rows are ordered and signed to stay close to the identity.
+
+    :param vertices: ``(V, 3)`` mesh vertices
+    :param faces: ``(F, 3)`` triangle indices
+    :returns: a ``(3, 3)`` rotation (apply as ``vertices @ R.T``; undo as ``@ R``), or None
+    """
+    v, f = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
+    if len(f) < 4:
+        return None
+    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    area = np.linalg.norm(cross, axis=1)
+    keep = area > 1e-12 * area.max() if area.max() > 0 else np.zeros(len(area), bool)
+    if not keep.any():
+        return None
+    normals, area = cross[keep] / area[keep, None], area[keep]
+    cos_tol = np.cos(np.radians(FLAT_TOLERANCE_DEG))
+    largest = np.lexsort((np.arange(len(area)), -area))[:64]  # candidate directions: the largest faces'
+
+    def family(candidates: np.ndarray) -> np.ndarray | None:  # the candidate carrying the most area, refined
+        if not len(candidates):
+            return None
+        carried = [area[np.abs(normals @ normals[i]) > cos_tol].sum() for i in candidates]
+        axis = normals[candidates[int(np.argmax(carried))]]
+        near = np.abs(normals @ axis) > cos_tol
+        mean = (area[near, None] * normals[near] * np.sign(normals[near] @ axis)[:, None]).sum(0)
+        return mean / np.linalg.norm(mean)
+
+    first = family(largest)
+    second = family(largest[np.abs(normals[largest] @ first) < np.sin(np.radians(FLAT_TOLERANCE_DEG))])
+    if second is None:
+        return None
+    second = second - (second @ first) * first
+    axes = np.stack([first, second / np.linalg.norm(second), np.zeros(3)])
+    axes[2] = np.cross(axes[0], axes[1])
+    share = _plane_share(normals, area, axes, FLAT_TOLERANCE_DEG)
+    if share < FLAT_MIN_SHARE or share < _plane_share(normals, area, np.eye(3), ALIGNED_DEG) + FLAT_GAIN:
+        return None
+    nearest = np.argmax(np.abs(axes), axis=0)  # the axis closest to x, y, z: keep the turn small
+    if len(set(nearest.tolist())) == 3:
+        axes = axes[nearest]
+        axes *= np.where(np.diag(axes) < 0, -1.0, 1.0)[:, None]
+    if np.linalg.det(axes) < 0:
+        axes[2] *= -1.0
+    turn = np.degrees(np.arccos(np.clip((np.trace(axes) - 1.0) / 2.0, -1.0, 1.0)))
+    return axes if turn > ALIGNED_DEG else None  # the axes already are the part's planes
+
+
 def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | None = None,
                    workers: int = 0, stats: DecomposeStats | None = None,
                    progress: bool = False, timeout: float = JOB_TIMEOUT_S) -> list[list[Hull]]:
@@ -150,11 +232,16 @@ def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | No
     """
     stats = stats if stats is not None else DecomposeStats()
     results: list[list[Hull] | None] = [None] * len(meshes)
-    frames = [_frame(np.asarray(v, dtype=np.float64)) for v, _ in meshes]
+    turns = [flat_frame(v, f) for v, f in meshes]
+    stats.turned += sum(turn is not None for turn in turns)
+    meshes = [(np.asarray(v, np.float64) if turn is None else np.asarray(v, np.float64) @ turn.T, f)
+              for (v, f), turn in zip(meshes, turns)]  # CoACD sees each mesh in its own planes' frame
+    frames = [_frame(v) for v, _ in meshes]
 
     def placed(index: int, hulls: list[Hull]) -> list[Hull]:  # normalized hulls -> the mesh's coordinates
         center, extent = frames[index]
-        return [(v * extent + center, f) for v, f in hulls]
+        turn = turns[index]
+        return [(v * extent + center if turn is None else (v * extent + center) @ turn, f) for v, f in hulls]
 
     todo: dict[str, list[int]] = {}
     for index, (vertices, faces) in enumerate(meshes):

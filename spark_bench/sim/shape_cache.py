@@ -28,7 +28,7 @@ from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.shapes import CollisionShape
 
 #: Bumped whenever the same link and options would give other shapes.
-SHAPES_VERSION = "link-shapes-5"
+SHAPES_VERSION = "link-shapes-6"
 KINDS = ("box", "cylinder", "sphere", "mesh")
 
 
