@@ -76,8 +76,8 @@ class SparkDoorEnv(SparkArticulationEnv):
     :data:`~spark_bench.envs.observation.CUP_TOUCH`). How to choose: the gripper where the door has a handle,
     knob, notch or tab; the cup for a front with nothing to pinch (a flush door, lid or window); ``"auto"``
     (what the opening score uses) picks per part: the cup where the grasp planner declines the part for lack
-    of something to pinch (``scene.grasp.declined`` ``no_handle`` or ``too_wide``), the gripper everywhere
-    else (a part declined for another reason keeps the gripper and its reason). The one chosen is
+    of something to pinch (``scene.grasp.declined`` ``no_handle``, ``too_wide`` or ``unholdable``), the gripper
+    everywhere else (a part declined for another reason keeps the gripper and its reason). The one chosen is
     ``env.unwrapped.end_effector`` and every step's ``info["end_effector"]``; the scripted opener runs the
     cup's own phases (:class:`~spark_bench.rl.suction_opener.SuctionOpener`). A part the cup cannot hold (no
     flat patch for it, something in its way, too heavy for 75 N when driven directly) gets a ``reason``, as

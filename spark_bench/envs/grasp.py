@@ -64,7 +64,15 @@ from spark_bench.envs.handle_search import (
     handle_searches,
     on_handle,
 )
-from spark_bench.envs.handles import PINCH_MARGIN, candidates, edge_pinch, pad_center, reach_depth
+from spark_bench.envs.handles import (
+    PINCH_MARGIN,
+    RAISED_MIN,
+    candidates,
+    edge_pinch,
+    pad_center,
+    reach_depth,
+    simulated_sides_hold,
+)
 from spark_bench.envs.pads import approach_blocked, pad_landing, plan_pads
 from spark_bench.envs.rest_meshes import RestMeshes
 
@@ -83,6 +91,12 @@ NOTCH_DEPTH = 0.004
 FIRM_PROUD = 0.02
 #: A prismatic joint travelling at most this far (m) is a push button (a microwave's door release).
 BUTTON_TRAVEL = 0.01
+#: A handle candidate is held only when the pads close on at least this much (m) of it along the approach:
+#: where an open pad comes down on the object (:func:`~spark_bench.envs.pads.pad_landing`) the hand stops
+#: short, and a candidate standing less than this above where the fingertips then stop is pinched in the air
+#: (a safe's low ring beside its big dial: the pad lands on the dial's rim, 6 cm above the ring's base). As
+#: a raised piece's least height (:data:`~spark_bench.envs.handles.RAISED_MIN`).
+MIN_GRIP = RAISED_MIN
 
 
 @dataclass
@@ -106,11 +120,16 @@ class GraspTarget:
     :param clearance: room (m) left on each side of a pad placed in a gap beside the handle
     :param reason: why a parallel gripper cannot pull this part open (one line), or None when it can
     :param landing: an open pad comes down on the object (kept only when no other candidate is clear)
+    :param landing_depth: how far (m) above the fingertips' planned level the surface an open pad comes down
+        on stands (0: none)
     :param declined: why the planner declined the part, as a word (None when it did not): ``no_handle``
         (nothing stands out of the front to pinch), ``too_wide`` (a handle wider than the open fingers),
-        ``blocked`` (the object stands in the hand's way in), ``button`` (a push button); a part declined
-        for the first two has nothing to pinch, and the environments' ``end_effector="auto"`` opens it with
-        the suction cup (:func:`~spark_bench.envs.suction.choose_end_effector`)
+        ``blocked`` (the object stands in the hand's way in), ``button`` (a push button), ``unholdable``
+        (handle candidates, but none the pads can hold: the open pads come down on the object before they
+        reach it, or the simulated collision shape has no side to hold, :data:`MIN_GRIP`); a part declined
+        for ``no_handle``, ``too_wide`` or ``unholdable`` has nothing to pinch, and the environments'
+        ``end_effector="auto"`` opens it with the suction cup
+        (:func:`~spark_bench.envs.suction.choose_end_effector`)
     """
 
     point: np.ndarray
@@ -126,6 +145,7 @@ class GraspTarget:
     clearance: float | None = None
     reason: str | None = None
     landing: bool = False
+    landing_depth: float = 0.0
     declined: str | None = None
 
     @property
@@ -214,11 +234,17 @@ def _front_of(asset: ArticulatedAsset, joint: str, seed: int) -> Front:
                   origin=origin, axis=axis, rotational=rotational)
 
 
-def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperConfig, seed: int
-           ) -> tuple[GraspTarget | None, str | None]:
-    """The pinch grasp on the best handle candidate, or ``(None, why none fits)``."""
+def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperConfig, seed: int,
+           collision=None) -> tuple[GraspTarget | None, str | None, str | None]:
+    """The pinch grasp on the best handle candidate, or ``(None, why none fits, the declined word)``.
+
+    A candidate the pads cannot hold is passed over: the open pads come down on the object so far above the
+    fingertips' planned level that less than :data:`MIN_GRIP` of it stays between them, or (``collision``,
+    the part's simulated collision shapes, world frame at rest) the simulated shape's sides there give the
+    pads no hold (:func:`~spark_bench.envs.handles.simulated_sides_hold`)."""
     n, basis = front.outward, front.basis
     widest = None
+    unheld: list[str] = []
     span = 2 * gripper.max_opening - 2 * PINCH_MARGIN
 
     def grasped(points: np.ndarray) -> np.ndarray:
@@ -239,14 +265,25 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
         first = None
         for candidate in ranked:
             grasp = _pinch_on(asset, joint, front, candidate, source, gripper)
+            tips = float(grasp.point @ n) - gripper.tip_beyond_tcp
+            if grasp.landing and float(np.max(candidate.points @ n)) - (tips + grasp.landing_depth) < MIN_GRIP:
+                unheld.append("the open pads come down on the object before they reach it")
+                continue
+            if collision is not None and not simulated_sides_hold(collision, grasp.point, n, grasp.closing,
+                                                                  grasp.long_axis, tips, gripper):
+                unheld.append("its simulated collision shape has no side the pads can hold (too steep)")
+                continue
             first = first or grasp
             if not grasp.landing or len(ranked) == 1:
-                return grasp, None
-        return first, None
+                return grasp, None, None
+        if first is not None:
+            return first, None, None
     if widest is not None:
         return None, (f"its handle is {1000 * widest:.0f} mm across, wider than the open gripper "
-                      f"({1000 * span:.0f} mm)")
-    return None, None
+                      f"({1000 * span:.0f} mm)"), "too_wide"
+    if unheld:
+        return None, f"no handle the gripper can hold: {'; '.join(dict.fromkeys(unheld))}", "unholdable"
+    return None, None, None
 
 
 def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: str, gripper: GripperConfig
@@ -273,8 +310,9 @@ def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: s
         grasp.clearance = pads["clearance"]
     opening = gripper.max_opening if grasp.opening is None else grasp.opening
     thickness = gripper.pad_thickness if grasp.pad_thickness is None else grasp.pad_thickness
-    grasp.landing = pad_landing(asset.mesh(), grasp.point, n, grasp.closing, grasp.long_axis, opening,
-                                thickness, gripper) > 0.0
+    grasp.landing_depth = pad_landing(asset.mesh(), grasp.point, n, grasp.closing, grasp.long_axis, opening,
+                                      thickness, gripper)
+    grasp.landing = grasp.landing_depth > 0.0
     return grasp
 
 
@@ -292,13 +330,16 @@ def _holds(asset: ArticulatedAsset, link: str, points: np.ndarray) -> bool:
 
 
 def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
-               gripper: GripperConfig | None = None) -> GraspTarget:
+               gripper: GripperConfig | None = None, collision=None) -> GraspTarget:
     """The grasp on the part moved by ``joint``, at the asset's rest configuration.
 
     :param asset: the object (or a :class:`RestMeshes` of it, to share its meshes between joints)
     :param joint: a movable joint's name
     :param seed: seed of the surface sampling
     :param gripper: the gripper's dimensions, for fitting the pads beside the handle (default gripper)
+    :param collision: the simulated collision shapes of the part and the parts hinged to it (one mesh, world
+        frame at rest), to pass over handle candidates whose simulated shape the pads cannot hold; None: the
+        visual surface only
     :raises ValueError: the part has no geometry, or its centroid lies on its hinge
     """
     gripper = gripper or GripperConfig()
@@ -314,8 +355,13 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
                            reason=f"{joint}: a push button ({1000 * travel:.1f} mm of travel): pressed, not pulled open")
     if not isinstance(asset, RestMeshes):
         asset = RestMeshes(asset)
-    grasp = _find(asset, joint, seed, gripper)
+    grasp = _find(asset, joint, seed, gripper, collision)
     blocked = approach_blocked(asset, grasp, gripper, APPROACH_CLEAR)
+    if blocked is not None and grasp.source == "face" and blocked[0] in asset.moving_links(joint):
+        # nothing to pinch, and what stands before the face's centre is the part's own (the knob the pads
+        # cannot hold): no other part in the way, the cup (``auto``) plans its own place and way in
+        # (:func:`~spark_bench.envs.suction.plan_suction`)
+        blocked = None
     if blocked is not None:
         link, distance, through = blocked
         what = (asset.links[link].label or link).replace("_", " ")
@@ -341,10 +387,10 @@ def _moving_part_of(asset: ArticulatedAsset, link: str, joint: str) -> str | Non
                  if name != joint and spec.is_movable and link in asset.part_of_joint(name)), None)
 
 
-def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig) -> GraspTarget:
+def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig, collision=None) -> GraspTarget:
     """:func:`find_grasp` before the approach check."""
     front = _front_of(asset, joint, seed)
-    grasp, too_wide = _pinch(asset, joint, front, gripper, seed)
+    grasp, no_pinch, why = _pinch(asset, joint, front, gripper, seed, collision)
     if grasp is not None:
         return grasp
     n, basis, face = front.outward, front.basis, front.face
@@ -384,15 +430,15 @@ def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig
     else:
         lateral = 0.5 * (uv.min(0) + uv.max(0))
     what = part_name(asset, joint)
-    reason = too_wide or (f"no handle, knob, notch or tab on the {what}: nothing stands out of its front for "
+    reason = no_pinch or (f"no handle, knob, notch or tab on the {what}: nothing stands out of its front for "
                           "a parallel gripper to pull")
     buttons = [j for j in asset.movable_joints() if j.type == "prismatic" and j.name != joint
                and 0.0 < j.open_value - j.rest_value <= BUTTON_TRAVEL]
-    if buttons and not too_wide:  # a microwave's door: a button releases it
+    if buttons and not no_pinch:  # a microwave's door: a button releases it
         reason += f" (the object has {len(buttons)} push button{'s' * (len(buttons) > 1)}: a button may open it)"
     return GraspTarget(point=lateral @ basis + face * n, outward=n, long_axis=basis[0] if front.rotational else basis[1],
                        has_handle=False, source="face", reason=f"{joint}: {reason}",
-                       declined="too_wide" if too_wide else "no_handle")
+                       declined=why or "no_handle")
 
 
 def part_name(asset: ArticulatedAsset, joint: str) -> str:

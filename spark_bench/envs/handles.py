@@ -130,6 +130,57 @@ def holding_level(candidate: Candidate, front: Front, gripper: GripperConfig) ->
     return None
 
 
+def simulated_sides_hold(mesh, point: np.ndarray, outward: np.ndarray, closing: np.ndarray, long_axis: np.ndarray,
+                         tips: float, gripper: GripperConfig) -> bool:
+    """Whether the pads can hold the *simulated* shape at a pinch: ``mesh`` is the grasped part's collision
+    shapes (world frame, at rest), which the physics squeezes, not the visual surface the candidate was read
+    from. A convex hull taken of a whole rosette knob (its dome and its boss in one) is a cone: its sides
+    rise like the dome's, the boss's wall is gone, and the pads, squeezed and pulled, slide off it.
+
+    Inside the open pads' sweep (across the closing direction out to the open pads' outer faces, along the
+    handle the pads' height), the shape's width is measured in :data:`WALL_BIN` slices from one above the
+    fingertips' level ``tips`` (that one holds the surface the handle stands on, which the tips reach down
+    to) up to its top there; it fails to hold only when its sides rise by more than
+    :data:`MAX_WALL_SLOPE` over :data:`WALL_BAND` at every level where that can be measured (a slice as
+    wide as the sweep is a surface the pads come down on, not a side, and is not measured). Nothing to
+    measure (no collision shape at the handle, a handle too low for two slices :data:`WALL_BAND` apart):
+    True, nothing to judge: this check passes a candidate over only on evidence.
+
+    :param point: the grasp point (TCP)
+    :param tips: the fingertips' level along ``outward``
+    """
+    from spark_bench.envs.pads import clipped_vertices, near_box
+
+    frame = np.stack([closing, long_axis, outward])
+    reach = gripper.max_opening + gripper.pad_thickness
+    half = 0.5 * gripper.pad_height
+    base = tips - float(point @ outward)
+    near = near_box(mesh, point, frame, [-reach, -half, base], [reach, half, np.inf])
+    if near is None:
+        return True
+    inside = clipped_vertices(near, point, frame, [-reach, -half, base], [reach, half, np.inf])
+    if len(inside) == 0:
+        return True
+    top = float(inside[:, 2].max())
+
+    def width(level: float) -> float | None:
+        s = clipped_vertices(near, point, frame, [-reach, -half, level], [reach, half, level + WALL_BIN])
+        if len(s) == 0:
+            return None
+        w = float(np.ptp(s[:, 0]))
+        return None if w >= 2 * reach - 1e-4 else w
+
+    level, measured = base + WALL_BIN, False  # the tips' own slice holds the surface they reach down to
+    while level + WALL_BAND + WALL_BIN <= top + 1e-9:
+        low, high = width(level), width(level + WALL_BAND)
+        if low is not None and high is not None:
+            if (low - high) / (2 * WALL_BAND) <= MAX_WALL_SLOPE:
+                return True
+            measured = True
+        level += WALL_BIN
+    return not measured
+
+
 def local_patches(points: np.ndarray, order: np.ndarray, front: Front, span: float, radius: float,
                   gripper: GripperConfig, limit: int = MAX_PATCHES) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Pinchable pieces of a feature too wide to pinch whole (a safe's wheel: stretches of its spokes):

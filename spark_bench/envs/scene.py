@@ -231,15 +231,40 @@ def _memo(what: str, asset: ArticulatedAsset, extra, compute):
     return value
 
 
+def collision_mesh(asset: ArticulatedAsset, links: list[str]):
+    """The simulated collision shapes of ``links`` (:func:`prepared_object`), one mesh in the world frame at
+    rest, or None when they have none."""
+    import trimesh
+
+    from spark_bench.asset.mesh import merge_meshes
+
+    shapes = prepared_object(asset).shapes
+    poses = asset.link_poses()
+    meshes = []
+    for name in links:
+        for shape in shapes.get(name, []):
+            mesh = shape.to_trimesh()
+            meshes.append(trimesh.Trimesh(mesh.vertices @ poses[name][:3, :3].T + poses[name][:3, 3], mesh.faces,
+                                          process=False))
+    return merge_meshes(meshes) if meshes else None
+
+
 def plan_grasp(asset: ArticulatedAsset, joint: str, gripper: GripperConfig | None = None) -> GraspTarget:
     """The grasp on the part moved by ``joint`` (:func:`~spark_bench.envs.grasp.find_grasp`), memoized per
-    asset; its ``reason`` says why the scripted opener cannot open the part, if it cannot.
+    asset; its ``reason`` says why the scripted opener cannot open the part, if it cannot. Handle candidates
+    are judged on the part's simulated collision shapes too (:func:`collision_mesh`, the object prepared for
+    MuJoCo as its scenes are: :func:`prepared_object`): the pads squeeze those, not the visual surface.
 
     :raises InputError: the part has no geometry, or no outward direction
     """
     def compute():
+        try:  # an object that cannot be prepared is reported by its scene, as before: the visual surface only
+            collision = collision_mesh(asset, asset.moving_links(joint))
+        except (InputError, ValueError):
+            collision = None
         try:  # the object at rest, its link meshes shared by its joints' plans
-            return find_grasp(_memo("rest", asset, None, lambda: RestMeshes(asset)), joint, gripper=gripper)
+            return find_grasp(_memo("rest", asset, None, lambda: RestMeshes(asset)), joint, gripper=gripper,
+                              collision=collision)
         except ValueError as exc:
             raise InputError(asset.source or asset.name, str(exc)) from None
 

@@ -47,9 +47,10 @@ mujoco = mujoco_module()
 #: (:func:`choose_end_effector`).
 END_EFFECTORS = ("gripper", "suction", "auto")
 #: Why the grasp planner declined a part (:attr:`~spark_bench.envs.grasp.GraspTarget.declined`) that
-#: ``auto`` opens with the cup instead: nothing to pinch (no handle, knob, notch or tab), or a handle wider
-#: than the open fingers. A part whose approach is blocked, or a push button, is not one.
-SUCTION_DECLINES = ("no_handle", "too_wide")
+#: ``auto`` opens with the cup instead: nothing to pinch (no handle, knob, notch or tab), a handle wider
+#: than the open fingers, or handle candidates none of which the pads can hold (``unholdable``). A part
+#: whose approach is blocked, or a push button, is not one.
+SUCTION_DECLINES = ("no_handle", "too_wide", "unholdable")
 #: A surface point stands out of the face (a handle's foot, a hinge knuckle) when it is this far (m) in front
 #: of the face's level; the cup keeps :data:`SIDE_CLEARANCE` (m) from any such point.
 PROUD = 0.003
