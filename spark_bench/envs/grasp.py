@@ -89,8 +89,12 @@ NOTCH_DEPTH = 0.004
 #: A handle standing out of its base by this much (m) is held firmly; a lower one (a keyhole plate, an
 #: escutcheon) is taken only when nothing stands out further.
 FIRM_PROUD = 0.02
-#: A prismatic joint travelling at most this far (m) is a push button (a microwave's door release).
+#: A prismatic joint travelling at most this far (m) is a push button (a microwave's door release)...
 BUTTON_TRAVEL = 0.01
+#: ... when its part is at most this fraction of the object's size (bounding-box diagonals at rest): the 64
+#: buttons of partnet_dev and real_objects are at most 0.11 of it; a coffee machine's drip-tray grate
+#: (102145, lifted 10 mm) is 0.29.
+BUTTON_SIZE = 0.2
 #: A handle candidate is held only when the pads close on at least this much (m) of it along the approach:
 #: where an open pad comes down on the object (:func:`~spark_bench.envs.pads.pad_landing`) the hand stops
 #: short, and a candidate standing less than this above where the fingertips then stop is pinched in the air
@@ -345,7 +349,7 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
     gripper = gripper or GripperConfig()
     spec = asset.joints[joint]
     travel = spec.open_value - spec.rest_value
-    if spec.type == "prismatic" and 0.0 < travel <= BUTTON_TRAVEL:  # pressed, not pulled: nothing to plan
+    if is_push_button(asset, joint):  # pressed, not pulled: nothing to plan
         part = asset.mesh(links=asset.part_of_joint(joint))
         if len(part.faces) == 0:
             raise ValueError(f"{asset.name}: the part moved by {joint} has no geometry")
@@ -385,6 +389,24 @@ def _moving_part_of(asset: ArticulatedAsset, link: str, joint: str) -> str | Non
     """The movable joint (not ``joint``) whose part holds ``link``, or None (the body, a fixed part)."""
     return next((name for name, spec in asset.joints.items()
                  if name != joint and spec.is_movable and link in asset.part_of_joint(name)), None)
+
+
+def is_push_button(asset: ArticulatedAsset, joint: str) -> bool:
+    """Whether ``joint`` moves a push button: a prismatic joint of at most :data:`BUTTON_TRAVEL` of travel
+    whose part is at most :data:`BUTTON_SIZE` of the object's size (a part without geometry counts by its
+    travel alone)."""
+    spec = asset.joints[joint]
+    if spec.type != "prismatic" or not 0.0 < spec.open_value - spec.rest_value <= BUTTON_TRAVEL:
+        return False
+    part = asset.mesh(links=asset.part_of_joint(joint))
+    whole = asset.mesh()
+    if len(part.faces) == 0 or len(whole.faces) == 0:
+        return True
+    return _diagonal(part) <= BUTTON_SIZE * _diagonal(whole)
+
+
+def _diagonal(mesh) -> float:
+    return float(np.linalg.norm(np.ptp(np.asarray(mesh.vertices), axis=0)))
 
 
 def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig, collision=None) -> GraspTarget:
@@ -432,8 +454,7 @@ def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig
     what = part_name(asset, joint)
     reason = no_pinch or (f"no handle, knob, notch or tab on the {what}: nothing stands out of its front for "
                           "a parallel gripper to pull")
-    buttons = [j for j in asset.movable_joints() if j.type == "prismatic" and j.name != joint
-               and 0.0 < j.open_value - j.rest_value <= BUTTON_TRAVEL]
+    buttons = [j for j in asset.movable_joints() if j.name != joint and is_push_button(asset, j.name)]
     if buttons and not no_pinch:  # a microwave's door: a button releases it
         reason += f" (the object has {len(buttons)} push button{'s' * (len(buttons) > 1)}: a button may open it)"
     return GraspTarget(point=lateral @ basis + face * n, outward=n, long_axis=basis[0] if front.rotational else basis[1],

@@ -15,7 +15,7 @@ import trimesh
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.asset.model import Collision, Joint, Link, Visual
 from spark_bench.envs.cabinet import METAL, procedural_cabinet
-from spark_bench.envs.grasp import find_grasp
+from spark_bench.envs.grasp import find_grasp, is_push_button
 
 PARTNET_DEV = Path(__file__).resolve().parents[2].parent / "shared" / "partnet_dev"
 
@@ -229,15 +229,25 @@ def test_the_workspace_holds_a_wide_swinging_door():
 
 
 def test_a_push_button_is_declined_as_one():
-    """A prismatic joint travelling a few millimetres (a microwave's or a safe's keypad button) is pressed,
-    not pulled: the planner says so instead of looking for its handle (or calling its axis reversed)."""
+    """A small part on a prismatic joint travelling a few millimetres (a microwave's or a safe's keypad
+    button) is pressed, not pulled: the planner says so instead of looking for its handle (or calling its
+    axis reversed). A large part lifted as little (a coffee machine's drip-tray grate) is no button."""
     asset = procedural_cabinet(0)
-    joint = asset.joints["joint_0"]
-    joint.lower, joint.upper = 0.0, 0.004
-    grasp = find_grasp(asset, "joint_0")
+    lo, hi = asset.bounds()
+    front = lo[0]
+    asset.links["button"] = Link("button", visuals=[Visual(mesh=trimesh.creation.box(
+        extents=(0.01, 0.03, 0.03), transform=trimesh.transformations.translation_matrix(
+            (front - 0.005, 0.5 * (lo[1] + hi[1]), hi[2] - 0.05))))])
+    asset.joints["joint_button"] = Joint("joint_button", "prismatic", "base", "button",
+                                         axis=np.array([1.0, 0.0, 0.0]), lower=0.0, upper=0.004)
+    assert is_push_button(asset, "joint_button")
+    grasp = find_grasp(asset, "joint_button")
+    assert grasp.declined == "button"
     assert grasp.reason is not None and "push button (4.0 mm" in grasp.reason and "\n" not in grasp.reason
-    joint.upper = 0.3  # a drawer again
-    assert find_grasp(asset, "joint_0").reason is None
+    drawer = asset.joints["joint_0"]
+    drawer.lower, drawer.upper = 0.0, 0.004  # the drawer moving 4 mm is not pressed: it is planned as a drawer
+    assert not is_push_button(asset, "joint_0")
+    assert find_grasp(asset, "joint_0").declined != "button"
 
 
 def _cone(center, radius, height) -> tuple[Visual, Collision]:
