@@ -66,7 +66,6 @@ from spark_bench.envs.handle_search import (
 )
 from spark_bench.envs.handles import (
     PINCH_MARGIN,
-    RAISED_MIN,
     candidates,
     edge_pinch,
     pad_center,
@@ -95,12 +94,6 @@ BUTTON_TRAVEL = 0.01
 #: buttons of partnet_dev and real_objects are at most 0.11 of it; a coffee machine's drip-tray grate
 #: (102145, lifted 10 mm) is 0.29.
 BUTTON_SIZE = 0.2
-#: A handle candidate is held only when the pads close on at least this much (m) of it along the approach:
-#: where an open pad comes down on the object (:func:`~spark_bench.envs.pads.pad_landing`) the hand stops
-#: short, and a candidate standing less than this above where the fingertips then stop is pinched in the air
-#: (a safe's low ring beside its big dial: the pad lands on the dial's rim, 6 cm above the ring's base). As
-#: a raised piece's least height (:data:`~spark_bench.envs.handles.RAISED_MIN`).
-MIN_GRIP = RAISED_MIN
 
 
 @dataclass
@@ -124,13 +117,11 @@ class GraspTarget:
     :param clearance: room (m) left on each side of a pad placed in a gap beside the handle
     :param reason: why a parallel gripper cannot pull this part open (one line), or None when it can
     :param landing: an open pad comes down on the object (kept only when no other candidate is clear)
-    :param landing_depth: how far (m) above the fingertips' planned level the surface an open pad comes down
-        on stands (0: none)
     :param declined: why the planner declined the part, as a word (None when it did not): ``no_handle``
         (nothing stands out of the front to pinch), ``too_wide`` (a handle wider than the open fingers),
         ``blocked`` (the object stands in the hand's way in), ``button`` (a push button), ``unholdable``
-        (handle candidates, but none the pads can hold: the open pads come down on the object before they
-        reach it, or the simulated collision shape has no side to hold, :data:`MIN_GRIP`); a part declined
+        (handle candidates, but none the pads can hold: the simulated collision shape has no side to hold);
+        a part declined
         for ``no_handle``, ``too_wide`` or ``unholdable`` has nothing to pinch, and the environments'
         ``end_effector="auto"`` opens it with the suction cup
         (:func:`~spark_bench.envs.suction.choose_end_effector`)
@@ -149,7 +140,6 @@ class GraspTarget:
     clearance: float | None = None
     reason: str | None = None
     landing: bool = False
-    landing_depth: float = 0.0
     declined: str | None = None
 
     @property
@@ -242,10 +232,9 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
            collision=None) -> tuple[GraspTarget | None, str | None, str | None]:
     """The pinch grasp on the best handle candidate, or ``(None, why none fits, the declined word)``.
 
-    A candidate the pads cannot hold is passed over: the open pads come down on the object so far above the
-    fingertips' planned level that less than :data:`MIN_GRIP` of it stays between them, or (``collision``,
-    the part's simulated collision shapes, world frame at rest) the simulated shape's sides there give the
-    pads no hold (:func:`~spark_bench.envs.handles.simulated_sides_hold`)."""
+    A candidate the pads cannot hold is passed over: given ``collision`` (the part's simulated collision
+    shapes, world frame at rest), one whose simulated shape's sides give the pads no hold
+    (:func:`~spark_bench.envs.handles.simulated_sides_hold`)."""
     n, basis = front.outward, front.basis
     widest = None
     unheld: list[str] = []
@@ -270,9 +259,6 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
         for candidate in ranked:
             grasp = _pinch_on(asset, joint, front, candidate, source, gripper)
             tips = float(grasp.point @ n) - gripper.tip_beyond_tcp
-            if grasp.landing and float(np.max(candidate.points @ n)) - (tips + grasp.landing_depth) < MIN_GRIP:
-                unheld.append("the open pads come down on the object before they reach it")
-                continue
             if collision is not None and not simulated_sides_hold(collision, grasp.point, n, grasp.closing,
                                                                   grasp.long_axis, tips, gripper):
                 unheld.append("its simulated collision shape has no side the pads can hold (too steep)")
@@ -314,9 +300,8 @@ def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: s
         grasp.clearance = pads["clearance"]
     opening = gripper.max_opening if grasp.opening is None else grasp.opening
     thickness = gripper.pad_thickness if grasp.pad_thickness is None else grasp.pad_thickness
-    grasp.landing_depth = pad_landing(asset.mesh(), grasp.point, n, grasp.closing, grasp.long_axis, opening,
-                                      thickness, gripper)
-    grasp.landing = grasp.landing_depth > 0.0
+    grasp.landing = pad_landing(asset.mesh(), grasp.point, n, grasp.closing, grasp.long_axis, opening,
+                                thickness, gripper) > 0.0
     return grasp
 
 

@@ -145,28 +145,22 @@ def plan_pads(part, others, point: np.ndarray, outward: np.ndarray, closing: np.
 #: A pad comes down on something when a surface stands this far (m) above its fingertips' level where it
 #: lands (less is contact noise, and a handle's own base the tips are planned to touch).
 LANDING_MARGIN = 0.004
-#: The open pads come down from this far (m) above the palm's level (the scripted opener's pre-grasp stands
-#: 6 cm in front of the grasp): a surface standing higher than the palm at a pad's place (the sloped rim of
-#: a safe's big dial beside a low ring) is in the finger's way as much as one below it. Rays from the palm's
-#: level start inside such a feature and find nothing.
-LANDING_FROM = 0.06
 
 
 def pad_landing(mesh, point: np.ndarray, outward: np.ndarray, closing: np.ndarray, long_axis: np.ndarray,
                 opening: float, pad_thickness: float, gripper: GripperConfig) -> float:
     """How far (m) above the fingertips' level a surface of ``mesh`` stands where an open pad comes down
     (0 when none): rays down the approach through each pad's middle and its two ends along the handle,
-    from :data:`LANDING_FROM` above the palm's level to :data:`LANDING_MARGIN` above the tips'. A grasp on a
-    piece of a wide plate (a safe's keypad, picked for a handle) lands one pad on the plate itself: the hand
-    stops short (by more than the finger's length when the surface stands above the palm).
+    from the palm's level to :data:`LANDING_MARGIN` above the tips'. A grasp on a piece of a wide plate
+    (a safe's keypad, picked for a handle) lands one pad on the plate itself: the hand stops short.
 
     :param mesh: the object's mesh (world, at rest: the grasped part's own included)
     :param point: the grasp point (TCP)
     :param opening: finger opening per side the pads come down with, m
     :param pad_thickness: the pads' thickness, m
     """
-    top = gripper.finger_length - gripper.tip_beyond_tcp + LANDING_FROM  # above the palm's level
-    span = top + gripper.tip_beyond_tcp - LANDING_MARGIN  # from there down to just above the tips
+    top = gripper.finger_length - gripper.tip_beyond_tcp  # the palm's level above the TCP
+    span = top + gripper.tip_beyond_tcp - LANDING_MARGIN  # palm level down to just above the tips
     lines = np.array([point + top * outward + side * (opening + 0.5 * pad_thickness) * closing + h * long_axis
                       for side in (-1.0, 1.0) for h in (-0.5 * gripper.pad_height, 0.0, 0.5 * gripper.pad_height)])
     triangles = np.asarray(mesh.triangles)

@@ -296,22 +296,6 @@ def test_a_pad_landing_on_the_object_is_measured():
     assert landed == pytest.approx(0.02 - 0.002, abs=1e-6) and landed > LANDING_MARGIN
 
 
-def test_a_pad_coming_down_on_a_feature_taller_than_the_fingers_is_measured():
-    """:func:`pad_landing`: a feature standing higher than the palm at a pad's place (a safe's big dial
-    beside a low ring) is landed on too; rays starting at the palm's level start inside it and used to find
-    nothing."""
-    from spark_bench.envs.gripper import GripperConfig
-    from spark_bench.envs.pads import LANDING_MARGIN, pad_landing
-
-    gripper = GripperConfig()
-    front = trimesh.creation.box(extents=[0.02, 0.6, 0.6], transform=trimesh.transformations.translation_matrix([0.01, 0, 0]))
-    dial = trimesh.creation.box(extents=[0.06, 0.1, 0.1], transform=trimesh.transformations.translation_matrix([-0.03, 0.09, 0]))
-    out, closing, along = np.array([-1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0])
-    tcp = np.array([-0.012 - 0.002, 0.0, 0.0])  # fingertips 2 mm above the front; the +y pad over the dial
-    landed = pad_landing(trimesh.util.concatenate([front, dial]), tcp, out, closing, along, 0.045, 0.012, gripper)
-    assert landed == pytest.approx(0.06 - 0.002, abs=1e-6) and landed > gripper.finger_length - LANDING_MARGIN
-
-
 def test_a_knob_whose_simulated_shape_is_a_cone_is_not_pinched():
     """The dome knob with its cylindrical cap, its collision shape the convex hull of both (a cone: the cap's
     wall gone): the pads would slide off it, so the planner passes it over and declines the part as
