@@ -130,7 +130,7 @@ def write_report(rows: list[dict], args, seconds: float, path: Path) -> Path:
         "| | joints |", "|---|---|",
         f"| drawers, doors, lids, windows, boards | {len(rows)} |",
         f"| declined by the planner for the gripper | {len(measured)} |",
-        f"| of which `auto` gives the cup (nothing to pinch: `no_handle`, `too_wide`) | {len(cup)} |",
+        f"| of which `auto` gives the cup (nothing to pinch: `no_handle`, `too_wide`, `unholdable`) | {len(cup)} |",
         f"| of which the cup's planner or drive check declines too | {len(cup) - len(tried)} |",
         f"| attempted with the cup | {len(tried)} |",
         f"| opened with the true joint in every episode | {len(opened)} |",

@@ -120,8 +120,8 @@ class GraspTarget:
     :param declined: why the planner declined the part, as a word (None when it did not): ``no_handle``
         (nothing stands out of the front to pinch), ``too_wide`` (a handle wider than the open fingers),
         ``blocked`` (the object stands in the hand's way in), ``button`` (a push button), ``unholdable``
-        (handle candidates, but none the pads can hold: the simulated collision shape has no side to hold);
-        a part declined
+        (handle candidates, but none the pads can hold: their sides slope too gently, as a low rounded rib's,
+        or the simulated collision shape has no side to hold); a part declined
         for ``no_handle``, ``too_wide`` or ``unholdable`` has nothing to pinch, and the environments'
         ``end_effector="auto"`` opens it with the suction cup
         (:func:`~spark_bench.envs.suction.choose_end_effector`)
@@ -232,8 +232,10 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
            collision=None) -> tuple[GraspTarget | None, str | None, str | None]:
     """The pinch grasp on the best handle candidate, or ``(None, why none fits, the declined word)``.
 
-    A candidate the pads cannot hold is passed over: given ``collision`` (the part's simulated collision
-    shapes, world frame at rest), one whose simulated shape's sides give the pads no hold
+    A candidate the pads cannot hold is passed over: one where the part's surface, from the fingertips up
+    (below the handle search's proud cut too), has sides too shallow for the pads at every level (a low
+    rounded rib), or, given ``collision`` (the part's simulated collision shapes, world frame at rest), one
+    whose simulated shape's sides give the pads no hold
     (:func:`~spark_bench.envs.handles.simulated_sides_hold`)."""
     n, basis = front.outward, front.basis
     widest = None
@@ -259,6 +261,9 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
         for candidate in ranked:
             grasp = _pinch_on(asset, joint, front, candidate, source, gripper)
             tips = float(grasp.point @ n) - gripper.tip_beyond_tcp
+            if not simulated_sides_hold(front.part, grasp.point, n, grasp.closing, grasp.long_axis, tips, gripper):
+                unheld.append("its sides slope too gently for the pads to hold (a low rounded rib)")
+                continue
             if collision is not None and not simulated_sides_hold(collision, grasp.point, n, grasp.closing,
                                                                   grasp.long_axis, tips, gripper):
                 unheld.append("its simulated collision shape has no side the pads can hold (too steep)")

@@ -142,9 +142,16 @@ def simulated_sides_hold(mesh, point: np.ndarray, outward: np.ndarray, closing: 
     fingertips' level ``tips`` (that one holds the surface the handle stands on, which the tips reach down
     to) up to its top there; it fails to hold only when its sides rise by more than
     :data:`MAX_WALL_SLOPE` over :data:`WALL_BAND` at every level where that can be measured (a slice as
-    wide as the sweep is a surface the pads come down on, not a side, and is not measured). Nothing to
-    measure (no collision shape at the handle, a handle too low for two slices :data:`WALL_BAND` apart):
-    True, nothing to judge: this check passes a candidate over only on evidence.
+    wide as the sweep is a surface the pads come down on, not a side, and is not measured; the upper slice
+    of a pair may be the feature's crest, cut short by its top). Nothing to measure (no collision shape at
+    the handle, a handle reaching less than :data:`WALL_BIN` + :data:`WALL_BAND` above the tips): True,
+    nothing to judge: this check passes a candidate over only on evidence.
+
+    The same check on the part's *visual* surface (``mesh`` the part's own, :mod:`spark_bench.envs.grasp`)
+    judges the candidate's sides over the whole height the pads grip, the part below the handle search's
+    proud cut (:data:`~spark_bench.envs.handle_search.HANDLE_MIN_PROUD`) included: a low rounded rib on a
+    lid, 13 mm proud, is a candidate by its top 3 mm, but its flanks rise 1.5 sideways per unit of height
+    all the way down, and the pads slide off them.
 
     :param point: the grasp point (TCP)
     :param tips: the fingertips' level along ``outward``
@@ -170,8 +177,10 @@ def simulated_sides_hold(mesh, point: np.ndarray, outward: np.ndarray, closing: 
         w = float(np.ptp(s[:, 0]))
         return None if w >= 2 * reach - 1e-4 else w
 
-    level, measured = base + WALL_BIN, False  # the tips' own slice holds the surface they reach down to
-    while level + WALL_BAND + WALL_BIN <= top + 1e-9:
+    # the tips' own slice holds the surface they reach down to; the upper slice of a pair need only reach
+    # into the feature (a low rounded rib, 12 mm proud, is measured from 3 to 9 mm: what the pads grip)
+    level, measured = base + WALL_BIN, False
+    while level + WALL_BAND < top - 1e-9:
         low, high = width(level), width(level + WALL_BAND)
         if low is not None and high is not None:
             if (low - high) / (2 * WALL_BAND) <= MAX_WALL_SLOPE:

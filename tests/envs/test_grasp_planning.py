@@ -506,3 +506,41 @@ def test_a_wheel_is_held_by_a_spoke_clear_of_its_hub():
     assert np.allclose(env.unwrapped.scene.grasp.point, grasp.point)
     assert open_with_ground_truth(env, seed=0, max_steps=100).success
     env.close()
+
+
+def _rib(radius, proud, length) -> tuple[Visual, Collision]:
+    """A low rounded rib along Y on a -X-facing front (x = 0): the part of a cylinder of ``radius`` standing
+    ``proud`` out of the front, ``length`` long."""
+    transform = np.eye(4)
+    transform[:3, :3] = trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0])[:3, :3]
+    transform[:3, 3] = [radius - proud, 0.0, 0.0]
+    cylinder = trimesh.creation.cylinder(radius=radius, height=length, sections=64, transform=transform)
+    mesh = trimesh.intersections.slice_mesh_plane(cylinder, [-1.0, 0, 0], [0, 0, 0], cap=True)
+    return Visual(mesh=mesh, rgba=METAL), Collision(kind="mesh", mesh=mesh)
+
+
+def test_a_low_rounded_rib_is_not_pinched_but_a_bar_is():
+    """A decorative rib 45 mm wide standing 13 mm out of the front (a cylinder's 26 mm-radius cap): only its
+    top 5 mm stands out by the handle search's 8 mm, and that piece fits the fingers; but its flanks, which
+    the pads grip from the front up, rise 1.1-1.8 sideways per unit of height at every level (against
+    MAX_WALL_SLOPE), and the pads slide off them. The planner passes it over, on its visual surface and on
+    its collision shape alike, and declines the part as ``unholdable`` (``auto`` takes the cup). A bar
+    handle of the same width, 25 mm out with straight sides, is still pinched."""
+    from spark_bench.envs.handles import MAX_WALL_SLOPE
+    from spark_bench.envs.suction import choose_end_effector
+
+    radius, proud = 0.026, 0.013
+    assert 2 * np.sqrt(radius ** 2 - (radius - proud) ** 2) == pytest.approx(0.045, abs=0.001)
+    assert MAX_WALL_SLOPE < 1.0
+    rib = _rib(radius, proud, 0.16)
+    asset = _drawer_with([rib])
+    grasp = find_grasp(asset, "joint_0")
+    assert grasp.declined == "unholdable" and not grasp.has_handle
+    assert "slope too gently" in grasp.reason and choose_end_effector("auto", grasp.declined) == "suction"
+    shape = rib[1].mesh.copy()
+    shape.apply_transform(asset.link_poses()["link_0"])
+    assert find_grasp(asset, "joint_0", collision=shape).declined == "unholdable"
+
+    bar = _drawer_with([_box((-0.0125, 0.0, 0.0), (0.025, 0.16, 0.02))])
+    grasp = find_grasp(bar, "joint_0")
+    assert grasp.source == "geometry" and grasp.reason is None and grasp.declined is None
