@@ -70,7 +70,7 @@ from spark_bench.envs.handles import (
     edge_pinch,
     pad_center,
     reach_depth,
-    simulated_sides_hold,
+    sides_hold,
 )
 from spark_bench.envs.pads import approach_blocked, pad_landing, plan_pads
 from spark_bench.envs.rest_meshes import RestMeshes
@@ -236,7 +236,7 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
     (below the handle search's proud cut too), has sides too shallow for the pads at every level (a low
     rounded rib), or, given ``collision`` (the part's simulated collision shapes, world frame at rest), one
     whose simulated shape's sides give the pads no hold
-    (:func:`~spark_bench.envs.handles.simulated_sides_hold`)."""
+    (:func:`~spark_bench.envs.handles.sides_hold`)."""
     n, basis = front.outward, front.basis
     widest = None
     unheld: list[str] = []
@@ -261,12 +261,12 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
         for candidate in ranked:
             grasp = _pinch_on(asset, joint, front, candidate, source, gripper)
             tips = float(grasp.point @ n) - gripper.tip_beyond_tcp
-            if not simulated_sides_hold(front.part, grasp.point, n, grasp.closing, grasp.long_axis, tips, gripper):
+            if not sides_hold(front.part, grasp.point, n, grasp.closing, grasp.long_axis, tips, gripper):
                 unheld.append("its sides slope too gently for the pads to hold (a low rounded rib)")
                 continue
-            if collision is not None and not simulated_sides_hold(collision, grasp.point, n, grasp.closing,
+            if collision is not None and not sides_hold(collision, grasp.point, n, grasp.closing,
                                                                   grasp.long_axis, tips, gripper):
-                unheld.append("its simulated collision shape has no side the pads can hold (too steep)")
+                unheld.append("its simulated collision shape's sides slope too gently for the pads to hold")
                 continue
             first = first or grasp
             if not grasp.landing or len(ranked) == 1:

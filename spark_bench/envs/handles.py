@@ -130,12 +130,12 @@ def holding_level(candidate: Candidate, front: Front, gripper: GripperConfig) ->
     return None
 
 
-def simulated_sides_hold(mesh, point: np.ndarray, outward: np.ndarray, closing: np.ndarray, long_axis: np.ndarray,
+def sides_hold(mesh, point: np.ndarray, outward: np.ndarray, closing: np.ndarray, long_axis: np.ndarray,
                          tips: float, gripper: GripperConfig) -> bool:
-    """Whether the pads can hold the *simulated* shape at a pinch: ``mesh`` is the grasped part's collision
-    shapes (world frame, at rest), which the physics squeezes, not the visual surface the candidate was read
-    from. A convex hull taken of a whole rosette knob (its dome and its boss in one) is a cone: its sides
-    rise like the dome's, the boss's wall is gone, and the pads, squeezed and pulled, slide off it.
+    """Whether the pads can hold ``mesh``'s sides at a pinch. Given the grasped part's collision shapes (world
+    frame, at rest), which the physics squeezes, not the visual surface the candidate was read from: a convex
+    hull taken of a whole rosette knob (its dome and its boss in one) is a cone, its sides rise like the
+    dome's, the boss's wall is gone, and the pads, squeezed and pulled, slide off it.
 
     Inside the open pads' sweep (across the closing direction out to the open pads' outer faces, along the
     handle the pads' height), the shape's width is measured in :data:`WALL_BIN` slices from one above the

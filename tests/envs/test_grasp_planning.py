@@ -301,7 +301,7 @@ def test_a_knob_whose_simulated_shape_is_a_cone_is_not_pinched():
     wall gone): the pads would slide off it, so the planner passes it over and declines the part as
     ``unholdable`` (``auto`` takes the cup); with the cap's own shape the sides hold."""
     from spark_bench.envs.gripper import GripperConfig
-    from spark_bench.envs.handles import simulated_sides_hold
+    from spark_bench.envs.handles import sides_hold
     from spark_bench.envs.suction import choose_end_effector
 
     asset = _drawer_with([_cone((0.0, 0.0, 0.0), 0.07, 0.03), _cylinder((-0.022, 0.0, 0.0), 0.018, 0.015)])
@@ -313,7 +313,7 @@ def test_a_knob_whose_simulated_shape_is_a_cone_is_not_pinched():
     planned = find_grasp(asset, "joint_0")
     tips = float(planned.point @ planned.outward) - GripperConfig().tip_beyond_tcp
     args = (planned.point, planned.outward, planned.closing, planned.long_axis, tips, GripperConfig())
-    assert simulated_sides_hold(pieces, *args) and not simulated_sides_hold(hull, *args)
+    assert sides_hold(pieces, *args) and not sides_hold(hull, *args)
     grasp = find_grasp(asset, "joint_0", collision=hull)
     assert grasp.declined == "unholdable" and not grasp.has_handle
     assert "collision shape" in grasp.reason and choose_end_effector("auto", grasp.declined) == "suction"
