@@ -176,8 +176,9 @@ def flat_frame(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
     :returns: a ``(3, 3)`` rotation (apply as ``vertices @ R.T``; undo as ``@ R``), or None
     """
     v, f = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
-    if len(f) < 4:
-        return None
+    if len(f) < 4 or f.ndim != 2 or f.shape[1] != 3 or f.min() < 0 or f.max() >= len(v) \
+            or not np.all(np.isfinite(v)):
+        return None  # not a mesh to judge: CoACD gets it as it is (and its worker's failure says why)
     cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     area = np.linalg.norm(cross, axis=1)
     keep = area > 1e-12 * area.max() if area.max() > 0 else np.zeros(len(area), bool)

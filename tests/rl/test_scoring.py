@@ -9,9 +9,11 @@ import json
 
 import numpy as np
 import pytest
+import trimesh
 from helpers_bench import write_case
 
 from spark_bench.asset import write_object_folder
+from spark_bench.asset.model import Collision, Visual
 from spark_bench.asset.ops import similarity_asset
 from spark_bench.data import load_object
 from spark_bench.data.case import BenchmarkCase, ground_truth_in_metres
@@ -44,12 +46,20 @@ def jammed_cabinet():
 
 def flat_cabinet(travel: float | None = None):
     """The procedural cabinet with its drawer's bar handle removed: nothing for the gripper to pinch (the
-    suction cup's task); with ``travel`` (m) its drawer moves only so far: a push button, which no end-effector
-    pulls open."""
+    suction cup's task); with ``travel`` (m) the drawer is a 3 cm push button on its front moving only so far,
+    which no end-effector pulls open."""
     flat = procedural_cabinet(seed=0)
     drawer = flat.links["link_0"]
     drawer.visuals, drawer.collisions = drawer.visuals[:5], drawer.collisions[:5]
     if travel is not None:
+        front = flat.mesh(links=["link_0"])
+        lo, hi = front.bounds
+        center = np.array([lo[0], 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2]), 1.0])
+        in_link = (np.linalg.inv(flat.link_poses()["link_0"]) @ center)[:3]
+        button = trimesh.creation.box(extents=(0.03, 0.03, 0.03),
+                                      transform=trimesh.transformations.translation_matrix(in_link))
+        drawer.visuals = [Visual(mesh=button)]
+        drawer.collisions = [Collision("mesh", mesh=button)]
         flat.joints["joint_0"].upper = travel
     return flat
 
