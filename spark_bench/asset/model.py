@@ -127,6 +127,7 @@ class Joint:
     :param lower: lower limit (rad or m); 0 for continuous joints
     :param upper: upper limit (rad or m); ``lower + 2 pi`` for continuous joints
     :param has_limits: whether the source gave ``<limit>`` (a revolute without one gets [0, pi])
+    :param has_axis: whether the source gave ``<axis>`` (without one: (1, 0, 0), as in URDF)
     :param damping: URDF ``<dynamics damping>``, if given
     :param friction: URDF ``<dynamics friction>``, if given
     :param effort: URDF ``<limit effort>``, if given
@@ -142,6 +143,7 @@ class Joint:
     lower: float = 0.0
     upper: float = 0.0
     has_limits: bool = True
+    has_axis: bool = True
     damping: float | None = None
     friction: float | None = None
     effort: float | None = None

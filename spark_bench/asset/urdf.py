@@ -50,6 +50,11 @@ class EmptyMeshError(InputError):
 # ----- reading --------------------------------------------------------------------------------
 def read_urdf_xml(path: Path) -> bytes:
     """The URDF's bytes, after checking that it is well-formed XML with no DTD or entities."""
+    return _read_urdf_tree(path)[0]
+
+
+def _read_urdf_tree(path: Path):
+    """``(bytes, root element)`` of the URDF, checked as :func:`read_urdf_xml` says."""
     path = Path(path)
     if not path.is_file():
         raise InputError(path, "URDF file not found")
@@ -65,7 +70,7 @@ def read_urdf_xml(path: Path) -> bytes:
         raise InputError(path, f"malformed XML: {exc}") from None
     if root.tag != "robot":
         raise InputError(path, f"root element is <{root.tag}>, expected <robot>")
-    return data
+    return data, root
 
 
 def _check_structure(path: Path, robot: yourdfpy.Robot) -> None:
@@ -269,7 +274,7 @@ def _primitive(urdf_path, link_name, geom, origin) -> Collision | None:
     return Collision(kind, origin=origin, size=size)
 
 
-def _read_joint(urdf_path: Path, yjoint) -> Joint:
+def _read_joint(urdf_path: Path, yjoint, has_axis: bool = True) -> Joint:
     origin = _origin(yjoint)
     if not np.all(np.isfinite(origin)):
         raise InputError(urdf_path, f"joint {yjoint.name!r} has a NaN or infinite origin")
@@ -300,7 +305,7 @@ def _read_joint(urdf_path: Path, yjoint) -> Joint:
     dyn = yjoint.dynamics
     return Joint(
         name=yjoint.name, type=yjoint.type, parent=yjoint.parent, child=yjoint.child, origin=origin,
-        axis=axis, lower=lower, upper=upper, has_limits=has_limits or yjoint.type == "fixed",
+        axis=axis, lower=lower, upper=upper, has_limits=has_limits or yjoint.type == "fixed", has_axis=has_axis,
         # yourdfpy leaves <dynamics> and <limit effort/velocity> as the attribute strings
         damping=_optional_number(getattr(dyn, "damping", None), urdf_path, f"joint {yjoint.name!r} damping"),
         friction=_optional_number(getattr(dyn, "friction", None), urdf_path, f"joint {yjoint.name!r} friction"),
@@ -336,7 +341,9 @@ def load_urdf(path: str | Path, folder: str | Path | None = None, load_meshes: b
     """
     path = Path(path).resolve()
     folder = Path(folder).resolve() if folder is not None else path.parent
-    data = read_urdf_xml(path)
+    data, root = _read_urdf_tree(path)
+    # yourdfpy fills a missing <axis> with its default: which joints wrote one is read here
+    with_axis = {element.get("name") for element in root.iter("joint") if element.find("axis") is not None}
     try:
         urdf = yourdfpy.URDF.load(io.BytesIO(data), build_scene_graph=False, load_meshes=False)
     except Exception as exc:
@@ -346,7 +353,7 @@ def load_urdf(path: str | Path, folder: str | Path | None = None, load_meshes: b
     materials = {m.name: m for m in robot.materials}
     cache: dict = {}
     links = {yl.name: _read_link(path, folder, yl, materials, cache, load_meshes) for yl in robot.links}
-    joints = {yj.name: _read_joint(path, yj) for yj in robot.joints}
+    joints = {yj.name: _read_joint(path, yj, yj.name in with_axis) for yj in robot.joints}
     return ArticulatedAsset(name=robot.name or path.parent.name, links=links, joints=joints, source=str(path))
 
 

@@ -112,32 +112,15 @@ def load_object(path: str | Path, variant: str = "mobility", load_meshes: bool =
     return asset
 
 
-def unwritten_joints(urdf: Path) -> dict[str, set[str]]:
-    """Revolute and prismatic joints of ``urdf`` written without ``<axis>`` or ``<limit>``: name -> the
-    elements missing (``{"axis", "limit"}`` or one of them)."""
-    import xml.etree.ElementTree as ET
-
-    try:
-        root = ET.parse(urdf).getroot()
-    except ET.ParseError:
-        return {}  # load_urdf has already read it: yourdfpy is the judge of its syntax
-    out = {}
-    for element in root.iter("joint"):
-        if element.get("type") in ("revolute", "prismatic"):
-            missing = {tag for tag in ("axis", "limit") if element.find(tag) is None}
-            if missing:
-                out[element.get("name", "")] = missing
-    return out
-
-
 def annotated_joint(entry: dict, joint_type: str) -> tuple[np.ndarray, float, float] | None:
     """``(direction, lower, upper)`` of one ``mobility_v2.json`` entry in the joint's units (radians or
     the object's length), or None when it has no axis or no bounded range.
 
     The annotation gives a direction and a range ``[a, b]`` (degrees for a hinge) that may run backwards
     (``a > b``); PartNet-Mobility's own URDFs write such a joint about the opposite direction with the range
-    ``[-a, -b]``, in the same frame (checked on the 201 joints of partnet_dev and real_objects that have
-    both: every one).
+    ``[-a, -b]``, in the same frame. Checked on the 201 joints of partnet_dev and real_objects that write
+    both: 192 read back identical, the other 9 are symmetric ranges the URDF writes about the opposite
+    direction (the same motion).
     """
     data = entry.get("jointData") or {}
     direction = np.asarray((data.get("axis") or {}).get("direction", []), dtype=float)
@@ -159,10 +142,15 @@ def fill_unwritten_joints(asset: ArticulatedAsset, urdf: Path, annotation: Path)
 
     The URDF's defaults would put such a joint about the x axis over [0, pi] (or a slider of no travel):
     7 of the 232 movable joints of ``partnet_dev`` and ``real_objects`` (a safe door 101612 that then swung
-    into its safe; two suitcase lids that rested wide open; two bucket handles; two toaster levers). Where no annotation gives the joint, the URDF's
-    defaults stay, with a warning (each once per process). Returns the names of the joints filled.
+    into its safe; two suitcase lids that rested wide open; two bucket handles; two toaster levers). Where
+    no annotation gives the joint, the URDF's defaults stay, with a warning (each once per process). What the
+    URDF wrote is :attr:`~spark_bench.asset.model.Joint.has_axis` / ``has_limits``, as the reader found it.
+    Returns the names of the joints filled.
     """
-    unwritten = {name: missing for name, missing in unwritten_joints(urdf).items() if name in asset.joints}
+    unwritten = {joint.name: {tag for tag, given in (("axis", joint.has_axis), ("limit", joint.has_limits))
+                              if not given}
+                 for joint in asset.joints.values()
+                 if joint.type in ("revolute", "prismatic") and not (joint.has_axis and joint.has_limits)}
     if not unwritten:
         return []
     entries = read_json(annotation, None) if annotation.is_file() else None
@@ -183,7 +171,7 @@ def fill_unwritten_joints(asset: ArticulatedAsset, urdf: Path, annotation: Path)
         # no rotation; only its root joint turns the object z-up)
         axis, lower, upper = found
         if "axis" in missing:
-            joint.axis = axis
+            joint.axis, joint.has_axis = axis, True
         elif "limit" in missing and float(np.dot(joint.axis, axis)) < 0:  # written about the other way
             lower, upper = -upper, -lower
         if "limit" in missing:

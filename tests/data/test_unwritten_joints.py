@@ -61,7 +61,7 @@ def test_a_joint_without_axis_or_limit_takes_the_annotation(tmp_path, caplog):
     lid = asset.joints["joint_0"]
     np.testing.assert_allclose(lid.axis, [1.0, 0.0, 0.0], atol=1e-12)
     assert lid.lower == pytest.approx(np.radians(-60.0)) and lid.upper == pytest.approx(np.radians(120.0))
-    assert lid.has_limits and lid.rest_value == pytest.approx(np.radians(-60.0))
+    assert lid.has_limits and lid.has_axis and lid.rest_value == pytest.approx(np.radians(-60.0))
     assert "joint_0" in caplog.text and "mobility_v2.json" in caplog.text
     # joint_2 writes its axis; only its missing limit is read, in its own direction
     knob = asset.joints["joint_2"]
@@ -83,6 +83,7 @@ def test_without_an_annotation_the_urdf_defaults_stay_with_a_warning(tmp_path, c
             lid = load_object(folder).joints["joint_0"]
         np.testing.assert_allclose(lid.axis, [1.0, 0.0, 0.0])
         assert (lid.lower, lid.upper) == pytest.approx((0.0, np.pi))
+        assert not lid.has_axis and not lid.has_limits  # what the URDF wrote, as read
         assert "URDF's defaults are used" in caplog.text
 
 
