@@ -339,6 +339,8 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
     gripper = gripper or GripperConfig()
     spec = asset.joints[joint]
     travel = spec.open_value - spec.rest_value
+    if not isinstance(asset, RestMeshes):  # the button test and the planner share its merged meshes
+        asset = RestMeshes(asset)
     if is_push_button(asset, joint):  # pressed, not pulled: nothing to plan
         part = asset.mesh(links=asset.part_of_joint(joint))
         if len(part.faces) == 0:
@@ -347,8 +349,6 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
         return GraspTarget(point=np.asarray(part.vertices).mean(0), outward=-axis, long_axis=perpendicular_basis(axis)[0],
                            has_handle=False, source="face", declined="button",
                            reason=f"{joint}: a push button ({1000 * travel:.1f} mm of travel): pressed, not pulled open")
-    if not isinstance(asset, RestMeshes):
-        asset = RestMeshes(asset)
     grasp = _find(asset, joint, seed, gripper, collision)
     blocked = approach_blocked(asset, grasp, gripper, APPROACH_CLEAR)
     if blocked is not None and grasp.source == "face" and blocked[0] in asset.moving_links(joint):
