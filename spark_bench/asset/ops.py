@@ -7,14 +7,16 @@ import numpy as np
 from spark_bench.asset.model import ArticulatedAsset
 
 
-def scale_asset(asset: ArticulatedAsset, scale: float) -> ArticulatedAsset:
-    """A copy of ``asset`` uniformly scaled by ``scale`` about the world origin.
+def scale_asset(asset: ArticulatedAsset, scale: float, copy: bool = True) -> ArticulatedAsset:
+    """``asset`` uniformly scaled by ``scale`` about the world origin.
 
     Uniform scaling commutes with rigid motions, so scaling every translation (mesh vertices, joint
     origins, collision shapes, prismatic limits) scales the world geometry at every configuration.
+
+    :param copy: scale a copy (False: ``asset`` itself, which the caller owns)
     """
     _check_scale(scale)
-    return _scale_in_place(asset.copy(), scale)
+    return _scale_in_place(asset.copy() if copy else asset, scale)
 
 
 def _check_scale(scale: float) -> None:

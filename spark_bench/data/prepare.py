@@ -26,6 +26,7 @@ from spark_bench.asset.model import ArticulatedAsset, Link, Visual
 from spark_bench.data.case import Benchmark, BenchmarkCase
 from spark_bench.data.contact_sheet import write_contact_sheet
 from spark_bench.data.readers import URDF_NAMES, load_object
+from spark_bench.data.real_size import source_scale
 from spark_bench.errors import InputError, SparkBenchError
 from spark_bench.timing import StageTimer
 
@@ -302,6 +303,7 @@ def _prepare_case(src: Path, case_dir: Path, options: PrepareOptions, case_id: s
             "id": case_id, "category": gt.category, "source": str(src.resolve()),
             "links": links, "joints": joint_records(gt),
             "normalization": {"center": [float(c) for c in center], "scale": float(scale)},
+            "source_scale": source_scale(src if src.is_dir() else src.parent, source.category).record(),
             "image_size": options.image_size, "view_seed": seed,
             "watertight": {"resolution": options.resolution, "n_min": options.n_min, "links": reports},
         }

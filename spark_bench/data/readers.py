@@ -16,7 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset
+from spark_bench.asset.ops import scale_asset
 from spark_bench.asset.urdf import load_urdf
+from spark_bench.data.real_size import source_scale
 from spark_bench.errors import InputError
 
 logger = logging.getLogger(__name__)
@@ -86,6 +88,9 @@ def load_object(path: str | Path, variant: str = "mobility", load_meshes: bool =
     :param path: PartNet-Mobility / GAPartNet / SPARK object folder, or a URDF file
     :param variant: which URDF of a GAPartNet folder to read, see :func:`find_urdf`
     :param load_meshes: read the mesh files (False reads the kinematic structure only)
+
+    A PartNet-Mobility object comes back at its real size (:mod:`spark_bench.data.real_size`: its lengths
+    times :func:`~spark_bench.data.real_size.source_scale`); every other object as its files give it.
     """
     urdf = find_urdf(path, variant)
     folder = urdf.parent
@@ -109,6 +114,9 @@ def load_object(path: str | Path, variant: str = "mobility", load_meshes: bool =
             asset.links[item["link_name"]].annotations.update(
                 {k: v for k, v in item.items() if k != "link_name"})
     fill_unwritten_joints(asset, urdf, folder / "mobility_v2.json")
+    size = source_scale(folder, asset.category)
+    if size.factor != 1.0:  # PartNet-Mobility's units are not metres (spark_bench.data.real_size)
+        scale_asset(asset, size.factor, copy=False)
     return asset
 
 
