@@ -9,12 +9,12 @@ object's largest side as its files give it and at its real size.
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import time
 from pathlib import Path
 
 RESULTS = Path(__file__).resolve().parent / "results"
+NOTES = "<!-- notes: kept when the script rewrites the file -->"
 
 
 def largest_side(folder: Path) -> float:
@@ -61,7 +61,9 @@ def main() -> None:
             f"| {set_name} | {category} | {len(objects)} | {min(scales):g}-{max(scales):g} ({', '.join(rules)}) "
             f"| {statistics.median(scales):g} | {CATEGORY_SCALE.get(category, '-')} "
             f"| {min(sides):.2f}-{max(sides):.2f} | {min(real):.2f}-{max(real):.2f} |")
-    args.out.write_text("\n".join(lines) + "\n")
+    old = args.out.read_text() if args.out.is_file() else ""
+    notes = old[old.index(NOTES):] if NOTES in old else f"{NOTES}\n"
+    args.out.write_text("\n".join(lines) + "\n\n" + notes)
     print(args.out.read_text())
 
 

@@ -23,7 +23,8 @@ __version__ = "0.2.0"
 #: verdicts and opening scores; the metrics are conv-2's. conv-5 (issue #23): a PartNet-Mobility joint written
 #: without <axis> or <limit> takes them from mobility_v2.json (the ground truth of such objects changes), and a
 #: flat-faced part turned off the coordinate planes is decomposed in its own planes' frame.
-CONVENTION_VERSION = "spark-bench-conv-5"
+#: conv-6: a PartNet-Mobility object is read at its real size (spark_bench.data.real_size), not its units as metres.
+CONVENTION_VERSION = "spark-bench-conv-6"
 
 
 def _register_envs() -> None:

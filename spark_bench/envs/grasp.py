@@ -395,6 +395,17 @@ def is_push_button(asset: ArticulatedAsset, joint: str) -> bool:
     return _diagonal(part) <= BUTTON_SIZE * _diagonal(whole)
 
 
+def _edge_sides_hold(front: Front, edge: tuple, gripper: GripperConfig, collision=None) -> bool:
+    """Whether the pads hold an edge pinch's two edges (:func:`~spark_bench.envs.handles.sides_hold`, on the
+    part's surface and, given them, its collision shapes): the crown of a rounded lid is a strip narrower than
+    the open fingers at its face level, but its sides slope away and the pads slide off them."""
+    point, along, _ = edge
+    closing = np.cross(along, front.outward)
+    tips = float(point @ front.outward) - gripper.tip_beyond_tcp
+    return all(sides_hold(mesh, point, front.outward, closing, along, tips, gripper)
+               for mesh in (front.part, collision) if mesh is not None)
+
+
 def _diagonal(mesh) -> float:
     return float(np.linalg.norm(np.ptp(np.asarray(mesh.vertices), axis=0)))
 
@@ -427,7 +438,8 @@ def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig
     links = asset.part_of_joint(joint)
     others = [name for name in asset.links if name not in links]
     edge = edge_pinch(front, asset.mesh(links=others) if others else None, gripper)
-    if edge is not None:  # a front narrower than the open fingers, standing clear of its surround
+    if edge is not None and _edge_sides_hold(front, edge, gripper, collision):
+        # a front narrower than the open fingers, standing clear of its surround, with sides the pads hold
         return GraspTarget(point=edge[0], outward=n, long_axis=edge[1], has_handle=True, source="edge")
 
     # no handle: a point of the front face, central (drawer) or near the free edge (door)

@@ -179,7 +179,8 @@ def choose_end_effector(end_effector: str, declined: str | None) -> str:
     return end_effector
 
 
-def cup_footprint(front, config: SuctionConfig, cell: float = NOTCH_CELL) -> tuple[np.ndarray, np.ndarray]:
+def cup_footprint(front, config: SuctionConfig, cell: float = NOTCH_CELL, level: float | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Where the cup's centre may go on the front face: cells (:func:`~spark_bench.envs.features.rasterise_front`)
     whose whole cup disc lies on the face, at least :data:`SIDE_CLEARANCE` from any of the part's surface
     standing :data:`PROUD` out of it. Returns ``(the cells' centres in the front plane (K, 2), the image)``.
@@ -187,8 +188,11 @@ def cup_footprint(front, config: SuctionConfig, cell: float = NOTCH_CELL) -> tup
     :param front: the part's :class:`~spark_bench.envs.features.Front`
     :param config: the cup (its radius)
     :param cell: the raster's cell, m
+    :param level: the level (along the front's outward direction) of the face the cup sits on: the front
+        face (default) or a flat face recessed behind it (:func:`recessed_levels`)
     """
-    image, lo = rasterise_front(front.part, front.outward, front.basis, front.face, cell)
+    level = front.face if level is None else level
+    image, lo = rasterise_front(front.part, front.outward, front.basis, level, cell)
     if image.size == 0:
         return np.zeros((0, 2)), image
     radius = int(np.ceil(config.cup_radius / cell))
@@ -198,7 +202,7 @@ def cup_footprint(front, config: SuctionConfig, cell: float = NOTCH_CELL) -> tup
     inside = ndimage.binary_erosion(np.pad(image, radius + 1), structure=disc)[radius + 1:-radius - 1, radius + 1:-radius - 1]
     rows, cols = np.nonzero(inside)
     centres = lo + (np.stack([rows, cols], axis=1) + 0.5) * cell
-    proud = front.points[front.points @ front.outward > front.face + PROUD] @ front.basis.T
+    proud = front.points[front.points @ front.outward > level + PROUD] @ front.basis.T
     if len(proud) and len(centres):
         from scipy.spatial import cKDTree
 
@@ -207,16 +211,37 @@ def cup_footprint(front, config: SuctionConfig, cell: float = NOTCH_CELL) -> tup
     return centres, inside
 
 
+def recessed_levels(front, config: SuctionConfig) -> list[float]:
+    """Levels of flat faces recessed behind the front face, front-most first: a microwave door's glass 15 mm
+    behind a frame too narrow for the cup. A level counts when faces facing out cover at least a cup's disc
+    there, no deeper than the cup's length (:attr:`SuctionConfig.cup_length`: the bellows reach in; the way
+    in is checked as for any place, :func:`~spark_bench.envs.pads.approach_blocked`)."""
+    part, n = front.part, front.outward
+    level = np.asarray(part.triangles).mean(1) @ n
+    facing = (part.face_normals @ n > 0.95) & (level < front.face - 2 * LEVEL_BIN) \
+        & (level > front.face - config.cup_length)
+    if not facing.any():
+        return []
+    bins = np.arange(front.face - config.cup_length, front.face + LEVEL_BIN, LEVEL_BIN)
+    area, edges = np.histogram(level[facing], bins=bins, weights=part.area_faces[facing])
+    disc = np.pi * config.cup_radius ** 2
+    return [float(0.5 * (edges[k] + edges[k + 1])) for k in np.flatnonzero(area >= disc)[::-1]]
+
+
 def suction_point(front, config: SuctionConfig) -> np.ndarray | None:
     """The cup's place on the front face (world, at rest), or None when no flat patch holds the cup: of the
     places :func:`cup_footprint` allows, the most central on a drawer, the farthest from the hinge on a door
     or lid (the longest lever; :meth:`~spark_bench.envs.features.Front.point_scores`), and of those within
     :data:`LEVER_TOLERANCE` of it the one nearest the middle of the allowed places (a door's free edge is a
-    line of equally good places: its middle, not a corner)."""
-    centres, _ = cup_footprint(front, config)
-    if len(centres) == 0:
+    line of equally good places: its middle, not a corner). Where the front face has no such place, the
+    flat faces recessed behind it are tried, front-most first (:func:`recessed_levels`)."""
+    for level in [front.face] + recessed_levels(front, config):
+        centres, _ = cup_footprint(front, config, level=level)
+        if len(centres):
+            break
+    else:
         return None
-    points = centres @ front.basis + front.face * front.outward
+    points = centres @ front.basis + level * front.outward
     scores = front.point_scores(points)
     near_best = points[scores <= scores.min() + LEVER_TOLERANCE]
     middle = np.linalg.norm(near_best - points.mean(0), axis=1)
@@ -226,7 +251,8 @@ def suction_point(front, config: SuctionConfig) -> np.ndarray | None:
 def flat_patch_reason(joint: str, part: str, config: SuctionConfig) -> str:
     """The one-line reason of a part whose front has no place for the cup."""
     return (f"{joint}: no flat patch {1000 * 2 * config.cup_radius:.0f} mm across on the {part}'s front for the "
-            f"suction cup (within {1000 * LEVEL_BIN:.0f} mm of its face level, clear of what stands out of it)")
+            f"suction cup (within {1000 * LEVEL_BIN:.0f} mm of its face level or of a flat face up to "
+            f"{1000 * config.cup_length:.0f} mm behind it, clear of what stands out of it)")
 
 
 def approach_config(config: SuctionConfig) -> GripperConfig:

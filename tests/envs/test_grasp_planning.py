@@ -174,7 +174,7 @@ def test_fingers_close_at_a_bounded_speed():
 
 
 def test_a_real_drawer_with_a_round_knob_opens():
-    """PartNet-Mobility table 24644: a 70 mm mushroom knob. The fingers closed through its hull and the
+    """PartNet-Mobility table 24644: a 25 mm mushroom knob (70 mm in its file's units). The fingers closed through its hull and the
     drawer stayed shut; it must open in both episodes within the registered 100 steps."""
     from spark_bench.rl.rollout import rollout
 
@@ -544,3 +544,32 @@ def test_a_low_rounded_rib_is_not_pinched_but_a_bar_is():
     bar = _drawer_with([_box((-0.0125, 0.0, 0.0), (0.025, 0.16, 0.02))])
     grasp = find_grasp(bar, "joint_0")
     assert grasp.source == "geometry" and grasp.reason is None and grasp.declined is None
+
+
+def _front_of_mesh(mesh):
+    from spark_bench.envs.features import Front, perpendicular_basis
+
+    outward = np.array([0.0, 0.0, 1.0])
+    points = np.asarray(mesh.sample(20000, seed=0))
+    return Front(part=mesh, points=points, outward=outward, basis=perpendicular_basis(outward),
+                 face=float((points @ outward).max()), origin=np.array([0.0, 0.0, -0.1]),
+                 axis=np.array([0.0, 1.0, 0.0]), rotational=True)
+
+
+def test_an_edge_pinch_needs_sides_the_pads_hold():
+    """The crown of a rounded chest lid (0.12 m radius) is a strip narrower than the open fingers at its
+    face level, so the edge pinch found it; its sides slope away and the pads slid off (partnet_dev box
+    100247 at its real size). A narrow front with square edges keeps its edge pinch."""
+    from spark_bench.envs.grasp import _edge_sides_hold
+    from spark_bench.envs.gripper import GripperConfig
+    from spark_bench.envs.handles import edge_pinch
+
+    gripper = GripperConfig()
+    square = _front_of_mesh(trimesh.creation.box(extents=(0.04, 0.2, 0.04)))
+    edge = edge_pinch(square, None, gripper)
+    assert edge is not None and _edge_sides_hold(square, edge, gripper)
+    crown = trimesh.creation.cylinder(radius=0.12, height=0.3, sections=128,
+                                      transform=trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
+    rounded = _front_of_mesh(crown)
+    edge = edge_pinch(rounded, None, gripper)
+    assert edge is not None and not _edge_sides_hold(rounded, edge, gripper)

@@ -134,3 +134,44 @@ def test_a_rollout_says_which_end_effector_opened_the_part():
     assert cup.end_effector == "suction" and cup.success_rate == 1.0 and '"end_effector": "suction"' in stats_json(cup)
     gripper = rollout("SparkDrawer-v0", asset=_handleless(), joint="joint_0", episodes=1)
     assert gripper.end_effector == "gripper" and gripper.episodes == 0 and "no handle" in gripper.reason
+
+
+def _framed_pane(recess: float):
+    """A door's front seen along -x: a 20 mm frame (too narrow for the 40 mm cup) around a pane ``recess``
+    behind it (a microwave door's glass), hinged along its left edge."""
+    import trimesh
+
+    from spark_bench.envs.features import Front, perpendicular_basis
+
+    w, h, rim, t = 0.24, 0.33, 0.02, 0.02
+    bars = [((t, rim, h), (0, -w / 2 + rim / 2, 0)), ((t, rim, h), (0, w / 2 - rim / 2, 0)),
+            ((t, w, rim), (0, 0, -h / 2 + rim / 2)), ((t, w, rim), (0, 0, h / 2 - rim / 2))]
+    parts = [trimesh.creation.box(extents=e, transform=trimesh.transformations.translation_matrix(c)) for e, c in bars]
+    parts.append(trimesh.creation.box(extents=(0.004, w - 2 * rim, h - 2 * rim),
+                                      transform=trimesh.transformations.translation_matrix((recess + 0.002 - t / 2, 0, 0))))
+    part = trimesh.util.concatenate(parts)
+    outward = np.array([-1.0, 0.0, 0.0])
+    return Front(part=part, points=np.asarray(part.sample(20000, seed=0)), outward=outward, basis=perpendicular_basis(outward),
+                 face=t / 2, origin=np.array([0.0, -w / 2, 0.0]), axis=np.array([0.0, 0.0, 1.0]), rotational=True)
+
+
+def test_the_cup_sits_on_a_pane_recessed_behind_a_narrow_frame():
+    from spark_bench.envs.suction import recessed_levels, suction_point
+
+    config = SuctionConfig()
+    front = _framed_pane(0.015)
+    assert len(cup_footprint_on_face(front, config)) == 0  # the frame itself holds no cup
+    levels = recessed_levels(front, config)
+    assert levels and abs(levels[0] - (front.face - 0.015)) <= 0.002
+    point = suction_point(front, config)
+    assert point is not None and abs(point @ front.outward - levels[0]) < 1e-9
+    # on the pane, clear of the frame by the cup's radius and its side clearance, far from the hinge
+    assert point[1] >= 0.0 and abs(point[1]) <= 0.12 - 0.02 - config.cup_radius
+    # a pane deeper than the cup's bellows reach is no place for it
+    assert suction_point(_framed_pane(0.045), config) is None
+
+
+def cup_footprint_on_face(front, config):
+    from spark_bench.envs.suction import cup_footprint
+
+    return cup_footprint(front, config)[0]

@@ -218,4 +218,5 @@ def test_real_box_47645_lid_opens_with_hinge_relief(real_object, shared_cache, m
     lid = report.checks["joint_sweep"].details["joints"]["joint_0"]
     assert lid["reached"] >= 0.9
     relief = report.checks["mjcf_compiles"].details["relief"]
-    assert "joint_0" in relief and relief["joint_0"]["max_depth"] > 0.005  # the axis sits 2.7 cm inside the lid
+    # the axis sits 5 mm inside the lid of this 0.32 m box (read at its real size: 2.7 cm in its file's units)
+    assert "joint_0" in relief and relief["joint_0"]["max_depth"] > 0.002
