@@ -155,7 +155,7 @@ def markdown(rows: list[dict], seconds: float, benches: list[Path]) -> str:
     lines += ["", f"Rule / published (1.00 inside a published range): from {min(ratios):.2f} to {max(ratios):.2f}.",
               "", "## 2. Drawers, doors and lids of the benchmarks", "",
               f"Benchmarks: {', '.join(f'`{b}`' for b in benches)}. The object the opening score acts on (the "
-              "case's source, its lengths read as metres, as `eval` does); *moved kg* is everything the joint "
+              "case's source at its real size, `spark_bench.data.real_size`, as `eval` does); *moved kg* is everything the joint "
               "moves; *before*: solid hulls x the category density used until `spark-bench-conv-3` (sheet "
               "metal and safes 800 kg/m^3 effective).", "",
               "| case | category | part | joint | object size (m) | material | moved kg before | moved kg now |",
