@@ -8,6 +8,8 @@ import pytest
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 REAL_OBJECTS = REPO_ROOT.parent / "shared" / "real_objects"
+#: The 75 real objects to develop and measure against (``../shared/partnet_dev``); tests skip where absent.
+PARTNET_DEV = REPO_ROOT.parent / "shared" / "partnet_dev"
 REAL_IDS = ("41083", "40147", "45780", "7179", "47645", "102442", "3763")
 
 

@@ -9,12 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from helpers_real import PARTNET_DEV
 
 from spark_bench.data.readers import load_object
 from spark_bench.data.real_size import CATEGORY_SCALE, annotated_scale, source_scale
 from spark_bench.errors import InputError
-
-PARTNET_DEV = Path(__file__).resolve().parents[2].parent / "shared" / "partnet_dev"
 
 URDF = """<?xml version="1.0"?>
 <robot name="drawered">

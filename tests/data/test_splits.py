@@ -9,7 +9,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from helpers_real import REAL_IDS, REPO_ROOT, real_object_path
+from helpers_real import PARTNET_DEV, REAL_IDS, real_object_path
 
 from spark_bench.cli import main
 from spark_bench.data.benchmarks import BENCHMARKS, ensure_benchmark
@@ -27,7 +27,6 @@ from spark_bench.data.splits import (
 from spark_bench.errors import SparkBenchError
 
 FAST = ["--image-size", "64", "--resolution", "24"]
-PARTNET_DEV = REPO_ROOT.parent / "shared" / "partnet_dev"
 #: a small shared object (a bottle, 192 KB) copied under a listed id where no shared object has one
 STAND_IN = "3763"
 #: an id no split lists: a folder under it must be ignored

@@ -12,10 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from helpers_real import PARTNET_DEV
 
 from spark_bench.data.readers import annotated_joint, load_object
-
-PARTNET_DEV = Path(__file__).resolve().parents[2].parent / "shared" / "partnet_dev"
 
 URDF = """<?xml version="1.0"?>
 <robot name="lidded">

@@ -5,19 +5,16 @@ PartNet-Mobility drawer whose round knob the fingers used to close through."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import gymnasium as gym
 import numpy as np
 import pytest
 import trimesh
+from helpers_real import PARTNET_DEV
 
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.asset.model import Collision, Joint, Link, Visual
 from spark_bench.envs.cabinet import METAL, procedural_cabinet
 from spark_bench.envs.grasp import find_grasp, is_push_button
-
-PARTNET_DEV = Path(__file__).resolve().parents[2].parent / "shared" / "partnet_dev"
 
 
 def _box(center, size) -> tuple[Visual, Collision]:
