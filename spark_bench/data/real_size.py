@@ -5,17 +5,18 @@ object of ``../shared/partnet_dev`` is 1.6-2.7 m across its box diagonal (a micr
 box 1.6 m long whose lid weighs 44 kg). Physics needs the real size (masses, the forces that open a part, what
 a gripper can hold), so :func:`~spark_bench.data.readers.load_object` scales such an object by the factor
 :func:`source_scale` gives, before anything else reads it; the benchmark frame (which normalizes the size
-away) and so every metric are unchanged by it. The rule, first that applies:
+away) and so every metric are unchanged by it. Only a PartNet-Mobility folder (it has ``mobility_v2.json``,
+the dataset's own joint annotation) is scaled; the rule, first that applies:
 
 1. ``info.json`` beside the object with a positive ``scale``: the per-object scale of the keypoint
    annotation that partnet_dev's copies carry (``keypoints``, ``keypoint_descriptions``, ``axis``,
    ``joint_position_range``, ``scale``). The manipulation pipelines that write this annotation multiply the
    object and its keypoints by ``scale`` to place it in a tabletop robot scene (InternRobotics'
    InternDataEngine: ``keypoint * object_scale``). Its sizes are those of a tabletop scene: microwaves
-   0.4-0.5 m wide, safes 0.5-0.6 m, wooden boxes 0.3-0.4 m, tables 0.5-0.75 m long (a side table, not a
-   dining table); ``benchmarks/results/real_size.md`` lists them per category.
-2. A PartNet-Mobility folder (it has ``mobility_v2.json``) without it, of a category in
-   :data:`CATEGORY_SCALE`: the median of that annotation's scales over partnet_dev's objects of the category.
+   0.39-0.49 m wide, safes 0.24-0.61 m, wooden boxes 0.28-0.33 m, tables 0.38-0.65 m long (a side table, not
+   a dining table), suitcases 0.26-0.32 m (a vanity case's size); ``benchmarks/results/real_size.md`` lists them per category.
+2. Without it, of a category in :data:`CATEGORY_SCALE`: the median of that annotation's scales over
+   partnet_dev's objects of the category.
 3. Otherwise 1 (the lengths read as metres, as before): synth objects (written in metres), method outputs,
    prepared ground truths (normalized; their case records the way back to metres), and PartNet-Mobility
    categories no annotation covers (StorageFurniture, Oven, Camera, Bottle among the shared objects).
@@ -30,7 +31,7 @@ from pathlib import Path
 
 #: The per-object scale file some PartNet-Mobility copies carry (rule 1 of the module docstring).
 SIZE_ANNOTATION = "info.json"
-#: What marks a PartNet-Mobility folder (rule 2): the dataset's own joint annotation.
+#: What marks a PartNet-Mobility folder: the dataset's own joint annotation.
 PARTNET_MOBILITY_MARK = "mobility_v2.json"
 #: Median of partnet_dev's ``info.json`` scales per category (all 75 objects; ``benchmarks/real_size.py``
 #: prints the table from a folder of annotated objects). Rule 2 of the module docstring.
@@ -78,7 +79,7 @@ def annotated_scale(path: Path) -> float | None:
     if not isinstance(data, dict) or "scale" not in data:
         return None
     scale = data["scale"]
-    if isinstance(scale, list) and len(scale) >= 3 and len({float(s) for s in scale[:3]}) == 1:
+    if isinstance(scale, list) and len(scale) >= 3 and len({repr(s) for s in scale[:3]}) == 1:
         scale = scale[0]  # [s, s, s(, 1)]: one uniform scale written per axis
     if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not math.isfinite(scale) \
             or not SCALE_RANGE[0] <= scale <= SCALE_RANGE[1]:
@@ -94,9 +95,11 @@ def source_scale(folder: str | Path, category: str) -> SourceScale:
     :param category: its ``meta.json`` ``model_cat``
     """
     folder = Path(folder)
+    if not (folder / PARTNET_MOBILITY_MARK).is_file():  # another method's info.json may mean anything
+        return AS_READ
     scale = annotated_scale(folder / SIZE_ANNOTATION)
     if scale is not None:
         return SourceScale(scale, SIZE_ANNOTATION)
-    if (folder / PARTNET_MOBILITY_MARK).is_file() and category in CATEGORY_SCALE:
+    if category in CATEGORY_SCALE:
         return SourceScale(CATEGORY_SCALE[category], f"category {category}")
     return AS_READ

@@ -69,8 +69,9 @@ def test_a_partnet_object_without_annotation_takes_its_category_median(tmp_path)
 
 
 def test_objects_in_metres_and_unknown_categories_are_read_as_they_are(tmp_path):
-    # a synth object (no mobility_v2.json) of a category the table has, and a PartNet one it has not
-    assert source_scale(_folder(tmp_path / "a", "Table", None, partnet=False), "Table").rule == "as read"
+    # a synth object or a method's output (no mobility_v2.json) of a category the table has, even with an
+    # info.json of its own, and a PartNet one of a category the table has not
+    assert source_scale(_folder(tmp_path / "a", "Table", {"scale": 0.3}, partnet=False), "Table").rule == "as read"
     folder = _folder(tmp_path / "b", "StorageFurniture", None)
     assert source_scale(folder, "StorageFurniture").factor == 1.0
     assert _size(load_object(folder)).max() == pytest.approx(1.2)
