@@ -305,9 +305,57 @@ def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: s
         grasp.clearance = pads["clearance"]
     opening = gripper.max_opening if grasp.opening is None else grasp.opening
     thickness = gripper.pad_thickness if grasp.pad_thickness is None else grasp.pad_thickness
+    if holding:  # a hinged part's piece (a wheel's hub): its other pieces may lie in the pads' closing sweep
+        grasp.point = grasp.point + _clear_sweep(asset, holding, best, grasp, opening, gripper) * grasp.long_axis
     grasp.landing = pad_landing(asset.mesh(), grasp.point, n, grasp.closing, grasp.long_axis, opening,
                                 thickness, gripper) > 0.0
     return grasp
+
+
+#: The pads slide along the handle in steps of this (m), up to half their height, to close on the narrowest
+#: section of the piece planned (:func:`_clear_sweep`) when that is narrower by more than
+#: :data:`SWEEP_GAIN` (m) than where they were planned.
+SWEEP_STEP = 0.002
+SWEEP_GAIN = 2 * PINCH_MARGIN
+#: Points of the piece count in its section when they stand this far (m) above the fingertips' level (as
+#: :data:`~spark_bench.envs.pads.LANDING_MARGIN`).
+SWEEP_PROUD = 0.004
+
+
+def _clear_sweep(asset: ArticulatedAsset, holding: list[str], best, grasp: GraspTarget, opening: float,
+                 gripper: GripperConfig) -> float:
+    """How far (m) along the grasp's long axis to slide the pads so that, closing, they meet the narrowest
+    section of the piece ``best`` of a hinged part (a wheel's hub, not its spokes' roots beside the hub
+    within the pads' height, whose sloping edges the pads would squeeze first): the piece's width across,
+    over the pads' height, at each slide up to half a pad height with the pads still over the piece for half
+    their height; the smallest slide to the narrowest, when that is narrower by :data:`SWEEP_GAIN`; else 0."""
+    closing, along, n = grasp.closing, grasp.long_axis, grasp.outward
+    tips = float(grasp.point @ n) - gripper.tip_beyond_tcp
+    rel = best.points - grasp.point
+    raised = best.points @ n - tips > SWEEP_PROUD
+    x, a = rel[raised] @ closing, rel[raised] @ along
+    if len(x) == 0:
+        return 0.0
+    half = 0.5 * gripper.pad_height
+
+    def width(shift: float) -> float | None:
+        band = np.abs(a - shift) <= half
+        return float(np.ptp(x[band])) if band.any() else None
+
+    here = width(0.0)
+    shifts = [0.0] + [sign * k * SWEEP_STEP for k in range(1, int(half / SWEEP_STEP) + 1) for sign in (-1.0, 1.0)]
+    found = []
+    for shift in shifts:
+        overlap = min(shift + half, float(a.max())) - max(shift - half, float(a.min()))
+        w = width(shift)
+        if overlap >= half and w is not None:
+            found.append((w, shift))
+    if here is None or not found:
+        return 0.0
+    narrowest = min(w for w, _ in found)
+    if narrowest > here - SWEEP_GAIN:
+        return 0.0
+    return next(shift for w, shift in found if w <= narrowest + SWEEP_STEP)
 
 
 #: A link holds a handle candidate when every candidate point lies within this distance (m) of its box.

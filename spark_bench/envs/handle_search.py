@@ -10,8 +10,9 @@ import numpy as np
 
 from spark_bench.asset.mesh import sample_surface
 from spark_bench.asset.model import ArticulatedAsset
-from spark_bench.envs.features import MIN_CLUSTER, Front, clusters, proud_samples
-from spark_bench.envs.pads import OBSTACLE_MIN_PROUD
+from spark_bench.envs.features import MIN_CLUSTER, Front, clusters, long_axis, proud_samples
+from spark_bench.envs.gripper import GripperConfig
+from spark_bench.envs.pads import OBSTACLE_MIN_PROUD, SWEEP_MARGIN
 
 #: A surface point counts as handle when it stands this far (m) in front of the front face (twice
 #: :data:`~spark_bench.envs.pads.OBSTACLE_MIN_PROUD`, what counts as in the fingers' way).
@@ -31,6 +32,11 @@ HANDLE_TIP_BAND = 0.02
 #: How far (m) around a handle, in the front plane, the surface it stands on is looked at (a pad's thickness
 #: and margin: what the pads would touch reaching down beside it).
 BASE_MARGIN = 0.016
+#: A feature is elongated (pinched across its width, :func:`_base`) when it is this many times longer than
+#: wide in the front plane.
+ELONGATED = 2.0
+#: The pads' extent along an elongated handle (m): :class:`GripperConfig`'s pad height.
+PAD_HEIGHT = GripperConfig().pad_height
 #: Smallest extent (m), both ways in the front plane, of a feature standing out of the front for it to be
 #: a handle candidate (a screw head is not).
 MIN_FEATURE = 0.002
@@ -136,12 +142,21 @@ def _hinged_samples(mesh, seed: int) -> np.ndarray:
 
 def _base(surface: np.ndarray | None, feature: np.ndarray, front: Front) -> float | None:
     """The level the pads may reach down to beside ``feature``: the highest of the ``surface`` points under
-    the feature or within a pad's thickness and margin of it (in the front plane); None when there are
-    none (the feature stands free: a bucket's bail)."""
+    the feature or within a pad's thickness and margin of it (in the front plane; along an elongated
+    feature, only as far as the pads reach past its ends); None when there are none (the feature stands
+    free: a bucket's bail)."""
     if surface is None or len(surface) == 0:
         return None
-    uv, near = feature @ front.basis.T, surface @ front.basis.T
-    grow = BASE_MARGIN
+    along = long_axis(feature, front.basis)
+    axes = np.stack([along, np.cross(front.outward, along)])
+    uv, near = feature @ axes.T, surface @ axes.T
+    length, width = np.ptp(uv, axis=0)
+    grow = np.full(2, BASE_MARGIN)
+    if length >= ELONGATED * width:
+        # an elongated handle is pinched across its width: the pads lie beside it there, and along it they
+        # cover its length, or their own height (centred on it) when it is shorter. A feature standing
+        # beside its end (a safe's keypad beside its lever's tip) is not under the pads
+        grow[0] = max(0.5 * PAD_HEIGHT - 0.5 * length, 0.0) + SWEEP_MARGIN
     inside = np.all((near > uv.min(0) - grow) & (near < uv.max(0) + grow), axis=1)
     if not inside.any():
         return None
