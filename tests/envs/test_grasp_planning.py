@@ -570,3 +570,45 @@ def test_an_edge_pinch_needs_sides_the_pads_hold():
     rounded = _front_of_mesh(crown)
     edge = edge_pinch(rounded, None, gripper)
     assert edge is not None and not _edge_sides_hold(rounded, edge, gripper)
+
+
+def test_a_feature_beside_an_elongated_handles_end_is_not_under_the_pads():
+    """A safe's lever (60 x 10 mm, 12 mm proud) with a keypad standing 11 mm out 10 mm past its tip
+    (partnet_dev 102278 at its real size): the pads, pinching across the lever, come down beside it on the
+    door (level 0), not on the keypad; a round knob of the same height still sees the surface all around."""
+    from spark_bench.envs.handle_search import _base
+
+    rng = np.random.default_rng(0)
+    lever = np.column_stack([rng.uniform(0, 0.06, 400), rng.uniform(-0.005, 0.005, 400), np.full(400, 0.012)])
+    door = np.column_stack([rng.uniform(-0.05, 0.2, 4000), rng.uniform(-0.05, 0.05, 4000), np.zeros(4000)])
+    keypad = np.column_stack([rng.uniform(0.07, 0.12, 400), rng.uniform(-0.03, 0.03, 400), np.full(400, 0.011)])
+    front = _front_of_mesh(trimesh.creation.box(extents=(0.2, 0.2, 0.02)))
+    assert _base(np.vstack([door, keypad]), lever, front) == pytest.approx(0.0, abs=1e-9)
+    knob = lever[np.abs(lever[:, 0] - 0.055) < 0.005]  # a 10 mm knob at the lever's tip: the keypad is beside it
+    assert _base(np.vstack([door, keypad]), knob, front) == pytest.approx(0.011, abs=1e-9)
+
+
+def test_the_pads_slide_to_a_wheels_hub_not_its_spoke_roots():
+    """On a wheel hinged to a door the pads, planned on the hub, overlap the roots of two spokes; they slide
+    along the handle to where the piece is narrowest (partnet_dev 102309 at its real size)."""
+    from types import SimpleNamespace
+
+    from spark_bench.envs.grasp import GraspTarget, _clear_sweep
+    from spark_bench.envs.gripper import GripperConfig
+
+    gripper = GripperConfig()
+    rng = np.random.default_rng(0)
+    hub = np.column_stack([rng.uniform(-0.013, 0.013, 2000), rng.uniform(-0.013, 0.013, 2000), np.full(2000, 0.02)])
+    # two spokes rising from the hub's upper half, spreading sideways: 67 mm across 12 mm above the centre
+    t = rng.uniform(0, 1, 2000)
+    spokes = np.column_stack([np.sign(t - 0.5) * (0.013 + 0.03 * np.abs(2 * t - 1)), 0.004 + 0.02 * np.abs(2 * t - 1),
+                              np.full(2000, 0.02)])
+    piece = SimpleNamespace(points=np.vstack([hub, spokes]))
+    grasp = GraspTarget(point=np.zeros(3), outward=np.array([0.0, 0.0, 1.0]), long_axis=np.array([0.0, 1.0, 0.0]),
+                        has_handle=True, source="geometry")  # closing along -x: across the handle
+    shift = _clear_sweep(None, ["wheel"], piece, grasp, gripper.max_opening, gripper)
+    assert shift < -0.004  # away from the spokes, towards the hub's free side
+    assert abs(shift) <= 0.5 * gripper.pad_height
+    # a plain bar, as wide everywhere: the pads stay where planned
+    bar = SimpleNamespace(points=hub * [1, 3, 1])
+    assert _clear_sweep(None, ["wheel"], bar, grasp, gripper.max_opening, gripper) == 0.0
