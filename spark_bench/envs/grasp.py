@@ -306,7 +306,7 @@ def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: s
     opening = gripper.max_opening if grasp.opening is None else grasp.opening
     thickness = gripper.pad_thickness if grasp.pad_thickness is None else grasp.pad_thickness
     if holding:  # a hinged part's piece (a wheel's hub): its other pieces may lie in the pads' closing sweep
-        grasp.point = grasp.point + _clear_sweep(asset, holding, best, grasp, opening, gripper) * grasp.long_axis
+        grasp.point = grasp.point + _clear_sweep(best, grasp, gripper) * grasp.long_axis
     grasp.landing = pad_landing(asset.mesh(), grasp.point, n, grasp.closing, grasp.long_axis, opening,
                                 thickness, gripper) > 0.0
     return grasp
@@ -322,8 +322,7 @@ SWEEP_GAIN = 2 * PINCH_MARGIN
 SWEEP_PROUD = 0.004
 
 
-def _clear_sweep(asset: ArticulatedAsset, holding: list[str], best, grasp: GraspTarget, opening: float,
-                 gripper: GripperConfig) -> float:
+def _clear_sweep(best, grasp: GraspTarget, gripper: GripperConfig) -> float:
     """How far (m) along the grasp's long axis to slide the pads so that, closing, they meet the narrowest
     section of the piece ``best`` of a hinged part (a wheel's hub, not its spokes' roots beside the hub
     within the pads' height, whose sloping edges the pads would squeeze first): the piece's width across,

@@ -606,9 +606,9 @@ def test_the_pads_slide_to_a_wheels_hub_not_its_spoke_roots():
     piece = SimpleNamespace(points=np.vstack([hub, spokes]))
     grasp = GraspTarget(point=np.zeros(3), outward=np.array([0.0, 0.0, 1.0]), long_axis=np.array([0.0, 1.0, 0.0]),
                         has_handle=True, source="geometry")  # closing along -x: across the handle
-    shift = _clear_sweep(None, ["wheel"], piece, grasp, gripper.max_opening, gripper)
+    shift = _clear_sweep(piece, grasp, gripper)
     assert shift < -0.004  # away from the spokes, towards the hub's free side
     assert abs(shift) <= 0.5 * gripper.pad_height
     # a plain bar, as wide everywhere: the pads stay where planned
     bar = SimpleNamespace(points=hub * [1, 3, 1])
-    assert _clear_sweep(None, ["wheel"], bar, grasp, gripper.max_opening, gripper) == 0.0
+    assert _clear_sweep(bar, grasp, gripper) == 0.0
