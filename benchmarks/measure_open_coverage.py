@@ -51,13 +51,24 @@ def measure_case(case_dir: str, seeds: list[int]) -> list[dict]:
             judged = judge_joint(pairing.gt_metres, joint, seed, OPENING_STEPS)
             judged.close()
             verdicts.append({"seed": seed, "opened": judged.reason is None, "kind": judged.kind,
-                             "end_effector": judged.end_effector, "reason": judged.reason})
+                             "end_effector": judged.end_effector, "cup_mm": _cup_mm(judged.cup_radius),
+                             "reason": judged.reason})
             if judged.kind in ("planner", "stuck", "no_task"):  # seed-independent: the same at every seed
                 verdicts += [{**verdicts[-1], "seed": s} for s in seeds[len(verdicts):]]
                 break
         out.append({"case": case.id, "joint": joint.name, "part": labels[joint.name],
                     "acts_on": pairing.acts_on, "verdicts": verdicts})
     return out
+
+
+def _cup_mm(radius: float | None) -> float | None:
+    return None if radius is None else round(2000 * radius, 1)
+
+
+def _effector(verdict: dict) -> str:
+    """``gripper``, or ``suction`` with its cup's size (``suction 40 mm``)."""
+    cup = verdict.get("cup_mm")
+    return verdict["end_effector"] if cup is None else f"{verdict['end_effector']} {cup:g} mm"
 
 
 def summary(records: list[dict], n_seeds: int) -> dict:
@@ -69,7 +80,7 @@ def summary(records: list[dict], n_seeds: int) -> dict:
         opened = [v for v in record["verdicts"] if v["opened"]]
         if len(opened) == n_seeds:
             always += 1
-            effectors[opened[0]["end_effector"]] = effectors.get(opened[0]["end_effector"], 0) + 1
+            effectors[_effector(opened[0])] = effectors.get(_effector(opened[0]), 0) + 1
         for v in record["verdicts"]:
             if not v["opened"]:
                 kinds[v["kind"]] = kinds.get(v["kind"], 0) + 1

@@ -6,8 +6,9 @@ Per joint (the joints :func:`measure_opener_real.openable_joints` enumerates, by
 
 - the planner's verdict for the gripper (``declined``: ``no_handle``, ``too_wide``, ``blocked``, ``button``;
   a part the planner takes is not measured here: ``auto`` leaves it to the gripper, unchanged);
-- the end-effector ``auto`` chose, and the cup's own verdict (no flat patch, something in its way, too heavy
-  for its 75 N: the scene's drive check with the cup's largest hold);
+- the end-effector ``auto`` chose, the cup the planner took (40 mm, or a smaller one of
+  :func:`spark_bench.envs.suction.cup_sizes` where the 40 mm cup has no place), and the cup's own verdict (no
+  flat patch, something in its way, too heavy for its hold: the scene's drive check with the cup's largest hold);
 - ``--episodes`` scripted episodes (seeds 0..) of at most ``--max-steps`` steps planned from the TRUE joint,
   and as many planned from a WRONG axis: the true axis turned by 90 degrees (a drawer's about the vertical:
   sideways; a door's or lid's about the face's outward direction: a hinge turned in the face's plane, through
@@ -33,7 +34,7 @@ import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.envs import make_env
 from spark_bench.envs.assets import load_asset
 from spark_bench.envs.scene import plan_grasp
-from spark_bench.envs.suction import SuctionConfig
+from spark_bench.envs.suction import SuctionConfig, cup_sizes
 from spark_bench.errors import InputError
 from spark_bench.rl.scripted import ground_truth_joint, open_with_joint
 
@@ -87,6 +88,8 @@ def run_joint(asset, row: dict, n: int, max_steps: int) -> dict:
     scene = env.unwrapped.scene
     out.update(measured=True, end_effector=scene.end_effector, reason=scene.grasp.reason,
                free_fraction=scene.free_fraction, build_s=time.perf_counter() - start)
+    if scene.grasp.cup_radius is not None:
+        out["cup_mm"] = round(2000 * scene.grasp.cup_radius, 1)
     if scene.grasp.reason is None:
         axis, pivot, joint_type = ground_truth_joint(env)
         out["true"] = episodes(env, axis, pivot, joint_type, n, max_steps)
@@ -99,6 +102,10 @@ def run_joint(asset, row: dict, n: int, max_steps: int) -> dict:
 
 def _rate(runs: list[dict]) -> str:
     return f"{sum(r['success'] for r in runs)}/{len(runs)}"
+
+
+def _cup(row: dict) -> str:
+    return f"{row['cup_mm']:g} mm" if "cup_mm" in row else "-"
 
 
 def _best(runs: list[dict]) -> str:
@@ -126,7 +133,10 @@ def write_report(rows: list[dict], args, seconds: float, path: Path) -> Path:
         "direction, same pivot). Success: the joint passes 75 % of its range.", "",
         f"The cup: {1000 * 2 * cfg.cup_radius:.0f} mm across, holding {cfg.max_force:.0f} N along the face's "
         f"normal (MuJoCo's `adhesion` actuator; `spark_bench/envs/suction.py`), friction {cfg.friction:g}, carried "
-        "by the gripper's servoed carriage (the same largest pull: 60 N per axis).", "",
+        "by the gripper's servoed carriage (the same largest pull: 60 N per axis). Where it finds no place, the "
+        "smaller cups of the same line, largest first: " + ", ".join(
+            f"{1000 * 2 * c.cup_radius:.0f} mm ({c.max_force:.0f} N)" for c in cup_sizes(cfg)[1:])
+        + " (the same vacuum over a smaller area); the column `cup` says which.", "",
         "| | joints |", "|---|---|",
         f"| drawers, doors, lids, windows, boards | {len(rows)} |",
         f"| declined by the planner for the gripper | {len(measured)} |",
@@ -136,10 +146,12 @@ def write_report(rows: list[dict], args, seconds: float, path: Path) -> Path:
         f"| opened with the true joint in every episode | {len(opened)} |",
         f"| opened with the true joint in at least one episode | {len(some)} |",
         f"| opened with the wrong axis in any episode | {len(wrong_open)} |",
+        f"| attempted with a cup smaller than {1000 * 2 * cfg.cup_radius:.0f} mm | "
+        f"{sum(r.get('cup_mm', 2000 * cfg.cup_radius) < 2000 * cfg.cup_radius - 1e-6 for r in tried)} |",
         "", "## Per joint", "",
-        "| object | joint | part | declined (gripper) | end-effector | cup's verdict | true: opened | true: "
+        "| object | joint | part | declined (gripper) | end-effector | cup | cup's verdict | true: opened | true: "
         "largest opening | wrong axis: opened | wrong: largest opening |",
-        "|---|---|---|---|---|---|---|---|---|---|"]
+        "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in measured:
         verdict = r.get("error") or r.get("reason") or "attempted"
         if "true" in r:
@@ -147,7 +159,7 @@ def write_report(rows: list[dict], args, seconds: float, path: Path) -> Path:
         else:
             cells = ["-"] * 4
         lines.append(f"| {r['object']} | {r['joint']} | {r['category']} {r['label']} | {r['declined']} | "
-                     f"{r.get('end_effector', '-')} | {verdict} | " + " | ".join(cells) + " |")
+                     f"{r.get('end_effector', '-')} | {_cup(r)} | {verdict} | " + " | ".join(cells) + " |")
     lines += ["", "Per seed (true joint; wrong axis), largest opening:", ""]
     for r in tried:
         lines.append(f"- {r['object']} {r['joint']}: true " + ", ".join(

@@ -66,22 +66,24 @@ class SparkDoorEnv(SparkArticulationEnv):
     (:func:`~spark_bench.rl.door_geometry.door_edge`).
 
     **End-effector** (``end_effector=``): ``"gripper"`` (the default, described above), ``"suction"`` or
-    ``"auto"``. ``"suction"`` carries a 40 mm suction cup on the same servoed carriage instead of the fingers
-    (:mod:`spark_bench.envs.suction`): it goes to a flat patch of the door's front face (as far from the hinge
-    as the patch allows; the passive wrist lets the cup turn with the face), approaches along the face's
-    normal and holds by MuJoCo's ``adhesion`` actuator, up to 75 N along the normal (more tears it off; along
-    the face only friction holds it). ``a[3]`` is then the suction command (> 0: that fraction of the 75 N, <=
-    0 released); the observation keeps its size and layout, with entry 4 the suction command (0 to 1) and
-    16-17 both the cup's contact force / 10 N (:data:`~spark_bench.envs.observation.SUCTION`,
-    :data:`~spark_bench.envs.observation.CUP_TOUCH`). How to choose: the gripper where the door has a handle,
-    knob, notch or tab; the cup for a front with nothing to pinch (a flush door, lid or window); ``"auto"``
-    (what the opening score uses) picks per part: the cup where the grasp planner declines the part for lack
-    of something to pinch (``scene.grasp.declined`` ``no_handle``, ``too_wide`` or ``unholdable``), the gripper
-    everywhere else (a part declined for another reason keeps the gripper and its reason). The one chosen is
-    ``env.unwrapped.end_effector`` and every step's ``info["end_effector"]``; the scripted opener runs the
-    cup's own phases (:class:`~spark_bench.rl.suction_opener.SuctionOpener`). A part the cup cannot hold (no
-    flat patch for it, something in its way, too heavy for 75 N when driven directly) gets a ``reason``, as
-    the gripper's do.
+    ``"auto"``. ``"suction"`` carries a 40 mm suction cup (a 32, 25 or 20 mm one where the 40 mm cup finds no
+    place: :func:`~spark_bench.envs.suction.cup_sizes`, ``scene.gripper.config``) on the same servoed carriage
+    instead of the fingers (:mod:`spark_bench.envs.suction`): it goes to a flat patch of the door's front face
+    (as far from the hinge as the patch allows; the passive wrist lets the cup turn with the face), approaches
+    along the face's normal and holds by MuJoCo's ``adhesion`` actuator, up to its rated hold (75 N for the 40
+    mm cup) along the normal (more tears it off; along the face only friction holds it). ``a[3]`` is then the
+    suction command (> 0: that fraction of the hold, <= 0 released); the observation keeps its size and
+    layout, with entry 4 the suction command (0 to 1) and 16-17 both the cup's contact force / 10 N
+    (:data:`~spark_bench.envs.observation.SUCTION`, :data:`~spark_bench.envs.observation.CUP_TOUCH`). How to
+    choose: the gripper where the door has a handle, knob, notch or tab; the cup for a front with nothing to
+    pinch (a flush door, lid or window); ``"auto"`` (what the opening score uses) picks per part: the cup
+    where the grasp planner declines the part for lack of something to pinch (``scene.grasp.declined``
+    ``no_handle``, ``too_wide`` or ``unholdable``), the gripper everywhere else (a part declined for another
+    reason keeps the gripper and its reason). The one chosen is ``env.unwrapped.end_effector`` and every
+    step's ``info["end_effector"]``; the scripted opener runs the cup's own phases
+    (:class:`~spark_bench.rl.suction_opener.SuctionOpener`). A part the cup cannot hold (no flat patch for the
+    smallest cup, something in its way, too heavy for its hold when driven directly) gets a ``reason``, as the
+    gripper's do.
 
     **Rewards** (``reward_type="dense"``, in [0, 1]): ``(reach + grasp + 2 progress + success) / 5`` with
     ``reach = 1 - tanh(10 d)`` (d: TCP to grasp point, m), ``grasp = 1`` when both pads touch and

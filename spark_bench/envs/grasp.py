@@ -28,7 +28,11 @@ from beyond that edge (``outward`` is then the edge's direction, not the swing's
 its front face's center (drawers) or a point of the front face near its free edge (doors), with
 ``has_handle=False`` and a one-line ``reason`` why a parallel gripper cannot pull it.
 
-A pinch grasp is then checked against its neighbourhood (:func:`spark_bench.envs.pads.plan_pads`).
+A pinch grasp is then checked against its neighbourhood (:func:`spark_bench.envs.pads.plan_pads`), and
+the hand's way in against the object (:func:`find_grasp`). A tab whose way in is blocked (a front-loading
+washer's handle on its door's rim) gives way to the front's own grasps; a sliding plate (a sash) whose front
+has nothing to pinch or no way in is looked at from its broad face
+(:func:`~spark_bench.envs.sliding_front.sliding_face`).
 
 Where the handle candidates are looked for is :mod:`spark_bench.envs.handle_search`; which of them a
 parallel gripper can pinch, and where, :mod:`spark_bench.envs.handles`.
@@ -74,6 +78,7 @@ from spark_bench.envs.handles import (
 )
 from spark_bench.envs.pads import approach_blocked, pad_landing, plan_pads
 from spark_bench.envs.rest_meshes import RestMeshes
+from spark_bench.envs.sliding_front import sliding_face
 
 #: A revolute part's free edge must lie this far (m) from its hinge for a feature past it to be a lid's tab:
 #: a shorter part is a lever (a toilet's flush lever, 8 cm), pressed on its face, not pinched at its end.
@@ -125,6 +130,11 @@ class GraspTarget:
         for ``no_handle``, ``too_wide`` or ``unholdable`` has nothing to pinch, and the environments'
         ``end_effector="auto"`` opens it with the suction cup
         (:func:`~spark_bench.envs.suction.choose_end_effector`)
+    :param cup_radius: for the suction cup, the radius (m) of the cup planned (one of
+        :func:`~spark_bench.envs.suction.cup_sizes`; None: the gripper)
+    :param broad_face: the grasp is on a sliding plate's broad face
+        (:func:`~spark_bench.envs.sliding_front.sliding_face`), not on its
+        front; ``outward`` is that face's
     """
 
     point: np.ndarray
@@ -141,6 +151,8 @@ class GraspTarget:
     reason: str | None = None
     landing: bool = False
     declined: str | None = None
+    cup_radius: float | None = None
+    broad_face: bool = False
 
     @property
     def inside_grip(self) -> bool:
@@ -213,7 +225,9 @@ def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray,
                        source="tab")
 
 
-def _front_of(asset: ArticulatedAsset, joint: str, seed: int) -> Front:
+def _front_of(asset: ArticulatedAsset, joint: str, seed: int, outward: np.ndarray | None = None) -> Front:
+    """The part's front: along its outward direction (:func:`outward_direction`), or along ``outward`` when
+    given (a sliding plate's broad face)."""
     spec = asset.joints[joint]
     part = asset.mesh(links=asset.part_of_joint(joint))
     if len(part.faces) == 0:
@@ -222,7 +236,9 @@ def _front_of(asset: ArticulatedAsset, joint: str, seed: int) -> Front:
     points = sample_surface(part, N_SAMPLES, seed=seed)
     n = outward_direction(spec.type, origin, axis, points)
     rotational = spec.type != "prismatic"
-    if rotational:
+    if outward is not None:  # a sliding plate's broad face (sliding_front.sliding_face)
+        n = unit(outward)
+    elif rotational:
         n = face_normal(part, n)
     return Front(part=part, points=points, outward=n, basis=perpendicular_basis(n), face=front_level(points @ n),
                   origin=origin, axis=axis, rotational=rotational)
@@ -397,12 +413,21 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
                            has_handle=False, source="face", declined="button",
                            reason=f"{joint}: a push button ({1000 * travel:.1f} mm of travel): pressed, not pulled open")
     grasp = _find(asset, joint, seed, gripper, collision)
-    blocked = approach_blocked(asset, grasp, gripper, APPROACH_CLEAR)
-    if blocked is not None and grasp.source == "face" and blocked[0] in asset.moving_links(joint):
-        # nothing to pinch, and what stands before the face's centre is the part's own (the knob the pads
-        # cannot hold): no other part in the way, the cup (``auto``) plans its own place and way in
-        # (:func:`~spark_bench.envs.suction.plan_suction`)
-        blocked = None
+    blocked = _way_in(asset, joint, grasp, gripper)
+    if blocked is not None and grasp.source == "tab":
+        # a tab pinched from beyond the free edge with the object in the pads' way there (a front-loading
+        # washer's door handle on its rim, the body's front close behind it): the front's own grasps instead
+        grasp = _find(asset, joint, seed, gripper, collision, tabs=False)
+        blocked = _way_in(asset, joint, grasp, gripper)
+    if spec.type == "prismatic" and (blocked is not None or grasp.source == "face"):
+        # nothing to take at the front, or no way to it: a sliding plate (a sash) is taken by its broad face
+        side = sliding_face(asset, joint, APPROACH_CLEAR, seed)
+        if side is not None:
+            beside = _find(asset, joint, seed, gripper, collision, outward=side)
+            # nothing to pinch there either: the cup's business, which checks its own way in to its own place
+            if beside.source == "face" or _way_in(asset, joint, beside, gripper) is None:
+                beside.broad_face = True
+                grasp, blocked = beside, None
     if blocked is not None:
         link, distance, through = blocked
         what = (asset.links[link].label or link).replace("_", " ")
@@ -420,6 +445,17 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
             grasp.reason = (f"{joint}: the {what} stands in the open fingers' way to the {part}'s grasp, "
                             f"{1000 * distance:.0f} mm in front of it")
     return grasp
+
+
+def _way_in(asset: ArticulatedAsset, joint: str, grasp: GraspTarget, gripper: GripperConfig):
+    """What blocks ``grasp``'s way in (:func:`~spark_bench.envs.pads.approach_blocked`), or None."""
+    blocked = approach_blocked(asset, grasp, gripper, APPROACH_CLEAR)
+    if blocked is not None and grasp.source == "face" and blocked[0] in asset.moving_links(joint):
+        # nothing to pinch, and what stands before the face's centre is the part's own (the knob the pads
+        # cannot hold): no other part in the way, the cup (``auto``) plans its own place and way in
+        # (:func:`~spark_bench.envs.suction.plan_suction`)
+        return None
+    return blocked
 
 
 def _moving_part_of(asset: ArticulatedAsset, link: str, joint: str) -> str | None:
@@ -457,9 +493,11 @@ def _diagonal(mesh) -> float:
     return float(np.linalg.norm(np.ptp(np.asarray(mesh.vertices), axis=0)))
 
 
-def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig, collision=None) -> GraspTarget:
-    """:func:`find_grasp` before the approach check."""
-    front = _front_of(asset, joint, seed)
+def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig, collision=None,
+          tabs: bool = True, outward: np.ndarray | None = None) -> GraspTarget:
+    """:func:`find_grasp` before the approach check (``tabs``: whether a lid's tab past its free edge is a
+    grasp; ``outward``: the front's direction, default the part's own, :func:`_front_of`)."""
+    front = _front_of(asset, joint, seed, outward)
     grasp, no_pinch, why = _pinch(asset, joint, front, gripper, seed, collision)
     if grasp is not None:
         return grasp
@@ -474,7 +512,7 @@ def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig
                            has_handle=True, source="notch", grip="inside", press=press,
                            notch_size=(notch.depth, notch.width))
 
-    if front.rotational:  # a lid's tab standing out past its free edge, pinched from beyond that edge
+    if front.rotational and tabs:  # a lid's tab standing out past its free edge, pinched from beyond that edge
         carried = [name for name in carried_links(asset, joint, asset.part_of_joint(joint))
                    if asset.links[name].has_geometry]
         hinged = sample_surface(asset.mesh(links=carried), N_HANDLE_SAMPLES, seed=seed) if carried else None

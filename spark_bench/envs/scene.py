@@ -26,6 +26,7 @@ from spark_bench.envs.suction import (
     SuctionHandles,
     add_suction,
     choose_end_effector,
+    fitted_cup,
     largest_hold,
     plan_suction,
 )
@@ -292,19 +293,23 @@ def part_points(asset: ArticulatedAsset, joint: str, n: int = N_SAMPLES) -> np.n
     return _memo("part", asset, (joint, n), compute)
 
 
-def plan_cup(asset: ArticulatedAsset, joint: str, config: SuctionConfig | None = None) -> GraspTarget:
+def plan_cup(asset: ArticulatedAsset, joint: str, config: SuctionConfig | None = None,
+             outward: np.ndarray | None = None) -> GraspTarget:
     """The suction cup's place on the part moved by ``joint`` (:func:`~spark_bench.envs.suction.plan_suction`),
     memoized per asset as :func:`plan_grasp` is.
 
+    :param outward: the face to plan on, where the gripper's planner took another than the part's front (a
+        sliding plate's broad face); None: the front
     :raises InputError: the part has no geometry, or no outward direction
     """
     def compute():
         try:
-            return plan_suction(_memo("rest", asset, None, lambda: RestMeshes(asset)), joint, config)
+            return plan_suction(_memo("rest", asset, None, lambda: RestMeshes(asset)), joint, config, outward=outward)
         except ValueError as exc:
             raise InputError(asset.source or asset.name, str(exc)) from None
 
-    return _memo("cup", asset, (joint, repr(config)), compute)
+    key = None if outward is None else tuple(np.round(outward, 9))
+    return _memo("cup", asset, (joint, repr(config), key), compute)
 
 
 def prepared_object(asset: ArticulatedAsset):
@@ -354,8 +359,8 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     chosen = choose_joint(asset, kind, joint)
     grasp = plan_grasp(asset, chosen.name, gripper)
     effector = choose_end_effector(end_effector, grasp.declined)
-    if effector == "suction":
-        grasp = plan_cup(asset, chosen.name, suction)
+    if effector == "suction":  # on the face the gripper's planner looked at (a sliding plate's broad face)
+        grasp = plan_cup(asset, chosen.name, suction, outward=grasp.outward if grasp.broad_face else None)
     from spark_bench.sim import build_spec
 
     spec = build_spec(asset, prepared=prepared_object(asset), visuals=visuals)
@@ -373,7 +378,7 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     wrist = asset.joint_frames()[chosen.name][1] if chosen.is_rotational else None
     if effector == "suction":
         handles = add_suction(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
-                              workspace=workspace, config=suction)
+                              workspace=workspace, config=fitted_cup(grasp, suction))
     else:
         handles = add_gripper(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
                               workspace=workspace, config=fitted_gripper(grasp, gripper))

@@ -19,12 +19,15 @@ hand frame's x is the approach direction; its origin, the *TCP*, is the centre o
 Where the cup goes (:func:`plan_suction`): a point of the part's front face (the face the planner pulls
 from: the front of a drawer, the outer face of a door or lid) with a flat patch under the whole cup,
 nothing standing out of the face beside it, central on a drawer, as far from the hinge as the patch allows
-on a door; approached along the face's normal.
+on a door; approached along the face's normal. Where the 40 mm cup finds no such patch, the smaller cups of
+the same product line are tried, largest first (:func:`cup_sizes`: 32, 25 and 20 mm, each holding with the
+same vacuum over its area); the grasp names the cup chosen (``cup_radius``), and the scene carries that cup
+(:func:`fitted_cup`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import ndimage
@@ -69,6 +72,11 @@ class SuctionConfig:
         force of a 40 mm cup at 60 kPa below atmospheric pressure, ``F = dp * pi * r^2`` = 60 kPa x
         1.26e-3 m^2 = 75 N (how vacuum-cup makers rate a cup, before their safety factor; 60 kPa is a common
         working vacuum of an ejector). It is the gain of the cup's ``adhesion`` actuator
+    :param smaller_cups: radii (m) of the smaller cups tried, largest first, where this cup finds no place
+        (:func:`cup_sizes`): SMC's ZP vacuum pads come in 50, 40, 32, 25, 20, 16, 13 and 10 mm (series
+        ZPT/ZPR), so a 32, 25 and 20 mm cup; each holds with the same vacuum, its force scaled by its area.
+        A part's front too small for the 40 mm cup (a 45 mm drawer front at the real size) takes a smaller
+        one, weaker by its area. Empty: the one cup only
     :param friction: sliding friction of the cup's lip (rubber on wood or paint): a pull along the face is
         held up to about ``friction * max_force``
     :param kp: stiffness of the translation servos, N/m (the gripper's: the same largest pull)
@@ -83,6 +91,7 @@ class SuctionConfig:
     cup_radius: float = 0.02
     cup_length: float = 0.03
     max_force: float = 75.0
+    smaller_cups: tuple[float, ...] = (0.016, 0.0125, 0.010)
     friction: float = 1.0
     # the carriage and the wrist are the gripper's (the same servos, the same largest pull): its defaults
     kp: float = GripperConfig.kp
@@ -118,6 +127,30 @@ class SuctionHandles:
     cup_geom: str
     touch_sensor: str
     config: SuctionConfig = field(default_factory=SuctionConfig)
+
+
+def cup_sizes(config: SuctionConfig) -> list[SuctionConfig]:
+    """The cups the planner tries, largest first: ``config`` and each of its :attr:`~SuctionConfig.smaller_cups`
+    smaller than it, holding with the same vacuum (``max_force`` scaled by the cup's area, ``dp * pi * r^2``)."""
+    smaller = sorted((r for r in config.smaller_cups if 0 < r < config.cup_radius), reverse=True)
+    return [config] + [replace(config, cup_radius=float(r), max_force=config.max_force * (r / config.cup_radius) ** 2,
+                               smaller_cups=()) for r in smaller]
+
+
+def fitted_cup(grasp, config: SuctionConfig | None = None) -> SuctionConfig:
+    """The cup the planner chose for ``grasp`` (:attr:`~spark_bench.envs.grasp.GraspTarget.cup_radius`) among
+    :func:`cup_sizes` of ``config`` (default :class:`SuctionConfig`); ``config`` itself when it chose none.
+
+    :raises ValueError: ``grasp`` names a cup that ``config`` does not offer
+    """
+    cfg = config or SuctionConfig()
+    if grasp.cup_radius is None:
+        return cfg
+    for cup in cup_sizes(cfg):
+        if abs(cup.cup_radius - grasp.cup_radius) < 1e-9:
+            return cup
+    raise ValueError(f"the grasp's {1000 * 2 * grasp.cup_radius:g} mm cup is not one of the configured cups "
+                     f"{[round(1000 * 2 * c.cup_radius, 1) for c in cup_sizes(cfg)]} mm")
 
 
 def largest_hold(config: SuctionConfig) -> float:
@@ -249,9 +282,10 @@ def suction_point(front, config: SuctionConfig) -> np.ndarray | None:
 
 
 def flat_patch_reason(joint: str, part: str, config: SuctionConfig) -> str:
-    """The one-line reason of a part whose front has no place for the cup."""
-    return (f"{joint}: no flat patch {1000 * 2 * config.cup_radius:.0f} mm across on the {part}'s front for the "
-            f"suction cup (within {1000 * LEVEL_BIN:.0f} mm of its face level or of a flat face up to "
+    """The one-line reason of a part whose front has no place for any of the cups (:func:`cup_sizes`)."""
+    smallest = cup_sizes(config)[-1]
+    return (f"{joint}: no flat patch {1000 * 2 * smallest.cup_radius:.0f} mm across on the {part}'s front for the "
+            f"smallest suction cup (within {1000 * LEVEL_BIN:.0f} mm of its face level or of a flat face up to "
             f"{1000 * config.cup_length:.0f} mm behind it, clear of what stands out of it)")
 
 
@@ -262,16 +296,21 @@ def approach_config(config: SuctionConfig) -> GripperConfig:
     return GripperConfig(max_opening=config.cup_radius, finger_length=PROUD + 0.002, tip_beyond_tcp=0.0)
 
 
-def plan_suction(asset, joint: str, config: SuctionConfig | None = None, seed: int = 0):
+def plan_suction(asset, joint: str, config: SuctionConfig | None = None, seed: int = 0,
+                 outward: np.ndarray | None = None):
     """The cup's grasp on the part moved by ``joint``, world frame at rest: a
     :class:`~spark_bench.envs.grasp.GraspTarget` with ``source="suction"``, ``grip="suction"``, the point
-    :func:`suction_point` chose and the front's outward direction; its ``reason`` says why the cup cannot
-    hold the part (no flat patch for it, or the object in its way in), else None.
+    :func:`suction_point` chose, the front's outward direction and the cup's radius (``cup_radius``: the
+    largest of :func:`cup_sizes` with a place and a clear way in, the strongest hold; :func:`fitted_cup`); its
+    ``reason`` says why no cup can hold the part (no flat patch for the smallest, or the object in the way in
+    of the largest that has a place), else None.
 
     :param asset: the object (or a :class:`~spark_bench.envs.rest_meshes.RestMeshes` of it)
     :param joint: a movable joint's name
-    :param config: the cup (default :class:`SuctionConfig`)
+    :param config: the cup (default :class:`SuctionConfig`) and its smaller fallbacks
     :param seed: seed of the surface sampling
+    :param outward: the front's direction where the gripper's planner took another face than the part's
+        front (a sliding plate's broad face, :func:`~spark_bench.envs.sliding_front.sliding_face`); None: the front
     :raises ValueError: the part has no geometry, or its centroid lies on its hinge
     """
     from spark_bench.envs.grasp import APPROACH_CLEAR, GraspTarget, _front_of, part_name
@@ -280,18 +319,25 @@ def plan_suction(asset, joint: str, config: SuctionConfig | None = None, seed: i
 
     cfg = config or SuctionConfig()
     rest = asset if isinstance(asset, RestMeshes) else RestMeshes(asset)
-    front = _front_of(rest, joint, seed)
-    point = suction_point(front, cfg)
+    front = _front_of(rest, joint, seed, outward)
     along = front.basis[0] if front.rotational else front.basis[1]
-    grasp = GraspTarget(point=point if point is not None else front.points.mean(0), outward=front.outward,
-                        long_axis=along, has_handle=False, source="suction", grip="suction")
-    if point is None:
-        grasp.reason = flat_patch_reason(joint, part_name(rest, joint), cfg)
-        return grasp
-    blocked = approach_blocked(rest, grasp, approach_config(cfg), APPROACH_CLEAR)
-    if blocked is not None:
-        link, distance, _ = blocked
-        what = (rest.links[link].label or link).replace("_", " ")
-        grasp.reason = (f"{joint}: the {what} stands in the suction cup's way to the {part_name(rest, joint)}, "
-                        f"{1000 * distance:.0f} mm in front of its face")
-    return grasp
+    first_blocked = None
+    for cup in cup_sizes(cfg):
+        point = suction_point(front, cup)
+        if point is None:
+            continue
+        grasp = GraspTarget(point=point, outward=front.outward, long_axis=along, has_handle=False, source="suction",
+                            grip="suction", cup_radius=cup.cup_radius)
+        blocked = approach_blocked(rest, grasp, approach_config(cup), APPROACH_CLEAR)
+        if blocked is None:
+            return grasp
+        if first_blocked is None:
+            link, distance, _ = blocked
+            what = (rest.links[link].label or link).replace("_", " ")
+            grasp.reason = (f"{joint}: the {what} stands in the {1000 * 2 * cup.cup_radius:.0f} mm suction cup's way "
+                            f"to the {part_name(rest, joint)}, {1000 * distance:.0f} mm in front of its face")
+            first_blocked = grasp
+    if first_blocked is not None:
+        return first_blocked
+    return GraspTarget(point=front.points.mean(0), outward=front.outward, long_axis=along, has_handle=False,
+                       source="suction", grip="suction", reason=flat_patch_reason(joint, part_name(rest, joint), cfg))

@@ -127,6 +127,8 @@ class JudgedJoint:
         scripted score runs the prediction's episode in it); None when left out
     :param kind: what left it out (one of :data:`LEFT_OUT_KINDS`), None when it is scored
     :param end_effector: ``gripper`` or ``suction``: what opens (or would have opened) the part
+    :param cup_radius: the suction cup's radius (m) where the planner placed one
+        (:func:`spark_bench.envs.suction.cup_sizes`), else None
     """
 
     name: str
@@ -136,6 +138,7 @@ class JudgedJoint:
     env: gym.Env | None = field(default=None, repr=False)
     kind: str | None = None
     end_effector: str = "gripper"
+    cup_radius: float | None = None
 
     def close(self) -> None:
         """Close the environment, if open (idempotent)."""
@@ -186,8 +189,9 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
         env.close()
         # a reason with no drive check run is the cup's planner (no flat patch, blocked); with one, stuck
         kind = ("stuck" if scene.free_fraction is not None else "planner") if grasp.reason else "reference"
-        return JudgedJoint(joint.name, joint.type, reason, grasp.source, kind=kind, end_effector=effector)
-    return JudgedJoint(joint.name, joint.type, None, grasp.source, env, end_effector=effector)
+        return JudgedJoint(joint.name, joint.type, reason, grasp.source, kind=kind, end_effector=effector,
+                           cup_radius=grasp.cup_radius)
+    return JudgedJoint(joint.name, joint.type, None, grasp.source, env, end_effector=effector, cup_radius=grasp.cup_radius)
 
 
 def coverage(joints: dict[str, dict]) -> dict:
@@ -416,6 +420,8 @@ def scripted_score(pairing: Pairing, seed: int = 0, max_steps: int = OPENING_STE
 def _scripted_row(judged: JudgedJoint, pairing: Pairing, seed: int, max_steps: int) -> dict:
     """One ground-truth joint's row of the scripted opening score."""
     effector = {"end_effector": judged.end_effector}
+    if judged.cup_radius is not None:  # which of the cups (their holding forces differ by their area)
+        effector["cup_mm"] = round(2000 * judged.cup_radius, 1)
     if judged.reason is not None:
         return {"success": None, "reason": judged.reason, "left_out_kind": judged.kind, **effector}
     pred_name, why = pairing.predicted_joint(judged.name)
@@ -424,7 +430,7 @@ def _scripted_row(judged: JudgedJoint, pairing: Pairing, seed: int, max_steps: i
     axis, pivot, pred_type = pairing.estimates[pred_name]
     result = open_with_joint(judged.env, axis, pivot, pred_type, seed=seed, max_steps=max_steps)
     return {"success": bool(result.success), "pred_joint": pred_name, "max_fraction": float(result.max_fraction),
-            "steps": int(result.steps), "end_effector": result.end_effector}
+            "steps": int(result.steps), **effector}
 
 
 # ----- the opener's own diagnostic --------------------------------------------------------------------

@@ -175,3 +175,64 @@ def cup_footprint_on_face(front, config):
     from spark_bench.envs.suction import cup_footprint
 
     return cup_footprint(front, config)[0]
+
+
+def test_smaller_cups_hold_with_the_same_vacuum_scaled_by_their_area():
+    from spark_bench.envs.suction import cup_sizes
+
+    cups = cup_sizes(SuctionConfig())
+    assert [round(2000 * c.cup_radius) for c in cups] == [40, 32, 25, 20]
+    assert [round(c.max_force) for c in cups] == [75, 48, 29, 19]  # 60 kPa x pi r^2
+    assert len(cup_sizes(SuctionConfig(smaller_cups=()))) == 1
+    # a "smaller" cup that is not smaller than the configured one is not offered
+    assert [c.cup_radius for c in cup_sizes(SuctionConfig(cup_radius=0.015))] == [0.015, 0.0125, 0.010]
+
+
+def _strip(height: float, width: float = 0.14):
+    """A drawer's front seen along -x: a board ``height`` tall and ``width`` wide, 20 mm thick."""
+    import trimesh
+
+    from spark_bench.envs.features import Front, perpendicular_basis
+
+    part = trimesh.creation.box(extents=(0.02, width, height))
+    outward = np.array([-1.0, 0.0, 0.0])
+    return Front(part=part, points=np.asarray(part.sample(20000, seed=0)), outward=outward, basis=perpendicular_basis(outward),
+                 face=0.01, origin=np.zeros(3), axis=outward, rotational=False)
+
+
+def test_a_front_too_small_for_the_40_mm_cup_takes_the_largest_smaller_cup_that_fits():
+    from spark_bench.envs.suction import cup_sizes, suction_point
+
+    cups = cup_sizes(SuctionConfig())
+    front = _strip(0.036)  # a small drawer's front at its real size: room for a 25 mm cup, not a 32 mm one
+    assert suction_point(front, cups[0]) is None and suction_point(front, cups[1]) is None
+    fits = [c for c in cups if suction_point(front, c) is not None]
+    assert fits and fits[0].cup_radius == 0.0125
+    point = suction_point(front, fits[0])
+    assert abs(point[2]) < 0.005 and abs(point[1]) < 0.01  # central on the drawer
+    # 18 mm of front holds none of them
+    assert all(suction_point(_strip(0.018), c) is None for c in cups)
+
+
+def test_the_scene_carries_the_cup_the_planner_chose_and_judges_the_part_with_its_hold():
+    """A cup wider than the drawer's front has no place on it; the planner takes the smaller one offered, and
+    the scene's adhesion actuator and its stuck check hold with that cup's force (its area's share)."""
+    from dataclasses import replace
+
+    from spark_bench.envs.suction import fitted_cup, largest_hold
+
+    config = SuctionConfig(cup_radius=0.2, max_force=7500.0, smaller_cups=(0.02,))
+    scene = build_scene(_handleless(), "prismatic", "joint_0", end_effector="suction", suction=config)
+    assert scene.grasp.cup_radius == 0.02 and scene.grasp.reason is None
+    cup = scene.gripper.config
+    assert cup.cup_radius == 0.02 and cup.max_force == pytest.approx(75.0)
+    gain = scene.model.actuator_gainprm[scene.model.actuator(scene.gripper.suction_actuator).id][0]
+    assert gain == pytest.approx(75.0)
+    assert largest_hold(cup) <= 75.0 + 1e-9
+    assert fitted_cup(scene.grasp, config) == cup
+    with pytest.raises(ValueError, match="not one of the configured cups"):
+        fitted_cup(replace(scene.grasp, cup_radius=0.03), SuctionConfig())
+    none_fits = build_scene(_handleless(), "prismatic", "joint_0", end_effector="suction",
+                            suction=SuctionConfig(cup_radius=0.2, smaller_cups=(0.15,)))
+    assert none_fits.grasp.reason and "no flat patch 300 mm across" in none_fits.grasp.reason
+    assert "smallest suction cup" in none_fits.grasp.reason

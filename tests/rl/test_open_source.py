@@ -103,9 +103,11 @@ def test_a_handle_the_remesh_fills_opens_on_the_source(coarse_case, tmp_path):
     assert prepared["acts_on"].startswith("prepared gt")
     assert prepared["joints"]["joint_0"]["success"] is None
     # the remesh's lump where the handle was: its sides slope (voxel steps smoothed), so the planner passes it
-    # over and neither end-effector has a place on the small front (before the edge pinch's side check, the
-    # gripper pinched the lump and the reference episode failed); left out either way, never scored
-    assert prepared["joints"]["joint_0"]["left_out_kind"] == "planner"
+    # over; the 40 mm cup has no place on the small front, a smaller cup has one beside the lump and its
+    # reference episode fails (before the smaller cups: no place, "planner"; before the edge pinch's side
+    # check, the gripper pinched the lump and failed): left out either way, never scored
+    assert prepared["joints"]["joint_0"]["left_out_kind"] in ("planner", "reference")
+    assert prepared["joints"]["joint_0"]["end_effector"] == "suction"
     assert prepared["joints"]["joint_1"]["success"] is True
     assert (prepared["joints_total"], prepared["joints_scored"]) == (2, 1)
 
@@ -123,8 +125,10 @@ def test_without_the_source_both_scores_act_on_the_prepared_ground_truth_and_say
     rl = rl_transfer_score(moved.gt_dir, moved.gt_dir, {"matching": []}, finetune_steps=0)
     assert scripted["acts_on"] == rl["acts_on"] == expected
     assert set(scripted["left_out"]) == set(rl["left_out"]) and "joint_0" in scripted["left_out"]
-    # the scripted score hands a part with nothing to pinch to the cup; the RL score keeps the gripper
-    assert "suction cup" in scripted["left_out"]["joint_0"] and "gripper" in rl["left_out"]["joint_0"]
+    # the scripted score hands a part with nothing to pinch to the cup (a smaller cup beside the remesh's
+    # lump, whose reference episode fails); the RL score keeps the gripper
+    assert scripted["joints"]["joint_0"]["end_effector"] == "suction" and "cup_mm" in scripted["joints"]["joint_0"]
+    assert "gripper" in rl["left_out"]["joint_0"]
     # with the source in place, the RL score acts on it too
     assert rl_transfer_score(case.gt_dir, case.gt_dir, {"matching": []}, finetune_steps=0)["acts_on"] == "source"
 

@@ -202,6 +202,34 @@ def test_scripted_opener_opens_synth_v1_objects(tmp_path, category, index, joint
     assert result.success and result.fraction >= 0.75, result
 
 
+def test_a_washers_door_whose_rim_tab_the_body_blocks_is_opened_from_its_front(tmp_path):
+    """A front-loading washer's handle is a tab on the door's rim, flush with its depth: pinched from beyond
+    the rim, the pads would run into the body's front just behind it. The tab gives way to the front's own
+    grasps (nothing to pinch there: ``no_handle``, not ``blocked``), and ``auto`` opens the door with the cup
+    on its front, with the true hinge, and not with the hinge turned in the door's plane."""
+    from spark_bench.data.synth import generate_object
+    from spark_bench.envs.grasp import _find, find_grasp
+    from spark_bench.envs.gripper import GripperConfig
+    from spark_bench.envs.rest_meshes import RestMeshes
+    from spark_bench.rl.scripted import ground_truth_joint, open_with_joint
+
+    folder = str(generate_object("WashingMachine", 5001, tmp_path, "WashingMachine_5001"))
+    env = gym.make("SparkDoor-v0", asset=folder, joint="joint_3", end_effector="auto", max_episode_steps=200)
+    asset = env.unwrapped.scene.asset
+    assert _find(RestMeshes(asset), "joint_3", 0, GripperConfig()).source == "tab"  # what it looks at first
+    grasp = find_grasp(asset, "joint_3")
+    assert grasp.source == "face" and grasp.declined == "no_handle"
+    scene = env.unwrapped.scene
+    assert scene.end_effector == "suction" and scene.grasp.reason is None
+    assert scene.grasp.outward @ np.array([-1.0, 0.0, 0.0]) > 0.99  # on the door's front, not from its side
+    assert open_with_ground_truth(env, seed=0, max_steps=200).success
+    axis, pivot, joint_type = ground_truth_joint(env)
+    outward = scene.grasp.outward
+    wrong = np.cross(outward, axis) + outward * float(outward @ axis)  # the hinge turned 90 degrees in the door's plane
+    assert not open_with_joint(env, wrong, pivot, joint_type, seed=0, max_steps=200).success
+    env.close()
+
+
 def _obs(tcp, grasp) -> np.ndarray:
     """An observation of the environments' layout with only what the opener reads: TCP and grasp point."""
     obs = np.zeros(OBS.OBS_SIZE, dtype=np.float32)
