@@ -31,8 +31,8 @@ its front face's center (drawers) or a point of the front face near its free edg
 A pinch grasp is then checked against its neighbourhood (:func:`spark_bench.envs.pads.plan_pads`), and
 the hand's way in against the object (:func:`find_grasp`). A tab whose way in is blocked (a front-loading
 washer's handle on its door's rim) gives way to the front's own grasps; a sliding plate (a sash) whose front
-has nothing to pinch or no way in is looked at from its broad face
-(:func:`~spark_bench.envs.sliding_front.sliding_face`).
+whose front has nothing to pinch or no way in is looked at from its broad face
+(:func:`~spark_bench.envs.plate_front.plate_face`).
 
 Where the handle candidates are looked for is :mod:`spark_bench.envs.handle_search`; which of them a
 parallel gripper can pinch, and where, :mod:`spark_bench.envs.handles`.
@@ -77,8 +77,8 @@ from spark_bench.envs.handles import (
     sides_hold,
 )
 from spark_bench.envs.pads import approach_blocked, pad_landing, plan_pads
+from spark_bench.envs.plate_front import plate_face
 from spark_bench.envs.rest_meshes import RestMeshes
-from spark_bench.envs.sliding_front import sliding_face
 
 #: A revolute part's free edge must lie this far (m) from its hinge for a feature past it to be a lid's tab:
 #: a shorter part is a lever (a toilet's flush lever, 8 cm), pressed on its face, not pinched at its end.
@@ -133,7 +133,7 @@ class GraspTarget:
     :param cup_radius: for the suction cup, the radius (m) of the cup planned (one of
         :func:`~spark_bench.envs.suction.cup_sizes`; None: the gripper)
     :param broad_face: the grasp is on a sliding plate's broad face
-        (:func:`~spark_bench.envs.sliding_front.sliding_face`), not on its
+        (:func:`~spark_bench.envs.plate_front.plate_face`), not on its
         front; ``outward`` is that face's
     """
 
@@ -236,7 +236,7 @@ def _front_of(asset: ArticulatedAsset, joint: str, seed: int, outward: np.ndarra
     points = sample_surface(part, N_SAMPLES, seed=seed)
     n = outward_direction(spec.type, origin, axis, points)
     rotational = spec.type != "prismatic"
-    if outward is not None:  # a sliding plate's broad face (sliding_front.sliding_face)
+    if outward is not None:  # a plate's broad face (plate_front.plate_face)
         n = unit(outward)
     elif rotational:
         n = face_normal(part, n)
@@ -419,9 +419,9 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
         # washer's door handle on its rim, the body's front close behind it): the front's own grasps instead
         grasp = _find(asset, joint, seed, gripper, collision, tabs=False)
         blocked = _way_in(asset, joint, grasp, gripper)
-    if spec.type == "prismatic" and (blocked is not None or grasp.source == "face"):
+    if blocked is not None or grasp.source == "face":
         # nothing to take at the front, or no way to it: a sliding plate (a sash) is taken by its broad face
-        side = sliding_face(asset, joint, APPROACH_CLEAR, seed)
+        side = plate_face(asset, joint, APPROACH_CLEAR, seed)
         if side is not None:
             beside = _find(asset, joint, seed, gripper, collision, outward=side)
             # nothing to pinch there either: the cup's business, which checks its own way in to its own place

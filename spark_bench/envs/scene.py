@@ -359,7 +359,7 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     chosen = choose_joint(asset, kind, joint)
     grasp = plan_grasp(asset, chosen.name, gripper)
     effector = choose_end_effector(end_effector, grasp.declined)
-    if effector == "suction":  # on the face the gripper's planner looked at (a sliding plate's broad face)
+    if effector == "suction":  # on the face the gripper's planner looked at (a plate's broad face)
         grasp = plan_cup(asset, chosen.name, suction, outward=grasp.outward if grasp.broad_face else None)
     from spark_bench.sim import build_spec
 

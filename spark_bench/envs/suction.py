@@ -310,7 +310,7 @@ def plan_suction(asset, joint: str, config: SuctionConfig | None = None, seed: i
     :param config: the cup (default :class:`SuctionConfig`) and its smaller fallbacks
     :param seed: seed of the surface sampling
     :param outward: the front's direction where the gripper's planner took another face than the part's
-        front (a sliding plate's broad face, :func:`~spark_bench.envs.sliding_front.sliding_face`); None: the front
+        front (a plate's broad face, :func:`~spark_bench.envs.plate_front.plate_face`); None: the front
     :raises ValueError: the part has no geometry, or its centroid lies on its hinge
     """
     from spark_bench.envs.grasp import APPROACH_CLEAR, GraspTarget, _front_of, part_name

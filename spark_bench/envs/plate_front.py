@@ -2,9 +2,13 @@
 sliding panel or tray moves along its own broad face, and its face in the opening direction (the front the
 grasp planner looks at first, :func:`~spark_bench.envs.grasp.outward_direction`) is a thin edge, often
 inside the frame. People and robots take such a part by its broad face (a pull handle or a recess there,
-or a suction cup dragging it by friction) and slide it along the joint. :func:`sliding_outward` says
-from which face; the grasp planner looks there when the front has nothing to pinch or its way in is
-blocked (:func:`~spark_bench.envs.grasp.find_grasp`).
+or a suction cup dragging it by friction) and slide it along the joint. :func:`plate_outward` says from
+which face; the grasp planner looks there when the front has nothing to pinch or its way in is blocked
+(:func:`~spark_bench.envs.grasp.find_grasp`).
+
+Not for parts turning in their own plane (a lever on a door or a toilet's tank, about the door's normal):
+taken by their broad face, synth toilets' flush levers opened with the true hinge and with it reversed,
+so the score would not tell a right hinge from a wrong one; synth safes' turn handles did not open.
 
 The test is geometric (the part's extents, rays from a face into the rest of the object), never a label.
 """
@@ -36,8 +40,8 @@ FACING_COS = 0.9
 
 
 def plate_normal(points: np.ndarray, axis: np.ndarray) -> np.ndarray | None:
-    """The direction across a sliding plate (its thinnest across ``axis``), or None when the part is no
-    plate (:data:`SLIDING_RATIO`).
+    """The direction across a plate sliding in its own plane (its thinnest across ``axis``), or None when
+    the part is no such plate (:data:`SLIDING_RATIO`).
 
     :param points: the part's surface samples (world, at rest)
     :param axis: the joint's unit axis
@@ -78,12 +82,12 @@ def face_covered(points: np.ndarray, direction: np.ndarray, others, clear: float
     return hits >= COVERED_RAYS
 
 
-def sliding_outward(part, points: np.ndarray, axis: np.ndarray, others, object_centre: np.ndarray,
-                    clear: float) -> np.ndarray | None:
-    """The outward direction of a sliding plate's broad face to grasp it from, or None (no plate, or both
-    its broad faces covered by the rest of the object, :func:`face_covered`). Of its two broad faces, the
-    uncovered one facing away from the object's centre most (a sash's outer face, not the one towards the
-    other sash); the result is that face's area-weighted normal.
+def plate_outward(part, points: np.ndarray, axis: np.ndarray, others, object_centre: np.ndarray,
+                  clear: float) -> np.ndarray | None:
+    """The outward direction of the broad face to grasp a sliding plate from (:func:`plate_normal`), or
+    None (no such plate, or both its broad faces covered by the rest of the object, :func:`face_covered`).
+    Of its two broad faces, the uncovered one facing away from the object's centre most (a sash's outer
+    face, not the one towards the other sash); the result is that face's area-weighted normal.
 
     :param part: the part's mesh (world, at rest)
     :param points: its surface samples
@@ -102,9 +106,9 @@ def sliding_outward(part, points: np.ndarray, axis: np.ndarray, others, object_c
     return None
 
 
-def sliding_face(asset, joint: str, clear: float, seed: int = 0) -> np.ndarray | None:
-    """The outward direction of the broad face a sliding plate moved by prismatic ``joint`` is taken by
-    (:func:`sliding_outward`), or None (another joint type, no plate, or no broad face clear).
+def plate_face(asset, joint: str, clear: float, seed: int = 0) -> np.ndarray | None:
+    """The outward direction of the broad face a sliding plate moved by ``joint`` is taken by
+    (:func:`plate_outward`), or None (not prismatic, no plate, or no broad face clear).
 
     :param asset: the object (or a :class:`~spark_bench.envs.rest_meshes.RestMeshes` of it)
     :param clear: how far (m) in front of a face the object must not stand (the hand's way in)
@@ -117,5 +121,5 @@ def sliding_face(asset, joint: str, clear: float, seed: int = 0) -> np.ndarray |
     if len(part.faces) == 0:
         return None
     others = [name for name in asset.links if name not in moving]
-    return sliding_outward(part, sample_surface(part, N_SAMPLES, seed=seed), unit(asset.joint_frames()[joint][1]),
-                           asset.mesh(links=others) if others else None, asset.mesh().bounds.mean(0), clear)
+    return plate_outward(part, sample_surface(part, N_SAMPLES, seed=seed), unit(asset.joint_frames()[joint][1]),
+                         asset.mesh(links=others) if others else None, asset.mesh().bounds.mean(0), clear)

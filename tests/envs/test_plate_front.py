@@ -8,7 +8,7 @@ import numpy as np
 import trimesh
 
 import spark_bench  # noqa: F401  (registers the environments)
-from spark_bench.envs.sliding_front import SLIDING_RATIO, face_covered, plate_normal, sliding_outward
+from spark_bench.envs.plate_front import SLIDING_RATIO, face_covered, plate_normal, plate_outward
 
 Y = np.array([0.0, 1.0, 0.0])
 
@@ -47,14 +47,14 @@ def test_the_broad_face_away_from_the_object_and_clear_is_chosen():
     frame = trimesh.util.concatenate([_box((0.12, 0.05, 1.2), centre=(0.0, 0.3, 0.0)),
                                       _box((0.12, 0.05, 1.2), centre=(0.0, -0.3, 0.0))])
     points = _points(sash)
-    out = sliding_outward(sash, points, Y, frame, np.zeros(3), clear=0.5)
+    out = plate_outward(sash, points, Y, frame, np.zeros(3), clear=0.5)
     assert out is not None and out @ [-1.0, 0.0, 0.0] > 0.99  # the sash sits in the frame's front half
     glass = _box((0.01, 1.2, 1.2), centre=(-0.1, 0.0, 0.0))  # something right in front of that face
     covered = trimesh.util.concatenate([frame, glass])
-    out = sliding_outward(sash, points, Y, covered, np.zeros(3), clear=0.5)
+    out = plate_outward(sash, points, Y, covered, np.zeros(3), clear=0.5)
     assert out is not None and out @ [1.0, 0.0, 0.0] > 0.99
     drawer = _box((0.45, 0.4, 0.1))
-    assert sliding_outward(drawer, _points(drawer), np.array([1.0, 0.0, 0.0]), frame, np.zeros(3), 0.5) is None
+    assert plate_outward(drawer, _points(drawer), np.array([1.0, 0.0, 0.0]), frame, np.zeros(3), 0.5) is None
 
 
 def test_a_sliding_windows_sash_is_opened_by_its_outer_face(tmp_path):
