@@ -31,7 +31,7 @@ its front face's center (drawers) or a point of the front face near its free edg
 A pinch grasp is then checked against its neighbourhood (:func:`spark_bench.envs.pads.plan_pads`), and
 the hand's way in against the object (:func:`find_grasp`). A tab whose way in is blocked (a front-loading
 washer's handle on its door's rim) gives way to the front's own grasps; a sliding plate (a sash) whose front
-whose front has nothing to pinch or no way in is looked at from its broad face
+has nothing to pinch or no way in is looked at from its broad face
 (:func:`~spark_bench.envs.plate_front.plate_face`).
 
 Where the handle candidates are looked for is :mod:`spark_bench.envs.handle_search`; which of them a
@@ -132,9 +132,8 @@ class GraspTarget:
         (:func:`~spark_bench.envs.suction.choose_end_effector`)
     :param cup_radius: for the suction cup, the radius (m) of the cup planned (one of
         :func:`~spark_bench.envs.suction.cup_sizes`; None: the gripper)
-    :param broad_face: the grasp is on a sliding plate's broad face
-        (:func:`~spark_bench.envs.plate_front.plate_face`), not on its
-        front; ``outward`` is that face's
+    :param broad_face: the grasp is on a sliding plate's broad face, not on its front (``outward`` is that
+        face's; :func:`~spark_bench.envs.plate_front.plate_face`)
     """
 
     point: np.ndarray

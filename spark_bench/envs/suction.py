@@ -327,7 +327,7 @@ def plan_suction(asset, joint: str, config: SuctionConfig | None = None, seed: i
         if point is None:
             continue
         grasp = GraspTarget(point=point, outward=front.outward, long_axis=along, has_handle=False, source="suction",
-                            grip="suction", cup_radius=cup.cup_radius)
+                            grip="suction", cup_radius=cup.cup_radius, broad_face=outward is not None)
         blocked = approach_blocked(rest, grasp, approach_config(cup), APPROACH_CLEAR)
         if blocked is None:
             return grasp
@@ -340,4 +340,5 @@ def plan_suction(asset, joint: str, config: SuctionConfig | None = None, seed: i
     if first_blocked is not None:
         return first_blocked
     return GraspTarget(point=front.points.mean(0), outward=front.outward, long_axis=along, has_handle=False,
-                       source="suction", grip="suction", reason=flat_patch_reason(joint, part_name(rest, joint), cfg))
+                       source="suction", grip="suction", broad_face=outward is not None,
+                       reason=flat_patch_reason(joint, part_name(rest, joint), cfg))

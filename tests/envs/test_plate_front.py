@@ -74,6 +74,7 @@ def test_a_sliding_windows_sash_is_opened_by_its_outer_face(tmp_path):
     assert grasp.broad_face and grasp.declined == "no_handle" and abs(grasp.outward @ axis) < 0.05
     assert scene.end_effector == "suction" and scene.grasp.reason is None
     np.testing.assert_allclose(scene.grasp.outward, grasp.outward, atol=1e-9)  # the cup on the same face
+    assert scene.grasp.broad_face and scene.grasp.source == "suction"
     assert open_with_ground_truth(env, seed=0, max_steps=200).success
     # pulled straight out of the face (the slide turned 90 degrees about the vertical) the sash stays
     wrong = np.cross([0.0, 0.0, 1.0], axis)
