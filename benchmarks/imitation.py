@@ -20,6 +20,7 @@ from spark_bench.rl.generalist import (
     EPISODE_STEPS,
     N_FEATURES,
     Memory,
+    end_effector_flag,
     features,
     perturb_frame,
     random_rotation,
@@ -76,6 +77,7 @@ def collect_demos(built: list[BuiltTask], episodes: int = 2, noise: float = DEMO
     obs_rows, act_rows, run, kept, steps = [], [], 0, 0, 0
     for bt in tqdm(built, desc="demonstrations", unit="task", disable=not progress):
         env = bt.raw
+        suction = end_effector_flag(env)  # feature 39: the gripper's or the cup's episode
         for k in range(episodes):
             teacher, memory = ScriptedPolicy(), Memory()
             rotation = random_rotation(rng, frame_noise) if frame_noise > 0 else None
@@ -86,7 +88,7 @@ def collect_demos(built: list[BuiltTask], episodes: int = 2, noise: float = DEMO
             xs, ys, success = [], [], False
             for _ in range(env.spec.max_episode_steps if env.spec and env.spec.max_episode_steps else EPISODE_STEPS):
                 label = teacher(obs)
-                x = features(seen, memory.vector())
+                x = features(seen, memory.vector(), suction)
                 xs.append(x)
                 ys.append(to_frame(seen, label))
                 act = np.array(label, dtype=np.float64)

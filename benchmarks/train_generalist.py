@@ -45,7 +45,7 @@ from spark_bench.rl.tasks import (
 ROOT = Path(__file__).resolve().parents[1]
 REAL = ROOT.parent / "shared" / "partnet_dev"
 #: The version of the shipped weights (bumped with each shipped training run).
-WEIGHTS_VERSION = "1"
+WEIGHTS_VERSION = "2"
 #: The issue's target success rate on unseen synth seeds.
 TARGET = 0.9
 #: How the synth tasks' objects are named (by seed and generator version, not by path).
@@ -74,6 +74,7 @@ def scores(rows: list[dict], teacher: list[dict]) -> dict:
             "holdable_teacher_success_rate": success_rate(hold_t),
             "by_grasp": rate_by(rows, "grasp"), "teacher_by_grasp": rate_by(teacher, "grasp"),
             "by_part": rate_by(rows, "part"), "teacher_by_part": rate_by(teacher, "part"),
+            "by_end_effector": rate_by(rows, "end_effector"), "teacher_by_end_effector": rate_by(teacher, "end_effector"),
             "holdable_by_part": rate_by(hold, "part")}
 
 
@@ -85,6 +86,19 @@ def real_tasks(folder: Path, kind: str) -> list:
         except Exception as exc:  # noqa: BLE001  (one unreadable object never ends the run)
             print(f"  skipping {obj.name}: {' '.join(str(exc).split())[:120]}", flush=True)
     return tasks
+
+
+def cup_copies(built: list, every: int) -> list:
+    """Every ``every``-th task of ``built`` that ``auto`` gives the gripper, again with the suction cup
+    forced (a task whose part offers the cup no flat patch fails to build and is skipped).
+
+    :param built: built training tasks
+    :param every: keep one in this many (>= 1)
+    """
+    from dataclasses import replace
+
+    gripped = [b.task for b in built if b.end_effector == "gripper" and b.task.end_effector == "auto"]
+    return [replace(task, end_effector="suction") for task in gripped[::every]]
 
 
 def plot(curves: dict, path: Path) -> None:
@@ -114,6 +128,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--val-seeds", default="8000:8003")
     parser.add_argument("--test-seeds", default="9000:9005")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--cup-every", type=int, default=3,
+                        help="also train on every N-th training task that 'auto' gives the gripper, with the "
+                             "suction cup forced (cup experience on parts with a handle: synth drawers all have "
+                             "one); 0: none")
     parser.add_argument("--demo-episodes", type=int, default=3)
     parser.add_argument("--dagger-rounds", type=int, default=2)
     parser.add_argument("--ppo-steps", type=int, default=100_000)
@@ -141,11 +159,13 @@ def main(argv: list[str] | None = None) -> int:
               "produced_by": "python benchmarks/train_generalist.py " + " ".join(sys.argv[1:] if argv is None else argv),
               "method": "behaviour cloning of the scripted opener with ground-truth joints (DART noise, DAgger), "
                         "then PPO (stable-baselines3) on the synth training tasks; grasp-frame features "
-                        "(spark_bench.rl.generalist)",
+                        "(spark_bench.rl.generalist); each task with the end-effector the opening score chooses "
+                        "(end_effector='auto': the suction cup where the grasp planner finds nothing to pinch, "
+                        "the parallel gripper elsewhere), one policy per kind driving either",
               "seed": args.seed, "episode_steps": EPISODE_STEPS, "seeds": seeds,
               "synth": SYNTH,
               "policy_kwargs": POLICY_KWARGS, "ppo": PPO_SETTINGS,
-              "stages": asdict(settings),
+              "stages": asdict(settings), "cup_every": args.cup_every,
               "software": {"python": platform.python_version(), "stable_baselines3": stable_baselines3.__version__,
                            "torch": torch.__version__},
               "policies": {}}
@@ -158,6 +178,12 @@ def main(argv: list[str] | None = None) -> int:
         built = {}
         for name, tasks in sets.items():
             built[name], skipped = build_tasks(tasks, progress=True)
+            if name == "train" and args.cup_every > 0:
+                cups = cup_copies(built[name], args.cup_every)
+                more, _ = build_tasks(cups, progress=True)
+                more = [b for b in more if not b.reason]  # the cup finds no flat patch, or no way in
+                built[name] += more
+                print(f"train: {len(more)} of {len(cups)} cup copies built", flush=True)
             print(f"{name}: {len(built[name])} tasks ({len(skipped)} without an opening task)", flush=True)
         teacher_train = evaluate_teacher(built["train"], progress=True)
         solved = {r["task"] for r in teacher_train if r["success_rate"] > 0}
@@ -180,6 +206,8 @@ def main(argv: list[str] | None = None) -> int:
             "file": path.name, "sha256": sha256(path), "bytes": path.stat().st_size,
             "env_steps": result.steps, "wall_s": result.wall_s, "demos": result.demos,
             "train_tasks": len(built["train"]), "teacher_solved_train_tasks": len(solved),
+            "train_tasks_by_end_effector": {e: sum(b.end_effector == e for b in built["train"])
+                                            for e in ("gripper", "suction")},
             "kept": result.best.__dict__ if result.best else None, "curve": curves[kind],
             "test": test, "real": None}
         write_record(record, args, t0, "wall_s")
@@ -269,9 +297,9 @@ def report(record: dict, args) -> str:
                      f"{_pct(t['teacher_success_rate'])} / {_pct(t['holdable_teacher_success_rate'])} | "
                      f"{real_cell} | {teach_real} |")
     lines += ["", "Holdable: a grasp on a labelled or geometric handle, a finger-pull notch, a lid's tab or the "
-              "front's edges that the grasp planner gives no reason against (spark_bench.rl.tasks.holdable); the "
-              "rest (`face`: bare fronts; or a planner reason) no parallel-jaw gripper can pull open. They count "
-              "in `all`.", ""]
+              "front's edges, or the suction cup's flat patch (`suction`), that the grasp planner gives no reason "
+              "against (spark_bench.rl.tasks.holdable); the rest (`face`: bare fronts; or a planner reason) "
+              "neither end-effector can pull open. They count in `all`.", ""]
     for kind, p in record["policies"].items():
         t = p["test"]
         verdict = lambda rate: "met" if rate is not None and rate >= TARGET else "not met"  # noqa: E731
@@ -285,6 +313,15 @@ def report(record: dict, args) -> str:
         t = p["test"]
         cells = [f"{g}: {_pct(v['success_rate'])} / {_pct(t['teacher_by_grasp'].get(g, {}).get('success_rate'))} "
                  f"({v['tasks']})" for g, v in t["by_grasp"].items()]
+        lines.append(f"- {kind}: " + "; ".join(cells))
+    lines += ["", "## By end-effector (held-out synth; policy / teacher)", ""]
+    for kind, p in record["policies"].items():
+        t = p["test"]
+        if "by_end_effector" not in t:  # a record scored before rows named their end-effector
+            continue
+        cells = [f"{e}: {_pct(v['success_rate'])} / "
+                 f"{_pct(t['teacher_by_end_effector'].get(e, {}).get('success_rate'))} ({v['tasks']})"
+                 for e, v in t["by_end_effector"].items()]
         lines.append(f"- {kind}: " + "; ".join(cells))
     lines += ["", "## By moving part (held-out synth; the part's label; policy / teacher, then the policy on "
               "holdable grasps)", "",
@@ -309,8 +346,9 @@ def report(record: dict, args) -> str:
         if p["real"] is None:
             continue
         lines += [f"## Real objects, {kind} ({p['real']['folder']})", "",
-                  "| task | part | grasp | policy | max fraction | asset sha256 |", "|---|---|---|---|---|---|"]
-        lines += [f"| {r['task']} | {r.get('part', '')} | {r['grasp']} | "
+                  "| task | part | end-effector | grasp | policy | max fraction | asset sha256 |",
+                  "|---|---|---|---|---|---|---|"]
+        lines += [f"| {r['task']} | {r.get('part', '')} | {r.get('end_effector', 'gripper')} | {r['grasp']} | "
                   f"{'opened' if r['success_rate'] > 0 else 'no'} | {r['max_fraction']:.2f} | "
                   f"{(r.get('asset') or {}).get('sha256', '')[:12]} |" for r in p["real"]["rows"]]
         lines.append("")

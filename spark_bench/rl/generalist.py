@@ -1,6 +1,14 @@
 """The generalist opening policies: one per environment (drawer, door), trained on many synth objects
 (``benchmarks/train_generalist.py``) and shipped with the package (``spark_bench/rl/weights/``).
 
+**End-effectors.** Each policy drives either end-effector of the environments: the parallel gripper, or the
+suction cup (:mod:`spark_bench.envs.suction`) on a part the grasp planner finds nothing to pinch on. Which
+one is the environment's (made with ``end_effector="auto"`` by :func:`make_task_env`: the rule of the
+scripted opening score, :func:`spark_bench.envs.suction.choose_end_effector`); the policy is told by
+feature 39. The cup's state lies where the fingers' does (:mod:`spark_bench.envs.observation`): entry 7
+is its suction command, 10-11 its contact force (both), 23 is -1 (approach released); its action's last
+entry is the suction command (> 0 sucks) where the gripper's is the finger command.
+
 **Observation.** A policy sees what any asset can supply: the environment's ``frame`` observation
 (:mod:`spark_bench.envs.observation`: the gripper's state, the grasp point, the grasp frame and the joint),
 expressed in the *joint frame* at the grasp point (:func:`policy_frames`: x the direction the grasp point
@@ -14,10 +22,10 @@ index  meaning (joint frame)
 0-2    TCP minus grasp point, / 0.1 m
 3-5    TCP velocity, / 0.5 m/s
 6      wrist angle (rad)
-7      finger opening (0 closed, 1 fully open)
+7      finger opening (0 closed, 1 fully open); cup: the suction command (0 off, 1 full)
 8      joint position as a fraction of its range
 9      joint velocity / range
-10-11  finger pad contact forces / 10 N, clipped to 1
+10-11  finger pad contact forces / 10 N, clipped to 1; cup: its contact force, in both
 12-14  joint axis
 15-17  outward: out of the part's front at the grasp (turns with the part)
 18-20  from the grasp point to the joint axis (m; 0 for prismatic)
@@ -32,10 +40,12 @@ index  meaning (joint frame)
 33     steps in a row with the TCP slower than 0.02 m/s (stalled), / 10
 34     steps since the episode began, / :data:`EPISODE_STEPS`
 35-38  the previous action (joint frame; 0 at the start)
+39     1 the suction cup, 0 the parallel gripper (:func:`end_effector_flag`)
 ====== ============================================================================
 
 Entries 31-38 are the policy's memory (:class:`Memory`): when to close, press or pull depends on how long
-the gripper has been at the handle and holding it, which one observation cannot tell.
+the gripper has been at the handle and holding it (the cup: on the face, touching it), which one
+observation cannot tell.
 
 The joint entries (12-21) are the *reported* joint: the simulated asset's own, or a prediction's when the
 environment was made with ``joint_estimate`` (acting on the real object with a predicted joint).
@@ -49,8 +59,8 @@ direction is a worse cue than x. The policy pulls where the told joint says: a w
 misleads it as it misleads a robot acting on the prediction.
 
 **Action.** ``a[0:3]`` moves the TCP by ``0.02 * a[0:3]`` m *in the joint frame* (turned into the world
-frame, then clipped per axis as the environment does); ``a[3]`` commands the fingers as in the
-environments.
+frame, then clipped per axis as the environment does); ``a[3]`` commands the fingers, or the cup's
+suction, as in the environments.
 """
 
 from __future__ import annotations
@@ -68,9 +78,11 @@ from spark_bench.errors import InputError
 
 #: Bumped whenever :func:`features` or the action's meaning changes (shipped weights name the version
 #: they were trained for).
-FEATURE_VERSION = 2
-N_FEATURES = 39
+FEATURE_VERSION = 3
+N_FEATURES = 40
 N_MEMORY = 8
+#: Feature 39: which end-effector the policy drives (:func:`end_effector_flag`).
+END_EFFECTOR_FEATURE = 39
 FEATURE_BOUND = 10.0
 #: Environment per policy kind, and the kind that opens a joint type.
 KINDS = {"drawer": ENV_OF_JOINT_TYPE["prismatic"], "door": ENV_OF_JOINT_TYPE["revolute"]}
@@ -172,10 +184,21 @@ def perturb_frame(obs: np.ndarray, rotation: np.ndarray | None) -> np.ndarray:
     return out
 
 
-def features(obs: np.ndarray, memory: np.ndarray | None = None) -> np.ndarray:
+def end_effector_flag(env: gym.Env) -> float:
+    """Feature 39 for the environment ``env`` (wrapped or not): 1.0 where it carries the suction cup, 0.0
+    for the parallel gripper (an environment that does not say has the gripper).
+
+    :param env: an opening environment
+    """
+    return 1.0 if getattr(env.unwrapped, "end_effector", "gripper") == "suction" else 0.0
+
+
+def features(obs: np.ndarray, memory: np.ndarray | None = None, suction: float = 0.0) -> np.ndarray:
     """The policy's input (see the module docstring) from ``frame`` observation(s) ``(..., 37)``.
 
     :param memory: :meth:`Memory.vector` (``(..., 8)``); None: zeros
+    :param suction: 1.0 the observation is the suction cup's, 0.0 the gripper's (:func:`end_effector_flag`;
+        the observation's layout is the same for both, it cannot tell)
 
     :raises ValueError: for an observation of another size (an environment made without
         ``observation="frame"``)
@@ -199,6 +222,7 @@ def features(obs: np.ndarray, memory: np.ndarray | None = None) -> np.ndarray:
         obs[..., [OBS.GRASP_DISTANCE]] / POSITION_SCALE,
         np.clip(local(-obs[..., OBS.TO_GRASP]) / FINE_SCALE, -3.0, 3.0),
         np.broadcast_to(np.zeros(N_MEMORY) if memory is None else memory, obs.shape[:-1] + (N_MEMORY,)),
+        np.full(obs.shape[:-1] + (1,), float(suction)),
     ], axis=-1)
     return np.clip(out, -FEATURE_BOUND, FEATURE_BOUND).astype(np.float32)
 
@@ -225,8 +249,8 @@ def to_frame(obs: np.ndarray, action: np.ndarray) -> np.ndarray:
 
 class GraspFrameWrapper(gym.Wrapper):
     """An environment made with ``observation="frame"``, seen as the generalist sees it: observations are
-    :func:`features`, actions are in the joint frame. The raw observation (with the turned grasp frame,
-    when training) is kept in ``raw_obs``.
+    :func:`features` (with the environment's end-effector, :func:`end_effector_flag`), actions are in the
+    joint frame. The raw observation (with the turned grasp frame, when training) is kept in ``raw_obs``.
 
     :param frame_noise: turn the grasp frame by a random rotation of up to this angle (rad) each episode
         (training only, :func:`perturb_frame`); 0: none
@@ -242,6 +266,7 @@ class GraspFrameWrapper(gym.Wrapper):
         self.memory = Memory()
         self.frame_noise = float(frame_noise)
         self.rotation: np.ndarray | None = None
+        self.suction = end_effector_flag(env)
 
     def reset(self, **kwargs):
         obs, info = self.env.reset(**kwargs)
@@ -249,17 +274,18 @@ class GraspFrameWrapper(gym.Wrapper):
             self.rotation = random_rotation(self.env.unwrapped.np_random, self.frame_noise)
         self.raw_obs = perturb_frame(obs, self.rotation)
         self.memory.reset(self.raw_obs)
-        return features(self.raw_obs, self.memory.vector()), info
+        return features(self.raw_obs, self.memory.vector(), self.suction), info
 
     def step(self, action):
         obs, reward, terminated, truncated, info = self.env.step(to_world(self.raw_obs, action))
         self.raw_obs = perturb_frame(obs, self.rotation)
         self.memory.step(action, self.raw_obs)
-        return features(self.raw_obs, self.memory.vector()), reward, terminated, truncated, info
+        return features(self.raw_obs, self.memory.vector(), self.suction), reward, terminated, truncated, info
 
 
 def make_task_env(kind: str, asset, joint: str | None = None, joint_estimate: tuple | None = None,
-                  max_episode_steps: int = EPISODE_STEPS, render_mode: str | None = None, **kwargs) -> gym.Env:
+                  max_episode_steps: int = EPISODE_STEPS, render_mode: str | None = None,
+                  end_effector: str = "auto", **kwargs) -> gym.Env:
     """The environment of policy ``kind`` on ``asset``, with the ``frame`` observation (not wrapped).
 
     :param kind: ``drawer`` or ``door``
@@ -268,12 +294,15 @@ def make_task_env(kind: str, asset, joint: str | None = None, joint_estimate: tu
     :param joint_estimate: ``(axis, pivot, type)`` the observation reports instead of the simulated joint
     :param max_episode_steps: time limit
     :param render_mode: None or ``rgb_array``
+    :param end_effector: ``auto`` (the suction cup where the grasp planner finds nothing to pinch, the
+        gripper elsewhere: the scripted opening score's rule), ``gripper`` or ``suction``
     :param kwargs: further environment options (``width``, ``height`` of rendered frames)
     """
     if kind not in KINDS:
         raise InputError(None, f"unknown policy kind {kind!r} (choose from {', '.join(KINDS)})")
     return make_env(KINDS[kind], asset=asset, joint=joint, max_episode_steps=max_episode_steps,
-                    render_mode=render_mode, observation="frame", joint_estimate=joint_estimate, **kwargs)
+                    render_mode=render_mode, observation="frame", joint_estimate=joint_estimate,
+                    end_effector=end_effector, **kwargs)
 
 
 class TaskMixture(gym.Env):
@@ -308,7 +337,8 @@ class TaskMixture(gym.Env):
 
 class GeneralistPolicy:
     """A generalist model acting on ``frame`` observations (the rollout protocol of
-    :mod:`spark_bench.rl.rollout`: ``reset(env)``, ``__call__(obs) -> action``).
+    :mod:`spark_bench.rl.rollout`: ``reset(env)``, ``__call__(obs) -> action``); ``reset`` reads which
+    end-effector the environment carries (:func:`end_effector_flag`).
 
     :param model: a stable-baselines3 model trained on :func:`features`, or a policy kind (``drawer`` /
         ``door``) for the shipped one
@@ -320,16 +350,19 @@ class GeneralistPolicy:
         self.deterministic = deterministic
         self.memory = Memory()
         self._last: np.ndarray | None = None
+        self.suction = 0.0
 
     def reset(self, env: gym.Env) -> None:
         self._last = None
+        self.suction = end_effector_flag(env)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         if self._last is None:
             self.memory.reset(obs)
         else:
             self.memory.step(self._last, obs)
-        action, _ = self.model.predict(features(obs, self.memory.vector()), deterministic=self.deterministic)
+        x = features(obs, self.memory.vector(), self.suction)
+        action, _ = self.model.predict(x, deterministic=self.deterministic)
         self._last = np.clip(action, -1.0, 1.0)
         return to_world(obs, action)
 

@@ -12,8 +12,9 @@ one scripted episode planned from the predicted joint, ``eval``'s ``open`` stage
 - **Which end-effector opens a part** (:data:`SCORED_END_EFFECTOR`, ``auto``): the parallel gripper where
   the grasp planner finds something to pinch, the suction cup on the part's front face where it finds
   nothing (a flush lid, a handle-less drawer, a board: :mod:`spark_bench.envs.suction`); both plan from the
-  joint they are told, so a wrong axis fails with either. Every row says which (``end_effector``). The RL
-  transfer score keeps the gripper, the end-effector its policies were trained with.
+  joint they are told, so a wrong axis fails with either. Every row says which (``end_effector``, and
+  ``cup_mm`` for the cup: a smaller one where the 40 mm cup has no place). The RL transfer score uses the
+  same rule and the same end-effector per joint (its generalist policies drive either).
 - **A joint nobody can open is left out**, for every method alike, whether or not the prediction matched
   it (:func:`judge_joint`): ``success`` None and a one-line ``reason``, the first of: the grasp planner
   declines the part before any episode (the gripper finds nothing to pinch and the cup no flat patch, or

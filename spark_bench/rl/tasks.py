@@ -33,6 +33,8 @@ class Task:
     :param kind: ``drawer`` or ``door``
     :param category: the object's category
     :param seed: the synth seed (None for a real object)
+    :param end_effector: ``auto`` (the opening score's choice: the suction cup where the grasp planner finds
+        nothing to pinch), or ``gripper`` / ``suction`` forced (a training task's cup on a part with a handle)
     """
 
     folder: Path
@@ -40,21 +42,25 @@ class Task:
     kind: str
     category: str = ""
     seed: int | None = None
+    end_effector: str = "auto"
 
     @property
     def name(self) -> str:
-        return f"{Path(self.folder).name}/{self.joint}"
+        forced = "" if self.end_effector == "auto" else f" ({self.end_effector})"
+        return f"{Path(self.folder).name}/{self.joint}{forced}"
 
 
 @dataclass
 class BuiltTask:
     """A task with its environment (:class:`GraspFrameWrapper` over the ``frame`` environment).
 
-    :param grasp: the grasp's source (``label``, ``geometry``, ``notch``, ``tab``, ``edge``, ``face``)
-    :param reason: the planner's reason why a parallel gripper cannot pull the part open, or None
+    :param grasp: the grasp's source (``label``, ``geometry``, ``notch``, ``tab``, ``edge``, ``face``;
+        ``suction`` for the cup's place)
+    :param reason: the planner's reason why the end-effector cannot pull the part open, or None
     :param part: the moving part's label (``door``, ``lid``, ``drawer``, ``window``, ...; empty if none)
     :param asset: the simulated object, as stored records name it: ``{"path", "sha256"}``
         (:func:`spark_bench.rl.records.asset_content_hash` of the asset the environment was built from)
+    :param end_effector: ``gripper`` or ``suction``: what the environment carries (``auto``'s choice)
     """
 
     task: Task
@@ -64,6 +70,7 @@ class BuiltTask:
     reason: str | None = None
     part: str = ""
     asset: dict | None = None
+    end_effector: str = "gripper"
 
     @property
     def raw(self) -> gym.Env:
@@ -121,8 +128,9 @@ def synth_tasks(seeds, categories=None, root: str | Path | None = None) -> list[
 
 def build_tasks(tasks: list[Task], max_episode_steps: int = EPISODE_STEPS, progress: bool = False
                 ) -> tuple[list[BuiltTask], list[tuple[Task, str]]]:
-    """The environments of ``tasks``; a task whose environment cannot be made (no grasp on the part, an
-    MJCF that does not compile) is skipped with the reason.
+    """The environments of ``tasks``, each with its end-effector (:attr:`Task.end_effector`; ``auto``, the
+    scripted opening score's choice, unless forced); a task whose environment cannot be made (no grasp on the
+    part, an MJCF that does not compile) is skipped with the reason.
 
     :returns: ``(built, skipped)``
     """
@@ -133,7 +141,8 @@ def build_tasks(tasks: list[Task], max_episode_steps: int = EPISODE_STEPS, progr
     built, skipped, hashes = [], [], {}
     for task in tqdm(tasks, desc="building tasks", unit="task", disable=not progress):
         try:
-            env = make_task_env(task.kind, task.folder, task.joint, max_episode_steps=max_episode_steps)
+            env = make_task_env(task.kind, task.folder, task.joint, max_episode_steps=max_episode_steps,
+                                end_effector=task.end_effector)
         except InputError as exc:
             skipped.append((task, " ".join(str(exc).split())[:200]))
             continue
@@ -143,7 +152,8 @@ def build_tasks(tasks: list[Task], max_episode_steps: int = EPISODE_STEPS, progr
             hashes[path] = asset_content_hash(scene.asset)
         built.append(BuiltTask(task, GraspFrameWrapper(env), scene.grasp.source,
                                reason=scene.grasp.reason,
-                               part=scene.asset.links[scene.joint.child].label, asset={"path": path, "sha256": hashes[path]}))
+                               part=scene.asset.links[scene.joint.child].label, asset={"path": path, "sha256": hashes[path]},
+                               end_effector=scene.end_effector))
     return built, skipped
 
 
@@ -180,7 +190,8 @@ class ModelActor:
 def evaluate(model, built: list[BuiltTask], episodes: int = 1, seed: int = 0, progress: bool = False) -> list[dict]:
     """The model's episodes on every task (seeds ``seed + k``), one row per task.
 
-    :returns: rows ``{"task", "kind", "category", "grasp", "reason", "success_rate", "max_fraction"}``
+    :returns: rows ``{"task", "kind", "category", "part", "grasp", "reason", "end_effector", "asset",
+        "success_rate", "max_fraction"}``
     """
     return _score(built, lambda bt: (bt.env, ModelActor(model)), episodes, seed, progress, "policy")
 
@@ -200,15 +211,16 @@ def _score(built, actor_of, episodes, seed, progress, what) -> list[dict]:
         env, actor = actor_of(bt)
         runs = run_episodes(env, actor, episodes, seed)
         rows.append({"task": bt.task.name, "kind": bt.task.kind, "category": bt.task.category, "part": bt.part,
-                     "grasp": bt.grasp, "reason": bt.reason, "asset": bt.asset,
+                     "grasp": bt.grasp, "reason": bt.reason, "end_effector": bt.end_effector, "asset": bt.asset,
                      "success_rate": runs.success_rate, "max_fraction": runs.mean_max_fraction})
     return rows
 
 
 def holdable(row: dict) -> bool:
-    """Whether a task (a row with ``grasp`` and ``reason``) offers a parallel gripper something to hold: a
-    grasp on a handle, a notch, a lid's tab or the front's edges (not a bare ``face``) that the planner
-    gives no ``reason`` against. The rest no parallel gripper can pull open; scores report them apart."""
+    """Whether a task (a row with ``grasp`` and ``reason``) offers its end-effector something to hold: a
+    grasp on a handle, a notch, a lid's tab or the front's edges (not a bare ``face``), or the suction
+    cup's flat patch (``suction``), that the planner gives no ``reason`` against. The rest neither
+    end-effector can pull open; scores report them apart."""
     return bool(row.get("grasp")) and row["grasp"] != "face" and not row.get("reason")
 
 
@@ -222,7 +234,7 @@ def rate_by(rows: list[dict], key: str) -> dict:
     """Success rate and count of ``rows`` grouped by ``key``.
 
     :param rows: :func:`evaluate` / :func:`evaluate_teacher` rows
-    :param key: the row field to group by (``grasp``, ``category``, ``part``)
+    :param key: the row field to group by (``grasp``, ``category``, ``part``, ``end_effector``)
     """
     groups: dict = {}
     for r in rows:

@@ -12,14 +12,18 @@ drawer and door not left out:
 
 1. the predicted joint matched with it by the metrics picks the policy (the drawer policy for a predicted
    prismatic joint, the door policy for a revolute or continuous one) and is what the policy is told about
-   the joint, reported by the environment as ``joint_estimate``;
+   the joint, reported by the environment as ``joint_estimate``; the end-effector is the opening score's
+   (``auto``, :data:`~spark_bench.rl.scoring.SCORED_END_EFFECTOR`: the suction cup where the grasp planner
+   finds nothing to pinch on the ground-truth part, the parallel gripper elsewhere; a row's
+   ``end_effector``), and the policy drives either;
 2. **zero-shot**: the shipped policy opens the ground-truth joint in its environment (``SparkDrawer-v0``
    / ``SparkDoor-v0``), told the predicted joint;
 3. **fine-tuned**: a copy of the shipped policy trained with PPO for ``finetune_steps`` environment steps
    on the predicted object's matched joints of its kind (the prediction placed and scaled where the
    metrics matched it with the real object; the grasp frame turned at random each episode, as in
    training; every predicted joint matched with a ground-truth drawer or door, scored or left out: what
-   the prediction offers to practise on), then run as in 2.
+   the prediction offers to practise on, each with the end-effector ``auto`` picks on the predicted part),
+   then run as in 2.
 
 The policy takes the direction to pull from the joint it is told (it was trained so, see
 :mod:`spark_bench.rl.generalist`): a predicted drawer axis 90 degrees off, or a door hinge moved next to
@@ -27,8 +31,9 @@ the handle, fails on the real object, as the scripted opener does.
 
 A scored joint counts as not opened when no predicted joint was matched with it, when the matched one is
 not a drawer or a door, and, for the fine-tuned score, when the prediction offers no task to fine-tune on.
-The rates are over the scored joints (``joints_scored`` of ``joints_total``); the ``holdable_*`` rates
-beside them leave out too the joints a parallel gripper holds only by a bare front (``face``).
+The rates are over the scored joints (``joints_scored`` of ``joints_total``; ``scored_by`` counts them
+per end-effector); the ``holdable_*`` rates beside them leave out too the joints a parallel gripper holds
+only by a bare front (``face``).
 """
 
 from __future__ import annotations
@@ -50,6 +55,7 @@ from spark_bench.rl.generalist import (
 )
 from spark_bench.rl.scoring import (
     OPENING_STEPS,
+    SCORED_END_EFFECTOR,
     Pairing,
     coverage,
     judge_joint,
@@ -105,7 +111,8 @@ def _score_joint(row: dict, name: str, gt_metres, zero, tuned, skipped: dict, ep
                  seed: int) -> None:
     """Fill ``row`` with the zero-shot and fine-tuned episodes on ground-truth joint ``name``."""
     try:
-        env = make_task_env(TASK_KIND[row["type"]], gt_metres, name, joint_estimate=row["estimate"])
+        env = make_task_env(TASK_KIND[row["type"]], gt_metres, name, joint_estimate=row["estimate"],
+                            end_effector=row["end_effector"])
     except InputError as exc:
         row["why"] = f"no opening task on the ground truth: {one_line(exc)}"
         return
@@ -125,18 +132,20 @@ def _score_joint(row: dict, name: str, gt_metres, zero, tuned, skipped: dict, ep
 
 
 def record_episode(kind: str, asset, joint: str, policy, path: str | Path, joint_estimate: tuple | None = None,
-                   seed: int = 0, size: tuple[int, int] = VIDEO_SIZE, every: int = VIDEO_EVERY) -> Path:
+                   seed: int = 0, size: tuple[int, int] = VIDEO_SIZE, every: int = VIDEO_EVERY,
+                   end_effector: str = SCORED_END_EFFECTOR) -> Path:
     """Write one episode of ``policy`` opening ``joint`` of ``asset`` as a video (``.gif`` / ``.mp4``).
 
     :param kind: the environment's kind (``drawer`` / ``door``, the joint's own type)
     :param joint_estimate: the joint the policy is told (default: the simulated one)
     :param size: ``(width, height)`` of the frames
     :param every: keep one control step in ``every`` (the video plays at the episode's speed)
+    :param end_effector: ``auto``, ``gripper`` or ``suction`` (:func:`~spark_bench.rl.generalist.make_task_env`)
     """
     from spark_bench.rl.rollout import write_video
 
     env = make_task_env(kind, asset, joint, joint_estimate=joint_estimate, render_mode="rgb_array",
-                        width=int(size[0]), height=int(size[1]))
+                        width=int(size[0]), height=int(size[1]), end_effector=end_effector)
     try:
         frames: list = []
         every = max(1, int(every))
@@ -194,11 +203,12 @@ def _plan_rows(pairing: Pairing, seed: int) -> tuple[dict[str, dict], dict[str, 
     joints: dict[str, dict] = {}
     plan: dict[str, list[str]] = {}
     for joint in opening_joints(pairing.gt_metres):
-        # the generalist was trained with the parallel gripper: its observations and actions are the gripper's
-        judged = judge_joint(pairing.gt_metres, joint, seed, OPENING_STEPS, end_effector="gripper")
+        # the opening score's end-effector (the cup where the planner finds nothing to pinch): the policies drive either
+        judged = judge_joint(pairing.gt_metres, joint, seed, OPENING_STEPS, end_effector=SCORED_END_EFFECTOR)
         judged.close()  # the policies act in environments of their own (grasp-frame observations)
         pred_name, why = pairing.predicted_joint(joint.name)
-        row = joints[joint.name] = {"type": joint.type, "pred_joint": pred_name, "zero_shot": 0.0, "success": 0.0}
+        row = joints[joint.name] = {"type": joint.type, "pred_joint": pred_name, "zero_shot": 0.0, "success": 0.0,
+                                    "end_effector": judged.end_effector}
         if judged.reason is not None:
             row.update(zero_shot=None, success=None, reason=judged.reason, left_out_kind=judged.kind)
         if why is not None:
@@ -247,7 +257,7 @@ def _transfer_score(pred_folder, gt_folder, metrics, out_dir, finetune_steps, se
             _score_joint(row, name, pairing.gt_metres, zero, policy, info["skipped"], episodes, seed)
             if not recorded and policy is not None and "max_fraction" in row:
                 row["video"] = str(record_episode(TASK_KIND[row["type"]], pairing.gt_metres, name, policy, video,
-                                                  row["estimate"], seed))
+                                                  row["estimate"], seed, end_effector=row["end_effector"]))
                 recorded = True
     for row in joints.values():
         row.pop("estimate", None)

@@ -187,8 +187,8 @@ def test_a_part_the_planner_declines_is_left_out_with_its_reason(button_dir):
 
 def test_a_part_with_nothing_to_pinch_is_opened_with_the_suction_cup(flat_dir, tmp_path):
     """The handle-less drawer: the scripted score opens it with the suction cup planned from the predicted
-    joint (the row says so) and fails it planned from a wrong axis; the RL transfer score, whose policies
-    were trained with the gripper, leaves it out with the planner's reason."""
+    joint (the row says so) and fails it planned from a wrong axis; the RL transfer score scores it too, its
+    policy driving the cup (the same end-effector rule), and told the wrong axis it fails."""
     from spark_bench.rl.transfer import rl_transfer_score
 
     gt = load_object(flat_dir)
@@ -202,10 +202,12 @@ def test_a_part_with_nothing_to_pinch_is_opened_with_the_suction_cup(flat_dir, t
     write_object_folder(wrong, tmp_path / "wrong")
     turned = open_with_predicted_joints(tmp_path / "wrong", flat_dir, identity_matching(gt))["joints"]["joint_0"]
     assert turned["success"] is False and turned["end_effector"] == "suction"
-    rl = rl_transfer_score(flat_dir, flat_dir, {"matching": [{"gt_joint": "joint_0", "pred_joint": "joint_0"}]},
-                           finetune_steps=0)
-    assert rl["joints"]["joint_0"]["success"] is None and rl["joints"]["joint_0"]["left_out_kind"] == "planner"
-    assert "no handle" in rl["joints"]["joint_0"]["reason"]
+    rl = rl_transfer_score(tmp_path / "wrong", flat_dir,
+                           {"matching": [{"gt_joint": "joint_0", "pred_joint": "joint_0"}]}, finetune_steps=0)
+    row = rl["joints"]["joint_0"]
+    assert row["end_effector"] == "suction" and row["grasp"] == "suction" and "reason" not in row
+    assert row["zero_shot"] == 0.0 and row["zero_shot_max_fraction"] < 0.5  # the wrong axis misleads the policy
+    assert rl["scored_by"] == {"gripper": 1, "suction": 1} and rl["joints"]["joint_1"]["end_effector"] == "gripper"
 
 
 def test_the_oracle_ground_truth_is_loaded_once(gt_dir, tmp_path, object_loads):

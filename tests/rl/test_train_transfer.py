@@ -62,8 +62,9 @@ def test_the_oracle_opens_every_drawer_and_door_zero_shot(cabinet, tmp_path):
     assert result["zero_shot_success_rate"] == 1.0 and result["success_rate"] == 1.0
     assert video.stat().st_size > 1000 and sum("video" in j for j in joints.values()) == 1
     assert result["policy"]["weights"] == "shipped" and result["policy"]["version"]
-    # the cabinet's handles are holdable; both assets are named by path and content hash
-    assert all(j["grasp"] != "face" and "reason" not in j for j in joints.values())
+    # the cabinet's handles are holdable, by the gripper (auto); both assets are named by path and content hash
+    assert all(j["grasp"] != "face" and "reason" not in j and j["end_effector"] == "gripper" for j in joints.values())
+    assert result["scored_by"] == {"gripper": 2}
     assert result["holdable_joints"] == 2 and result["holdable_zero_shot_success_rate"] == 1.0
     assert (result["joints_total"], result["joints_scored"], result["left_out"]) == (2, 2, {})
     from spark_bench.data import load_object
@@ -90,7 +91,7 @@ def test_a_wrong_predicted_axis_fails_and_an_unmatched_joint_counts(cabinet, tmp
     joints = result["joints"]
     assert joints["joint_2"]["zero_shot"] == 0.0 and joints["joint_2"]["zero_shot_max_fraction"] < 0.5
     assert joints["joint_0"] == {"type": "revolute", "pred_joint": None, "zero_shot": 0.0, "success": 0.0,
-                                 "why": "no matched predicted joint"}
+                                 "end_effector": "gripper", "why": "no matched predicted joint"}
     assert result["zero_shot_success_rate"] == 0.0 and result["success_rate"] == 0.0
     assert result["joints_scored"] == result["joints_total"] == 2  # both counted: neither is left out
 
