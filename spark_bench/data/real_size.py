@@ -62,6 +62,11 @@ class SourceScale:
 AS_READ = SourceScale(1.0, "as read")
 
 
+def _is_number(value) -> bool:
+    """A JSON number (not a boolean, which Python counts as an int)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def annotated_scale(path: Path) -> float | None:
     """The ``scale`` of an ``info.json`` keypoint annotation, or None when the file has none.
 
@@ -79,10 +84,10 @@ def annotated_scale(path: Path) -> float | None:
     if not isinstance(data, dict) or "scale" not in data:
         return None
     scale = data["scale"]
-    if isinstance(scale, list) and len(scale) >= 3 and len({repr(s) for s in scale[:3]}) == 1:
-        scale = scale[0]  # [s, s, s(, 1)]: one uniform scale written per axis
-    if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not math.isfinite(scale) \
-            or not SCALE_RANGE[0] <= scale <= SCALE_RANGE[1]:
+    if isinstance(scale, list) and len(scale) >= 3 and all(_is_number(s) for s in scale[:3]) \
+            and scale[0] == scale[1] == scale[2]:  # the file's own values, not computed: equal means written equal
+        scale = scale[0]  # [s, s, s(, 1)]: one uniform scale written per axis (2 and 2.0 alike)
+    if not _is_number(scale) or not math.isfinite(scale) or not SCALE_RANGE[0] <= scale <= SCALE_RANGE[1]:
         raise InputError(path, f'"scale" must be one number in [{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}] '
                                f"(metres per unit of the object), got {scale!r}")
     return float(scale)

@@ -77,7 +77,7 @@ def test_objects_in_metres_and_unknown_categories_are_read_as_they_are(tmp_path)
     assert _size(load_object(folder)).max() == pytest.approx(1.2)
 
 
-@pytest.mark.parametrize("scale", [0, -0.2, "big", float("nan"), 1e6, [0.2, 0.3, 0.2]])
+@pytest.mark.parametrize("scale", [0, -0.2, "big", float("nan"), 1e6, [0.2, 0.3, 0.2], True, [True, True, True]])
 def test_a_broken_scale_names_the_file(tmp_path, scale):
     path = tmp_path / "info.json"
     path.write_text(json.dumps({"scale": scale}))  # NaN is written as JSON5 NaN, which Python reads
@@ -89,6 +89,8 @@ def test_a_uniform_scale_written_per_axis_and_a_file_without_one(tmp_path):
     path = tmp_path / "info.json"
     path.write_text(json.dumps({"scale": [0.3, 0.3, 0.3, 1.0]}))
     assert annotated_scale(path) == pytest.approx(0.3)
+    path.write_text('{"scale": [2, 2.0, 2]}')  # an int and floats of one value: uniform
+    assert annotated_scale(path) == pytest.approx(2.0)
     path.write_text(json.dumps({"keypoints": {}}))
     assert annotated_scale(path) is None
     path.write_text("{not json")
