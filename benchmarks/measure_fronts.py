@@ -32,6 +32,7 @@ from spark_bench.envs.gripper import GripperConfig
 from spark_bench.envs.registration import ENV_OF_JOINT_TYPE
 from spark_bench.envs.rest_meshes import RestMeshes
 from spark_bench.envs.scene import plan_grasp
+from spark_bench.envs.suction import cup_mm
 from spark_bench.errors import InputError
 from spark_bench.rl.scripted import ground_truth_joint, open_with_ground_truth, open_with_joint
 
@@ -67,7 +68,7 @@ def run_joint(asset, joint, episodes: int, max_steps: int) -> dict:
     grasp = env.unwrapped.scene.grasp
     row.update(end_effector=env.unwrapped.end_effector, grasp=grasp.source, where=where(asset, joint.name),
                reason=grasp.reason,
-               cup_mm=None if grasp.cup_radius is None else round(2000 * grasp.cup_radius, 1))
+               cup_mm=cup_mm(grasp.cup_radius))
     try:
         if grasp.reason is None:
             axis, pivot, joint_type = ground_truth_joint(env)

@@ -33,6 +33,7 @@ def measure_case(case_dir: str, seeds: list[int]) -> list[dict]:
     """One case's drawer, door and lid joints: per joint, the verdict at each seed."""
     import spark_bench  # noqa: F401  (registers the environments)
     from spark_bench.data.case import BenchmarkCase
+    from spark_bench.envs.suction import cup_mm
     from spark_bench.rl.scoring import OPENING_STEPS, judge_joint, load_pairing, opening_joints
 
     case = BenchmarkCase(Path(case_dir))
@@ -51,7 +52,7 @@ def measure_case(case_dir: str, seeds: list[int]) -> list[dict]:
             judged = judge_joint(pairing.gt_metres, joint, seed, OPENING_STEPS)
             judged.close()
             verdicts.append({"seed": seed, "opened": judged.reason is None, "kind": judged.kind,
-                             "end_effector": judged.end_effector, "cup_mm": _cup_mm(judged.cup_radius),
+                             "end_effector": judged.end_effector, "cup_mm": cup_mm(judged.cup_radius),
                              "reason": judged.reason})
             if judged.kind in ("planner", "stuck", "no_task"):  # seed-independent: the same at every seed
                 verdicts += [{**verdicts[-1], "seed": s} for s in seeds[len(verdicts):]]
@@ -59,10 +60,6 @@ def measure_case(case_dir: str, seeds: list[int]) -> list[dict]:
         out.append({"case": case.id, "joint": joint.name, "part": labels[joint.name],
                     "acts_on": pairing.acts_on, "verdicts": verdicts})
     return out
-
-
-def _cup_mm(radius: float | None) -> float | None:
-    return None if radius is None else round(2000 * radius, 1)
 
 
 def _effector(verdict: dict) -> str:

@@ -34,7 +34,7 @@ import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.envs import make_env
 from spark_bench.envs.assets import load_asset
 from spark_bench.envs.scene import plan_grasp
-from spark_bench.envs.suction import SuctionConfig, cup_sizes
+from spark_bench.envs.suction import SuctionConfig, cup_mm, cup_sizes
 from spark_bench.errors import InputError
 from spark_bench.rl.scripted import ground_truth_joint, open_with_joint
 
@@ -89,7 +89,7 @@ def run_joint(asset, row: dict, n: int, max_steps: int) -> dict:
     out.update(measured=True, end_effector=scene.end_effector, reason=scene.grasp.reason,
                free_fraction=scene.free_fraction, build_s=time.perf_counter() - start)
     if scene.grasp.cup_radius is not None:
-        out["cup_mm"] = round(2000 * scene.grasp.cup_radius, 1)
+        out["cup_mm"] = cup_mm(scene.grasp.cup_radius)
     if scene.grasp.reason is None:
         axis, pivot, joint_type = ground_truth_joint(env)
         out["true"] = episodes(env, axis, pivot, joint_type, n, max_steps)
@@ -147,7 +147,7 @@ def write_report(rows: list[dict], args, seconds: float, path: Path) -> Path:
         f"| opened with the true joint in at least one episode | {len(some)} |",
         f"| opened with the wrong axis in any episode | {len(wrong_open)} |",
         f"| attempted with a cup smaller than {1000 * 2 * cfg.cup_radius:.0f} mm | "
-        f"{sum(r.get('cup_mm', 2000 * cfg.cup_radius) < 2000 * cfg.cup_radius - 1e-6 for r in tried)} |",
+        f"{sum(r.get('cup_mm', cup_mm(cfg.cup_radius)) < cup_mm(cfg.cup_radius) for r in tried)} |",
         "", "## Per joint", "",
         "| object | joint | part | declined (gripper) | end-effector | cup | cup's verdict | true: opened | true: "
         "largest opening | wrong axis: opened | wrong: largest opening |",

@@ -137,6 +137,11 @@ def cup_sizes(config: SuctionConfig) -> list[SuctionConfig]:
                                smaller_cups=()) for r in smaller]
 
 
+def cup_mm(radius: float | None) -> float | None:
+    """A cup's diameter in mm as the results write it (``cup_mm``), from its radius in m; None for none."""
+    return None if radius is None else round(2000 * radius, 1)
+
+
 def fitted_cup(grasp, config: SuctionConfig | None = None) -> SuctionConfig:
     """The cup the planner chose for ``grasp`` (:attr:`~spark_bench.envs.grasp.GraspTarget.cup_radius`) among
     :func:`cup_sizes` of ``config`` (default :class:`SuctionConfig`); ``config`` itself when it chose none.

@@ -55,6 +55,7 @@ import numpy as np
 
 from spark_bench.asset.transforms import unit
 from spark_bench.envs.registration import ENV_OF_JOINT_TYPE, make_env
+from spark_bench.envs.suction import cup_mm
 from spark_bench.errors import InputError
 from spark_bench.rl.scripted import OpenResult, open_with_ground_truth, open_with_joint
 
@@ -422,7 +423,7 @@ def _scripted_row(judged: JudgedJoint, pairing: Pairing, seed: int, max_steps: i
     """One ground-truth joint's row of the scripted opening score."""
     effector = {"end_effector": judged.end_effector}
     if judged.cup_radius is not None:  # which of the cups (their holding forces differ by their area)
-        effector["cup_mm"] = round(2000 * judged.cup_radius, 1)
+        effector["cup_mm"] = cup_mm(judged.cup_radius)
     if judged.reason is not None:
         return {"success": None, "reason": judged.reason, "left_out_kind": judged.kind, **effector}
     pred_name, why = pairing.predicted_joint(judged.name)
