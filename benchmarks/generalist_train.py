@@ -25,6 +25,7 @@ from dataclasses import asdict, dataclass, field
 from imitation import clone, collect_demos
 
 from spark_bench.rl.generalist import FRAME_NOISE, GraspFrameWrapper
+from spark_bench.rl.policies import fused_adam
 from spark_bench.rl.tasks import BuiltTask, evaluate, success_rate
 
 #: The policy network (separate actor and critic MLPs) and the initial action noise (std 0.3).
@@ -116,8 +117,10 @@ def new_model(vec, seed: int = 0):
     """A fresh PPO model on ``vec`` with :data:`POLICY_KWARGS` and :data:`PPO_SETTINGS`."""
     from stable_baselines3 import PPO
 
-    return PPO("MlpPolicy", vec, policy_kwargs=copy.deepcopy(POLICY_KWARGS), seed=seed, device="cpu", verbose=0,
-               **PPO_SETTINGS)
+    model = PPO("MlpPolicy", vec, policy_kwargs=copy.deepcopy(POLICY_KWARGS), seed=seed, device="cpu",
+                verbose=0, **PPO_SETTINGS)
+    fused_adam(model)
+    return model
 
 
 def _actor_parameters(model):

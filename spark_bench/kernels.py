@@ -9,6 +9,18 @@ three, before any of them is imported, for the kernels every x86-64 machine of t
 and FMA: NumPy's ``X86_V3``, OpenBLAS ``Haswell``, torch ``AVX2``), and for the baseline ones on a CPU
 without AVX2. A variable the user has set is left as it is.
 
+torch's matrix products and its vector ``exp``/``log``/``sin``/``sqrt`` go through Intel's MKL, which picks
+its code by CPU *vendor and model* as well: measured under emulated CPUs (``benchmarks/measure_kernels.py``),
+an Intel Haswell and an AMD EPYC, both with AVX2, gave other bits for ``torch.mm``, an MLP, ``exp`` and
+``sqrt``. MKL's conditional numerical reproducibility branch ``COMPATIBLE`` (``MKL_CBWR``) is the one Intel
+documents as giving the same results on Intel and non-Intel CPUs (at a fixed thread count; spark-bench's
+torch work runs on one thread); oneDNN (torch's convolutions) is capped at AVX2 too. Two of torch's vector
+functions, ``sqrt`` and ``acos``, still differ between the emulated CPUs and this one with ``COMPATIBLE``
+(they are not correctly rounded: their last bit follows an approximate instruction, which QEMU computes
+exactly and CPU makers each their own way), so the code whose numbers reach a verdict does not call them
+(:func:`spark_bench.methods.ours.exact.sqrt`, NumPy's correctly rounded ``sqrt``; the fused Adam step,
+:func:`spark_bench.rl.policies.fused_adam`).
+
 This works only when ``spark_bench`` is imported before NumPy and torch (the ``spark-bench`` command, the
 evaluation's worker processes, ``import spark_bench`` first in a script): :func:`cpu_kernels` says what was
 pinned, and whether NumPy was already loaded, and every results row records it beside the package versions
@@ -30,6 +42,8 @@ PINS = {
     "NPY_DISABLE_CPU_FEATURES": (NUMPY_ABOVE_AVX2, NUMPY_ABOVE_AVX2),
     "OPENBLAS_CORETYPE": ("Haswell", "Prescott"),
     "ATEN_CPU_CAPABILITY": ("avx2", "default"),
+    "MKL_CBWR": ("COMPATIBLE", "COMPATIBLE"),
+    "ONEDNN_MAX_CPU_ISA": ("AVX2", "SSE41"),
 }
 
 

@@ -31,6 +31,29 @@ def algo_class(algo: str, where: str | Path | None = None):
     return {"ppo": PPO, "sac": SAC}[algo]
 
 
+def fused_adam(model) -> None:
+    """Make every Adam optimizer of a stable-baselines3 model take torch's fused step.
+
+    The unfused step divides by ``torch.sqrt`` of the second moment, MKL's vector square root, whose last
+    bit differs between CPUs; the fused CPU step gave the same bits on this machine and on emulated Intel
+    and AMD CPUs (``benchmarks/measure_kernels.py``), so a fine-tuned policy's weights, and the verdicts of
+    its episodes, do not depend on the machine. Call it after ``load`` too: loading an optimizer's state
+    restores the saved ``fused`` flag.
+
+    :param model: a stable-baselines3 model (its ``_get_torch_save_params`` names its optimizers)
+    """
+    import torch
+
+    names = model._get_torch_save_params()[0]
+    for name in names:
+        target = model
+        for attribute in name.split("."):
+            target = getattr(target, attribute)
+        if isinstance(target, torch.optim.Adam):
+            for group in target.param_groups:
+                group.update(fused=True, foreach=None)
+
+
 def load_model(path: str | Path):
     """A model saved by :func:`spark_bench.rl.train.train`: a ``model.zip`` (its ``train.json`` beside it
     names the algorithm) or the output folder."""

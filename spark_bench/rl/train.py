@@ -16,7 +16,7 @@ from pathlib import Path
 
 from spark_bench.envs.registration import make_env
 from spark_bench.errors import InputError
-from spark_bench.rl.policies import ModelPolicy, algo_class
+from spark_bench.rl.policies import ModelPolicy, algo_class, fused_adam
 from spark_bench.rl.records import asset_record
 from spark_bench.rl.rollout import run_episodes
 
@@ -152,6 +152,7 @@ def train(env_id: str, algo: str = "ppo", steps: int = 100_000, out: str | Path 
     eval_env = make_env(env_id, asset=asset, joint=joint)
     params = {**HYPERPARAMS[algo], **(hyperparams or {})}
     model = cls("MlpPolicy", vec, seed=seed, verbose=verbose, device="cpu", **params)
+    fused_adam(model)
     t0 = time.perf_counter()
     title = f"{algo.upper()} on {env_id}"
     every = int(eval_every or max(steps // 10, 1))

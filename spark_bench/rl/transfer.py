@@ -53,6 +53,7 @@ from spark_bench.rl.generalist import (
     make_task_env,
     weights_record,
 )
+from spark_bench.rl.policies import fused_adam
 from spark_bench.rl.scoring import (
     OPENING_STEPS,
     SCORED_END_EFFECTOR,
@@ -100,6 +101,7 @@ def finetune(kind: str, pred, joints: list[str], steps: int, seed: int = 0, weig
     n_steps = int(min(FINETUNE_PPO["n_steps"], max(steps, 16)))
     settings = {**FINETUNE_PPO, "n_steps": n_steps, "batch_size": int(min(FINETUNE_PPO["batch_size"], n_steps))}
     model = load_generalist(kind, weights, env=vec, custom_objects=settings)
+    fused_adam(model)
     model.set_random_seed(seed)
     if steps > 0:
         model.learn(total_timesteps=int(steps), reset_num_timesteps=True)

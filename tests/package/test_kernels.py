@@ -38,9 +38,12 @@ def test_flags_choose_the_avx2_kernels_or_the_baseline(tmp_path):
     assert cpu_flags(str(tmp_path / "missing")) == set()
     assert pinned_values({"avx2", "fma", "avx512f"}) == {
         "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR", "OPENBLAS_CORETYPE": "Haswell",
-        "ATEN_CPU_CAPABILITY": "avx2"}
+        "ATEN_CPU_CAPABILITY": "avx2", "MKL_CBWR": "COMPATIBLE", "ONEDNN_MAX_CPU_ISA": "AVX2"}
     assert pinned_values({"avx"})["ATEN_CPU_CAPABILITY"] == "default"
     assert pinned_values({"avx"})["OPENBLAS_CORETYPE"] == "Prescott"
+    assert pinned_values({"avx"})["ONEDNN_MAX_CPU_ISA"] == "SSE41"
+    # MKL picks its code by CPU maker too: the branch Intel documents as the same on Intel and AMD, on both
+    assert pinned_values({"avx"})["MKL_CBWR"] == pinned_values({"avx2", "fma"})["MKL_CBWR"] == "COMPATIBLE"
 
 
 @pytest.mark.skipif(not cpu_flags(), reason="no /proc/cpuinfo flags: nothing is pinned")

@@ -176,3 +176,19 @@ def test_a_ground_truth_the_caller_loaded_is_not_loaded_again(cabinet, tmp_path,
     loaded.clear()
     open_with_predicted_joints(copy, cabinet, matching())  # without it: both folders
     assert sorted(loaded) == sorted([str(cabinet), str(copy)])
+
+
+def test_fine_tuning_takes_the_fused_adam_step_and_repeats_to_the_bit(cabinet):
+    """The fused step's square root is correctly rounded (torch's unfused one is MKL's, whose last bit differs
+    between CPUs): the loaded optimizer is switched to it, and the same fine-tuning gives the same weights."""
+    import torch
+
+    from spark_bench.rl.transfer import finetune
+
+    weights = []
+    for _ in range(2):
+        model, info = finetune("drawer", cabinet, ["joint_2"], steps=32, seed=5)
+        assert info["steps"] >= 32
+        assert all(group["fused"] for group in model.policy.optimizer.param_groups)
+        weights.append(torch.cat([p.detach().flatten() for p in model.policy.parameters()]).numpy())
+    assert np.array_equal(weights[0], weights[1])

@@ -12,6 +12,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
+from spark_bench.methods.ours import exact
 from spark_bench.methods.ours.render import HALO_CUTOFF
 
 
@@ -42,7 +43,7 @@ def gradient_magnitude(image: torch.Tensor) -> torch.Tensor:
     """|grad I| by forward differences on the (H-1, W-1) interior."""
     dx = image[:-1, 1:] - image[:-1, :-1]
     dy = image[1:, :-1] - image[:-1, :-1]
-    return torch.sqrt(dx * dx + dy * dy + 1e-8)
+    return exact.sqrt(dx * dx + dy * dy + 1e-8)
 
 
 def silhouette_loss(sil: torch.Tensor, target: torch.Tensor, w_edge: float):

@@ -26,6 +26,7 @@ import torch
 
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.asset.torch_fk import joint_transform_torch, link_poses_torch
+from spark_bench.methods.ours import exact
 from spark_bench.methods.ours.camera import Camera
 from spark_bench.methods.ours.loss import halo_target, silhouette_loss
 from spark_bench.methods.ours.render import (
@@ -517,7 +518,7 @@ class Adam:
                     continue
                 mean.mul_(beta1).add_(tensor.grad, alpha=1 - beta1)
                 square.mul_(beta2).addcmul_(tensor.grad, tensor.grad, value=1 - beta2)
-                denom = (square.sqrt() / np.sqrt(correction2)).add_(self.eps)
+                denom = (exact.sqrt(square) / np.sqrt(correction2)).add_(self.eps)
                 tensor.addcdiv_(mean, denom, value=-lr * scale / correction1)
 
 

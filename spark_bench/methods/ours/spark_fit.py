@@ -59,6 +59,7 @@ from PIL import Image
 
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.data.images import GENERATED_TOLERANCE, mask_from_image
+from spark_bench.methods.ours import exact
 from spark_bench.methods.ours.assemble import apply_pivot_offset, set_joint
 from spark_bench.methods.ours.loss import halo_target
 from spark_bench.methods.ours.optimize import Adam, Hypothesis, OpenStateScene, Stage, child_box
@@ -100,7 +101,7 @@ def edge_map(image: torch.Tensor) -> torch.Tensor:
     ky = _SOBEL_X.T.contiguous().to(image.dtype).view(1, 1, 3, 3)
     x = image[None, None]
     gx, gy = F.conv2d(x, kx, padding=1), F.conv2d(x, ky, padding=1)
-    return torch.sqrt(gx * gx + gy * gy + EPS)[0, 0]
+    return exact.sqrt(gx * gx + gy * gy + EPS)[0, 0]
 
 
 def spark_terms(sil: torch.Tensor, target: torch.Tensor, area_scale: float | None = None,
