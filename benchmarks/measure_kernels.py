@@ -39,10 +39,12 @@ import sys
 import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
+from importlib import import_module
 from pathlib import Path
 
-import spark_bench  # noqa: F401  (first: pins the CPU kernels before NumPy and torch load)
-
+#: The environment as the user set it: the runs get it, not the pins spark_bench would set in this process
+#: (a run of another checkout, ``--code``, pins what that checkout pins).
+USER_ENV = dict(os.environ)
 RESULTS = Path(__file__).resolve().parent / "results"
 #: Emulated CPUs: Intel and AMD, both with AVX2 and FMA (the kernels spark-bench pins).
 CPUS = ("Haswell-v4", "EPYC-v3")
@@ -62,6 +64,7 @@ def _digest(values) -> str:
 
 def probe() -> dict[str, str]:
     """Hashes of each library's results on fixed inputs, in this process (spark_bench imported first)."""
+    import_module("spark_bench")  # first: it pins the CPU kernels before NumPy and torch load
     import coacd
     import mujoco
     import numpy as np
@@ -71,8 +74,12 @@ def probe() -> dict[str, str]:
     import torch.nn.functional as F
     import trimesh
 
-    from spark_bench.methods.ours import exact
     from spark_bench.versions import CPU_KERNELS, verdict_versions
+
+    try:
+        from spark_bench.methods.ours import exact
+    except ImportError:  # a checkout from before it (--code)
+        exact = None
 
     torch.set_num_threads(1)  # as spark-bench's torch work runs (joint optimizer, RL fine-tuning)
     rng = np.random.default_rng(0)
@@ -85,7 +92,7 @@ def probe() -> dict[str, str]:
     out["torch exp, log, sin, cos, tanh"] = _digest(torch.stack(
         [f(x.abs() + 0.1) for f in (torch.exp, torch.log, torch.sin, torch.cos, torch.tanh)]).numpy())
     out["torch.sqrt (MKL)"] = _digest(torch.sqrt(x.abs()).numpy())
-    out["exact.sqrt (spark-bench)"] = _digest(exact.sqrt(x.abs()).numpy())
+    out["exact.sqrt (spark-bench)"] = _digest(exact.sqrt(x.abs()).numpy()) if exact else "absent"
     out["torch conv2d (oneDNN)"] = _digest(F.conv2d(x[None, None, :64, :64], torch.ones(1, 1, 3, 3) / 9).numpy())
 
     def trained(**adam) -> str:
@@ -151,7 +158,8 @@ def run_eval(cpu: str | None, bench: Path, cases: list[str], home: Path, env: di
     done = subprocess.run(_python(cpu) + ["-m", "spark_bench.cli", "eval", "--method", "ours", "--bench",
                                           bench.name, "--cases", ",".join(cases), "--workers", "0",
                                           "--no-progress"],
-                          env={**env, "SPARK_BENCH_HOME": str(home)}, capture_output=True, text=True, timeout=7200)
+                          env={**env, "SPARK_BENCH_HOME": str(home)}, capture_output=True, text=True, timeout=7200,
+                          cwd=home)  # not this folder: `python -m` would import its spark_bench before PYTHONPATH's
     out: dict = {"_wall_s": round(time.perf_counter() - t0, 1)}
     if done.returncode:
         out["_error"] = (done.stderr.strip().splitlines() or ["no output"])[-1][:200]
@@ -226,7 +234,7 @@ def main(argv: list[str] | None = None) -> int:
 
     cpus = [c for c in args.cpus.split(",") if c]
     cases = [c for c in args.cases.split(",") if c]
-    env = dict(os.environ)
+    env = dict(USER_ENV)
     if args.code:
         env["PYTHONPATH"] = os.pathsep.join(p for p in (str(Path(args.code).resolve()), env.get("PYTHONPATH")) if p)
     settings = [("pinned", env)] + ([("MKL_CBWR=AUTO", {**env, "MKL_CBWR": "AUTO"})] if args.unpinned else [])
