@@ -9,8 +9,9 @@ Two parts:
   bits; each row is one CPU, each cell says whether its bits equal this machine's. Run with spark-bench's pins
   (:mod:`spark_bench.kernels`) and, with ``--unpinned``, once more with MKL left to choose its own branch
   (``MKL_CBWR=AUTO``), as before the pin.
-- **Verdicts**: ``spark-bench eval --method ours`` on ``--cases`` of the main job's benchmark (``synth-v1``),
-  natively and under each emulated CPU, each in a fresh home; compared are every row's verdicts and numbers
+- **Verdicts**: ``spark-bench eval --method ours`` on ``--cases`` of a prepared benchmark (``--bench``;
+  default the main job's ``synth-v1``; a real one too, read in place), natively and under each emulated
+  CPU, each in a fresh home; compared are every row's verdicts and numbers
   (sim checks, opening score, joint errors; not their timings) and the predicted URDF files' bytes. QEMU 7.2
   crashes in NumPy's AVX2 code (a ``np.unique`` in trimesh's vertex merge), so these runs, the native one
   included, use NumPy's baseline kernels (``NPY_DISABLE_CPU_FEATURES``; ``--numpy-avx2`` for a QEMU that
@@ -150,13 +151,12 @@ def run_probe(cpu: str | None, env: dict) -> dict:
 
 
 def run_eval(cpu: str | None, bench: Path, cases: list[str], home: Path, env: dict) -> dict:
-    """``spark-bench eval --method ours`` on ``cases`` in a fresh home (the prepared benchmark copied in):
-    per case and variant, the row's verdict fields, and the prediction files' digests."""
-    (home / "benchmarks").mkdir(parents=True)
-    shutil.copytree(bench, home / "benchmarks" / bench.name)
+    """``spark-bench eval --method ours`` on ``cases`` of the prepared benchmark folder ``bench`` (read in
+    place), in a fresh home: per case and variant, the row's verdict fields, and the prediction files' digests."""
+    home.mkdir(parents=True)
     t0 = time.perf_counter()
     done = subprocess.run(_python(cpu) + ["-m", "spark_bench.cli", "eval", "--method", "ours", "--bench",
-                                          bench.name, "--cases", ",".join(cases), "--workers", "0",
+                                          str(bench.resolve()), "--cases", ",".join(cases), "--workers", "0",
                                           "--no-progress"],
                           env={**env, "SPARK_BENCH_HOME": str(home)}, capture_output=True, text=True, timeout=7200,
                           cwd=home)  # not this folder: `python -m` would import its spark_bench before PYTHONPATH's
@@ -179,8 +179,9 @@ TIMED_CHECKS = ("mjcf_compiles",)
 
 
 def without_timings(value, key: str = ""):
-    """A row field with its timings left out (keys naming seconds, the value of a timed check): what a
-    machine's speed changes, not its arithmetic."""
+    """A row field with its timings left out (the ``seconds`` tables, ``convert_seconds``, the value of a timed
+    check): what a machine's speed changes, not its arithmetic. A configured duration (a check's ``seconds``
+    of simulated time, a number) stays."""
     if isinstance(value, str) and value[:1] in "{[":
         try:
             return without_timings(json.loads(value), key)
@@ -188,7 +189,8 @@ def without_timings(value, key: str = ""):
             return value
     if isinstance(value, dict):
         return {k: without_timings(v, k) for k, v in value.items()
-                if "seconds" not in k and not (key in TIMED_CHECKS and k == "value")}
+                if not (k == "seconds" and isinstance(v, dict)) and k != "convert_seconds"
+                and not (key in TIMED_CHECKS and k == "value")}
     if isinstance(value, list):
         return [without_timings(v) for v in value]
     return value
@@ -217,7 +219,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--probe", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--cpus", default=",".join(CPUS), help="QEMU CPU models (qemu-x86_64 -cpu help)")
     parser.add_argument("--cases", default=",".join(CASES), help="synth-v1 cases for the verdict part ('': none)")
-    parser.add_argument("--bench", default=None, help="a prepared synth-v1 folder (default: build it)")
+    parser.add_argument("--bench", default=None, help="a prepared benchmark folder (default: synth-v1, built)")
     parser.add_argument("--unpinned", action="store_true", help="also probe with MKL_CBWR=AUTO (before the pin)")
     parser.add_argument("--numpy-avx2", action="store_true", help="verdict part: NumPy's AVX2 kernels too")
     parser.add_argument("--code", default=None, help="run this checkout's spark_bench (PYTHONPATH)")
@@ -232,6 +234,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     from rich.progress import track
 
+    from spark_bench.kernels import cpu_field  # after USER_ENV: importing spark_bench pins this process
+
     cpus = [c for c in args.cpus.split(",") if c]
     cases = [c for c in args.cases.split(",") if c]
     env = dict(USER_ENV)
@@ -244,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
         probes = dict(zip(jobs, [f.result() for f in track(futures, description="kernel probes")]))
     lines = ["# Do the verdicts depend on the CPU?", "",
              f"`benchmarks/measure_kernels.py`, {time.strftime('%Y-%m-%d')}: this machine ("
-             f"{_cpu_name()}) natively, and under QEMU user-mode emulation (`qemu-x86_64 -cpu MODEL`, "
+             f"{cpu_field('model name') or 'unknown CPU'}) natively, and under QEMU user-mode emulation (`qemu-x86_64 -cpu MODEL`, "
              f"{_qemu_version()}) as {', '.join(cpus)}. Recorded kernels: "
              f"`{probes[('pinned', None)].get('_kernels', '?')}`."
              + (f" Code: `{args.code}`." if args.code else ""), "",
@@ -272,7 +276,8 @@ def main(argv: list[str] | None = None) -> int:
             runs = {cpu: f.result() for cpu, f in zip(futures, track(list(futures.values()), description="eval runs"))}
         native = runs[None]
         numpy_note = "" if args.numpy_avx2 else f" (NumPy at its baseline: `NPY_DISABLE_CPU_FEATURES={NUMPY_BASELINE}`)"
-        lines += ["", f"## Verdicts: `spark-bench eval --method ours --cases {','.join(cases)}`{numpy_note}", "",
+        lines += ["", f"## Verdicts: `spark-bench eval --method ours --bench {bench.name} --cases {','.join(cases)}`"
+                  f"{numpy_note}", "",
                   "| CPU | wall s | rows | differences from native (row fields; prediction files) |", "|---|---|---|---|"]
         for cpu, found in runs.items():
             rows = sum(1 for k in found if not k.startswith(("_", "file ")))
@@ -286,13 +291,6 @@ def main(argv: list[str] | None = None) -> int:
     Path(args.out).with_suffix(".json").write_text(json.dumps(raw, indent=1, default=str), encoding="utf-8")
     print("\n".join(lines))
     return 0
-
-
-def _cpu_name() -> str:
-    for line in Path("/proc/cpuinfo").read_text(encoding="utf-8", errors="replace").splitlines():
-        if line.startswith("model name"):
-            return line.partition(":")[2].strip()
-    return "unknown CPU"
 
 
 def _qemu_version() -> str:

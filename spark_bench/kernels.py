@@ -47,20 +47,31 @@ PINS = {
 }
 
 
+def cpu_field(name: str, cpuinfo: str = "/proc/cpuinfo") -> str | None:
+    """The value of field ``name`` (``flags``, ``model name``...) of the first CPU listed in ``cpuinfo``;
+    None where there is no such file or field (not Linux, not x86).
+
+    :param name: the field, as the file names it
+    :param cpuinfo: the file to read
+    """
+    try:
+        with open(cpuinfo, encoding="utf-8", errors="replace") as handle:
+            for line in handle:
+                key, _, value = line.partition(":")
+                if key.strip() == name:
+                    return value.strip()
+    except OSError:
+        pass
+    return None
+
+
 def cpu_flags(cpuinfo: str = "/proc/cpuinfo") -> set[str]:
     """The instruction-set flags of the first CPU listed in ``cpuinfo`` (empty where there is no such file:
     not Linux, not x86).
 
     :param cpuinfo: the file to read
     """
-    try:
-        with open(cpuinfo, encoding="utf-8", errors="replace") as handle:
-            for line in handle:
-                if line.startswith("flags"):
-                    return set(line.partition(":")[2].split())
-    except OSError:
-        pass
-    return set()
+    return set((cpu_field("flags", cpuinfo) or "").split())
 
 
 def pinned_values(flags: set[str]) -> dict[str, str]:

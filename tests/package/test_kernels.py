@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from spark_bench.kernels import PINS, cpu_flags, pinned_values
+from spark_bench.kernels import PINS, cpu_field, cpu_flags, pinned_values
 
 PROBE = """
 import json, os, sys
@@ -33,7 +33,9 @@ def _probe(first: str = "", **env: str) -> dict:
 
 def test_flags_choose_the_avx2_kernels_or_the_baseline(tmp_path):
     info = tmp_path / "cpuinfo"
-    info.write_text("processor\t: 0\nflags\t\t: fpu sse2 avx avx2 fma avx512f\nprocessor\t: 1\nflags\t: fpu\n")
+    info.write_text("processor\t: 0\nmodel name\t: Test CPU 9000\nflags\t\t: fpu sse2 avx avx2 fma avx512f\n"
+                    "processor\t: 1\nflags\t: fpu\n")
+    assert cpu_field("model name", str(info)) == "Test CPU 9000" and cpu_field("bogomips", str(info)) is None
     assert {"avx2", "fma", "avx512f"} <= cpu_flags(str(info)) and "fpu" in cpu_flags(str(info))
     assert cpu_flags(str(tmp_path / "missing")) == set()
     assert pinned_values({"avx2", "fma", "avx512f"}) == {
