@@ -8,7 +8,8 @@ joint and as many from a WRONG axis (the true axis turned by 90 degrees, as ``me
 
 Writes ``benchmarks/results/fronts.md`` (and, with ``--out``, a per-joint JSON).
 
-Run: ``nice -n 10 python benchmarks/measure_fronts.py [--categories WashingMachine Window] [--seeds 5000:5030]``.
+Run: ``nice -n 10 python benchmarks/measure_fronts.py [--categories WashingMachine TopLoadingWasher Window]
+[--seeds 5000:5030]``.
 """
 
 from __future__ import annotations
@@ -42,19 +43,22 @@ from train_generalist import seed_range  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 #: Where the planner took a part (:func:`where`).
-PLACES = ("front", "front (tab blocked)", "tab", "broad face")
+PLACES = ("front", "front (tab blocked)", "front (tab too heavy to pinch)", "tab", "broad face")
 
 
-def where(asset, joint: str) -> str:
-    """Where the grasp planner took the part (:func:`~spark_bench.envs.grasp.find_grasp`): its broad face (a
-    sliding plate), its front after a tab whose way in is blocked, a tab, or its front."""
+def where(asset, joint: str, end_effector: str) -> str:
+    """Where the part was taken: the grasp planner's choice (:func:`~spark_bench.envs.grasp.find_grasp`: its
+    broad face (a sliding plate), its front after a tab whose way in is blocked, a tab, or its front), and
+    its front (the cup's) where the scene found the tab's pinch too weak for the part (``weak_pinch``)."""
     first = _find(RestMeshes(asset), joint, 0, GripperConfig()).source  # before the way-in check
     taken = plan_grasp(asset, joint)
     if taken.broad_face:
         return "broad face"
     if first == "tab" and taken.source != "tab":
         return "front (tab blocked)"
-    return "tab" if taken.source == "tab" else "front"
+    if taken.source == "tab":
+        return "front (tab too heavy to pinch)" if end_effector == "suction" else "tab"
+    return "front"
 
 
 def run_joint(asset, joint, episodes: int, max_steps: int) -> dict:
@@ -66,7 +70,8 @@ def run_joint(asset, joint, episodes: int, max_steps: int) -> dict:
     except InputError as exc:
         return {**row, "error": " ".join(str(exc).split())}
     grasp = env.unwrapped.scene.grasp
-    row.update(end_effector=env.unwrapped.end_effector, grasp=grasp.source, where=where(asset, joint.name),
+    row.update(end_effector=env.unwrapped.end_effector, grasp=grasp.source,
+               where=where(asset, joint.name, env.unwrapped.end_effector),
                reason=grasp.reason,
                cup_mm=cup_mm(grasp.cup_radius))
     try:
@@ -118,7 +123,7 @@ def write_report(rows: list[dict], args, seconds: float, path: Path) -> Path:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--categories", nargs="+", default=["WashingMachine", "Window"])
+    parser.add_argument("--categories", nargs="+", default=["WashingMachine", "TopLoadingWasher", "Window"])
     parser.add_argument("--seeds", default="5000:5030", help="synth seeds, A:B or a comma list")
     parser.add_argument("--episodes", type=int, default=3)
     parser.add_argument("--max-steps", type=int, default=MAX_STEPS)

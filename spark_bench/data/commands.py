@@ -20,7 +20,7 @@ def add_commands(subparsers) -> None:
     synth.add_argument("--n", type=int, default=50, help="number of objects (default 50)")
     synth.add_argument("--seed", type=int, default=0, help="generator seed (default 0)")
     synth.add_argument("--categories", nargs="+", default=None, metavar="CAT",
-                       help="only these categories (default: all)")
+                       help="only these categories (default: all; a variant such as TopLoadingWasher only when named)")
     synth.set_defaults(func=run_synth)
 
     prepare = sub.add_parser("prepare", help="turn object folders into benchmark cases",

@@ -78,7 +78,10 @@ class SparkDoorEnv(SparkArticulationEnv):
     choose: the gripper where the door has a handle, knob, notch or tab; the cup for a front with nothing to
     pinch (a flush door, lid or window); ``"auto"`` (what the opening score uses) picks per part: the cup
     where the grasp planner declines the part for lack of something to pinch (``scene.grasp.declined``
-    ``no_handle``, ``too_wide`` or ``unholdable``), the gripper everywhere else (a part declined for another
+    ``no_handle``, ``too_wide`` or ``unholdable``), and where the cup opens a part whose pinch is too weak
+    for it (``weak_pinch``: a heavy lid lifted by its lip moves along the fingers' closing, where one finger's
+    servo holds it) or out of the hand's reach (``scene.grasp.landing``: an open pad comes down on the object
+    first, as on a safe's dial beside its pull); the gripper everywhere else (a part declined for another
     reason keeps the gripper and its reason). The one chosen is ``env.unwrapped.end_effector`` and every
     step's ``info["end_effector"]``; the scripted opener runs the cup's own phases
     (:class:`~spark_bench.rl.suction_opener.SuctionOpener`). A part the cup cannot hold (no flat patch for the

@@ -72,7 +72,10 @@ class SparkDrawerEnv(SparkArticulationEnv):
     handle, knob, notch or tab; the cup for a front with nothing to pinch (a flush drawer or a board);
     ``"auto"`` (what the opening score uses) picks per part: the cup where the grasp planner declines the part
     for lack of something to pinch (``scene.grasp.declined`` ``no_handle``, ``too_wide`` or ``unholdable``),
-    the gripper everywhere else (a part declined for another reason keeps the gripper and its reason). The one
+    and where the cup opens a part whose pinch is too weak for it (``weak_pinch``: it starts to move along the
+    fingers' closing, heavier than one finger's servo holds) or out of the hand's reach
+    (``scene.grasp.landing``: an open pad comes down on the object first); the gripper everywhere else (a part
+    declined for another reason keeps the gripper and its reason). The one
     chosen is ``env.unwrapped.end_effector`` and every step's ``info["end_effector"]``; the scripted opener
     runs the cup's own phases (:class:`~spark_bench.rl.suction_opener.SuctionOpener`). A part the cup cannot
     hold (no flat patch for the smallest cup, something in its way, too heavy for its hold when driven

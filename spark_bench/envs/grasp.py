@@ -41,6 +41,7 @@ parallel gripper can pinch, and where, :mod:`spark_bench.envs.handles`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -121,7 +122,8 @@ class GraspTarget:
     :param pad_thickness: pad thickness (m) the pads must not exceed to fit beside the handle (None: any)
     :param clearance: room (m) left on each side of a pad placed in a gap beside the handle
     :param reason: why a parallel gripper cannot pull this part open (one line), or None when it can
-    :param landing: an open pad comes down on the object (kept only when no other candidate is clear)
+    :param landing: an open pad comes down on the object (kept only when no other candidate is clear; the
+        environments' ``end_effector="auto"`` then takes the cup where the cup opens the part)
     :param declined: why the planner declined the part, as a word (None when it did not): ``no_handle``
         (nothing stands out of the front to pinch), ``too_wide`` (a handle wider than the open fingers),
         ``blocked`` (the object stands in the hand's way in), ``button`` (a push button), ``unholdable``
@@ -129,7 +131,9 @@ class GraspTarget:
         or the simulated collision shape has no side to hold); a part declined
         for ``no_handle``, ``too_wide`` or ``unholdable`` has nothing to pinch, and the environments'
         ``end_effector="auto"`` opens it with the suction cup
-        (:func:`~spark_bench.envs.suction.choose_end_effector`)
+        (:func:`~spark_bench.envs.suction.choose_end_effector`). The scene's drive check adds ``weak_pinch``
+        (a pinch whose part starts to move along the fingers' closing, too heavy for one finger's servo:
+        :func:`~spark_bench.envs.scene.stuck_reason`), where ``auto`` takes the cup when the cup opens it
     :param cup_radius: for the suction cup, the radius (m) of the cup planned (one of
         :func:`~spark_bench.envs.suction.cup_sizes`; None: the gripper)
     :param broad_face: the grasp is on a sliding plate's broad face, not on its front (``outward`` is that
@@ -182,8 +186,17 @@ def outward_direction(joint_type: str, origin: np.ndarray, axis: np.ndarray, poi
     return unit(np.cross(axis, r))
 
 
+class Tab(NamedTuple):
+    """A lid's tab (:func:`find_tab`): the grasp across it, its surface points, and the free edge's level
+    along ``grasp.outward`` (m)."""
+
+    grasp: GraspTarget
+    points: np.ndarray
+    edge: float
+
+
 def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray,
-             hinged: np.ndarray | None = None) -> GraspTarget | None:
+             hinged: np.ndarray | None = None) -> Tab | None:
     """A tab standing out past the free edge of a revolute part (a box lid's lifting tab), or None.
 
     The free edge faces away from the hinge (``radial``, from the hinge to the part's centroid); a feature
@@ -220,8 +233,8 @@ def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray,
     best = tip[max(groups, key=len)]
     uv = best @ basis.T
     point = 0.5 * (uv.min(0) + uv.max(0)) @ basis + float(np.median(best @ radial)) * radial
-    return GraspTarget(point=point, outward=radial, long_axis=long_axis(best, basis), has_handle=True,
-                       source="tab")
+    return Tab(GraspTarget(point=point, outward=radial, long_axis=long_axis(best, basis), has_handle=True,
+                           source="tab"), best, edge)
 
 
 def _front_of(asset: ArticulatedAsset, joint: str, seed: int, outward: np.ndarray | None = None) -> Front:
@@ -305,19 +318,7 @@ def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: s
     point = pad_center(best, front, gripper) @ basis + reach_depth(best.base, float(depth.max()),
                                                                   float(depth.min()), gripper) * n
     grasp = GraspTarget(point=point, outward=n, long_axis=best.long_axis(front), has_handle=True, source=source)
-    # the handle's side: the part, and a part hinged to it that the candidate lies on (a safe's dial or lever,
-    # held at rest: :func:`~spark_bench.envs.scene.hold_hinged_parts`); any other hinged part (a big dial
-    # beside a bar) stands in the pads' way like another part's feature
-    links = asset.part_of_joint(joint)
-    holding = [name for name in carried_links(asset, joint, links) if _holds(asset, name, best.points)]
-    own = [name for name in asset.links if name in links or name in holding]
-    others = [name for name in asset.links if name not in own]
-    pads = plan_pads(asset.mesh(links=own), asset.mesh(links=others) if others else None, point, n, grasp.closing,
-                     grasp.long_axis, front.face, gripper)
-    if pads is not None:
-        grasp.point = point + pads["shift"] * grasp.closing
-        grasp.opening, grasp.pad_thickness = pads["opening"], pads["pad_thickness"]
-        grasp.clearance = pads["clearance"]
+    holding = _place_pads(asset, joint, grasp, best.points, front.face, gripper)
     opening = gripper.max_opening if grasp.opening is None else grasp.opening
     thickness = gripper.pad_thickness if grasp.pad_thickness is None else grasp.pad_thickness
     if holding:  # a hinged part's piece (a wheel's hub): its other pieces may lie in the pads' closing sweep
@@ -325,6 +326,32 @@ def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: s
     grasp.landing = pad_landing(asset.mesh(), grasp.point, n, grasp.closing, grasp.long_axis, opening,
                                 thickness, gripper) > 0.0
     return grasp
+
+
+def _place_pads(asset: ArticulatedAsset, joint: str, grasp: GraspTarget, held: np.ndarray, face: float,
+                gripper: GripperConfig) -> list[str]:
+    """Put ``grasp``'s pads in the gaps beside the feature it holds when something else of the object stands
+    in the open fingers' sweep (:func:`~spark_bench.envs.pads.plan_pads`: ``opening``, ``pad_thickness``,
+    ``clearance`` set and the point shifted; unchanged when nothing is in the way or no pads fit).
+
+    :param held: surface points of the feature held (a handle candidate's, a tab's)
+    :param face: the level (m, along ``grasp.outward``) of the front the feature stands out of
+    :returns: the parts hinged to the part that the feature lies on
+    """
+    # the handle's side: the part, and a part hinged to it that the feature lies on (a safe's dial or lever,
+    # held at rest: :func:`~spark_bench.envs.scene.hold_hinged_parts`); any other hinged part (a big dial
+    # beside a bar) stands in the pads' way like another part's feature
+    links = asset.part_of_joint(joint)
+    holding = [name for name in carried_links(asset, joint, links) if _holds(asset, name, held)]
+    own = [name for name in asset.links if name in links or name in holding]
+    others = [name for name in asset.links if name not in own]
+    pads = plan_pads(asset.mesh(links=own), asset.mesh(links=others) if others else None, grasp.point,
+                     grasp.outward, grasp.closing, grasp.long_axis, face, gripper)
+    if pads is not None:
+        grasp.point = grasp.point + pads["shift"] * grasp.closing
+        grasp.opening, grasp.pad_thickness = pads["opening"], pads["pad_thickness"]
+        grasp.clearance = pads["clearance"]
+    return holding
 
 
 #: The pads slide along the handle in steps of this (m), up to half their height, to close on the narrowest
@@ -517,7 +544,10 @@ def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig
         hinged = sample_surface(asset.mesh(links=carried), N_HANDLE_SAMPLES, seed=seed) if carried else None
         tab = find_tab(front.part, front.points, front.origin, front.axis, hinged)
         if tab is not None:
-            return tab
+            # the object under a tab (a top-loading washer's deck below its lid's lip) stands in the open
+            # fingers' sweep as a neighbour's feature does: the pads come in pre-closed beside the tab
+            _place_pads(asset, joint, tab.grasp, tab.points, tab.edge, gripper)
+            return tab.grasp
 
     links = asset.part_of_joint(joint)
     others = [name for name in asset.links if name not in links]

@@ -238,6 +238,13 @@ def largest_pull(config: GripperConfig) -> float:
     return float(np.sqrt(3.0) * min(config.kp * MAX_STEP, config.force_limit))
 
 
+def pinch_hold(config: GripperConfig) -> float:
+    """The force (N) a pinch holds along the fingers' closing direction: there one finger's servo alone
+    holds the load (the pads' friction acts across that direction, not along it), pressing with
+    ``finger_kp * squeeze`` on a thin handle (more on a thicker one), at most ``grip_force``."""
+    return float(min(config.finger_kp * config.squeeze, config.grip_force))
+
+
 def finger_target(config: GripperConfig, command: float) -> float:
     """Each finger's position target (m from closed) for a gripper command in [-1, 1]: -1 fully open,
     +1 :attr:`GripperConfig.squeeze` past closed (so a closed grip squeezes), linear between."""

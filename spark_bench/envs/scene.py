@@ -18,7 +18,7 @@ import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.envs.grasp import GraspTarget, find_grasp, part_name
-from spark_bench.envs.gripper import GripperConfig, GripperHandles, add_gripper, largest_pull
+from spark_bench.envs.gripper import GripperConfig, GripperHandles, add_gripper, largest_pull, pinch_hold
 from spark_bench.envs.handle_search import N_SAMPLES
 from spark_bench.envs.rest_meshes import RestMeshes
 from spark_bench.envs.suction import (
@@ -353,7 +353,9 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     :param visuals: compile the object's visual meshes (for rendering); without them the scene simulates the
         same (visual geoms have no contacts and no mass) and a real object's compiles 10-30x faster
     :param end_effector: ``gripper``, ``suction`` or ``auto`` (the cup where the planner finds nothing to
-        pinch: :func:`~spark_bench.envs.suction.choose_end_effector`)
+        pinch: :func:`~spark_bench.envs.suction.choose_end_effector`; also where the cup opens a part whose
+        pinch cannot hold its pull along the fingers' closing direction, ``weak_pinch`` (:func:`stuck_reason`),
+        or where an open pad comes down on the object before the hand reaches the pinch, ``landing``)
     :param suction: the cup's dimensions and holding force
     """
     chosen = choose_joint(asset, kind, joint)
@@ -361,6 +363,26 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     effector = choose_end_effector(end_effector, grasp.declined)
     if effector == "suction":  # on the face the gripper's planner looked at (a plate's broad face)
         grasp = plan_cup(asset, chosen.name, suction, outward=grasp.outward if grasp.broad_face else None)
+    scene = _compile_scene(asset, chosen, grasp, effector, gripper, suction, visuals)
+    if end_effector == "auto" and effector == "gripper" and (scene.grasp.declined == "weak_pinch"
+                                                             or scene.grasp.landing):
+        # a pinch too weak for the part (a heavy lid lifted by its lip: one finger's servo holds that pull) or
+        # one the hand cannot reach (an open pad comes down on the object first: a low ring beside a safe's
+        # dial): the cup on the part's front, when it finds a place there and opens the part
+        try:
+            cup = _compile_scene(asset, chosen, plan_cup(asset, chosen.name, suction), "suction", gripper, suction,
+                                 visuals)
+        except InputError:  # no face for the cup: the pinch stays, with its reason
+            return scene
+        if cup.grasp.reason is None:
+            return cup
+    return scene
+
+
+def _compile_scene(asset: ArticulatedAsset, chosen: Joint, grasp: GraspTarget, effector: str,
+                   gripper: GripperConfig | None, suction: SuctionConfig | None, visuals: bool) -> Scene:
+    """:func:`build_scene` for a planned ``grasp`` and a chosen end-effector (``gripper`` or ``suction``): the
+    compiled scene, its drive check run when the planner found a grasp (:func:`stuck_reason`)."""
     from spark_bench.sim import build_spec
 
     spec = build_spec(asset, prepared=prepared_object(asset), visuals=visuals)
@@ -404,7 +426,8 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     if grasp.reason is None:  # a part no pull of this hand can open: say so, like a flush lid
         reason = stuck_reason(scene)
         if reason is not None:
-            scene.grasp = replace(grasp, reason=reason)
+            weak = effector == "gripper" and hand_pull(scene) < largest_pull(scene.gripper.config)
+            scene.grasp = replace(grasp, reason=reason, declined="weak_pinch" if weak else grasp.declined)
     return scene
 
 
@@ -422,17 +445,44 @@ STALL_STEPS = 10
 STALL_TOLERANCE = 1e-3
 
 
+def opening_direction(scene: Scene) -> np.ndarray:
+    """The unit direction the grasp point starts to move in as ``scene``'s part opens (world, at rest)."""
+    pivot, axis = scene.asset.joint_frames()[scene.joint.name]
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    if not scene.joint.is_rotational:
+        return axis
+    move = np.cross(axis, scene.grasp.point - np.asarray(pivot, float))
+    norm = float(np.linalg.norm(move))
+    return move / norm if norm > 1e-9 else axis
+
+
+def hand_pull(scene: Scene) -> float:
+    """The largest steady force (N) the end-effector opens ``scene``'s part with: the cup's largest hold
+    (:func:`~spark_bench.envs.suction.largest_hold`); the hand's largest pull
+    (:func:`~spark_bench.envs.gripper.largest_pull`), and for a pinch whose part starts to move along the
+    fingers' closing direction (a lid's lip pinched across its thickness and lifted) at most what the far
+    finger's servo holds over that share of the pull (:func:`~spark_bench.envs.gripper.pinch_hold`): there
+    the pads' friction holds nothing."""
+    config = scene.gripper.config
+    if scene.end_effector == "suction":
+        return largest_hold(config)
+    pull = largest_pull(config)
+    if scene.grasp.inside_grip:  # the fingers open against a notch's sides: the pull runs across them
+        return pull
+    along = abs(float(opening_direction(scene) @ scene.grasp.closing))
+    return float(min(pull, pinch_hold(config) / along)) if along > 1e-6 else pull
+
+
 def stuck_reason(scene: Scene) -> str | None:
-    """Why no policy of this gripper can open ``scene``'s part, or None: driven directly (no gripper in the
-    way) by the largest force the hand can exert (:func:`~spark_bench.envs.gripper.largest_pull`, at the
-    grasp point, until it stands still) it does not reach :data:`JAM_FRACTION` of its range. Driven then by
-    :data:`OVERLOAD` times that force, it either opens (the part is too heavy for the gripper: its simulated
-    mass, damping or friction; or caught on a collision shape that the harder pull forces through) or not
-    (its collision shapes hold it: jammed). With the suction cup the force is the cup's largest hold
-    (:func:`~spark_bench.envs.suction.largest_hold`) and there is no second drive: a harder pull tears the cup
-    off. Sets ``scene.free_fraction``."""
+    """Why no policy of this end-effector can open ``scene``'s part, or None: driven directly (no gripper in
+    the way) by the largest force it can open the part with (:func:`hand_pull`, at the grasp point, until it
+    stands still) it does not reach :data:`JAM_FRACTION` of its range. Driven then by :data:`OVERLOAD` times
+    that force, it either opens (the part is too heavy for the gripper: its simulated mass, damping or
+    friction; or caught on a collision shape that the harder pull forces through) or not (its collision
+    shapes hold it: jammed). With the suction cup the force is the cup's largest hold and there is no second
+    drive: a harder pull tears the cup off. Sets ``scene.free_fraction``."""
     cup = scene.end_effector == "suction"
-    pull = largest_hold(scene.gripper.config) if cup else largest_pull(scene.gripper.config)
+    pull = hand_pull(scene)
     reached = scene.free_fraction = free_motion(scene, pull)
     if reached >= JAM_FRACTION:
         return None
@@ -441,6 +491,11 @@ def stuck_reason(scene: Scene) -> str | None:
         return (f"{scene.joint.name}: the simulated {part} is too heavy for the suction cup, or caught on its "
                 f"collision shapes: driven directly with the cup's largest hold ({pull:.0f} N at the grasp, nothing "
                 f"in the way) it stops at {reached:.2f} of its range, short of {JAM_FRACTION:.2f}")
+    if pull < largest_pull(scene.gripper.config):  # the finger's servo, not the arm, limits the pull
+        return (f"{scene.joint.name}: the simulated {part} is too heavy for the pinch: it starts to move along the "
+                f"fingers' closing direction, where one finger's servo holds at most {pinch_hold(scene.gripper.config):.0f} "
+                f"N; driven directly with {pull:.0f} N at the grasp it stops at {reached:.2f} of its range, short of "
+                f"{JAM_FRACTION:.2f}")
     harder = free_motion(scene, OVERLOAD * pull)
     # a part that gives way to a harder pull may be heavy or caught on a shape a harder pull forces: say both
     why = (f"too heavy for the gripper, or caught on its collision shapes (pulled with {OVERLOAD * pull:.0f} N "

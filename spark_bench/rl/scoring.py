@@ -153,7 +153,8 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
                 end_effector: str = SCORED_END_EFFECTOR) -> JudgedJoint:
     """Apply the one rule to a ground-truth joint: the planner first (a part the gripper finds nothing to
     pinch on goes to the suction cup with ``auto``; a part declined for the end-effector that would open it
-    needs no environment), then the scene's stuck check, then one episode of the scripted opener with the
+    needs no environment), then the scene's stuck check (with ``auto``, a pinch too weak for the part's pull
+    along the fingers' closing gives way to the cup), then one episode of the scripted opener with the
     joint's own parameters. The caller closes the result.
 
     :param gt_metres: the object the policies act on, in metres (:func:`object_acted_on`)
@@ -174,12 +175,14 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     if grasp.reason is not None and effector == "gripper":
         return JudgedJoint(joint.name, joint.type, grasp.reason, kind="planner")
     try:
+        # the rule as asked (``auto``: the scene may still take the cup, for a pinch too weak for the part)
         env = make_env(ENV_OF_JOINT_TYPE[joint.type], asset=gt_metres, joint=joint.name, max_episode_steps=max_steps,
-                       end_effector=effector)
+                       end_effector=end_effector)
     except InputError as exc:  # the model does not compile, the cup finds no face...: not a method's fault
         return JudgedJoint(joint.name, joint.type, f"no opening task: {one_line(exc)}", kind="no_task",
                            end_effector=effector)
     scene = env.unwrapped.scene
+    effector = scene.end_effector
     grasp = scene.grasp
     try:
         reference = None if grasp.reason else open_with_ground_truth(env, seed=seed, max_steps=max_steps)

@@ -13,6 +13,7 @@ import trimesh
 from spark_bench.data import load_object
 from spark_bench.data.synth import CATEGORIES, generate_dataset, generate_object, object_seed
 from spark_bench.data.synth.clearance import asset_overlaps, box_polytope, separation
+from spark_bench.data.synth.generate import VARIANTS
 from spark_bench.errors import InputError
 
 REQUIRED = {"StorageFurniture", "Table", "Refrigerator", "Microwave", "Oven", "Dishwasher", "WashingMachine", "Safe",
@@ -22,8 +23,10 @@ REQUIRED = {"StorageFurniture", "Table", "Refrigerator", "Microwave", "Oven", "D
 
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory) -> list[Path]:
-    """One object per category."""
-    return generate_dataset(tmp_path_factory.mktemp("synth"), len(CATEGORIES), seed=0, progress=False)
+    """One object per category, then one per variant (every per-object check covers them too)."""
+    out = tmp_path_factory.mktemp("synth")
+    folders = generate_dataset(out, len(CATEGORIES), seed=0, progress=False)
+    return folders + [generate_object(v, object_seed(0, k), out, f"{v}_{k:05d}") for k, v in enumerate(VARIANTS)]
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +40,7 @@ def _files(folder: Path) -> dict[str, bytes]:
 
 def test_categories_cover_the_list(dataset):
     assert REQUIRED <= set(CATEGORIES) and len(CATEGORIES) >= 20
-    cats = [json.loads((f / "meta.json").read_text())["model_cat"] for f in dataset]
+    cats = [json.loads((f / "meta.json").read_text())["model_cat"] for f in dataset[:len(CATEGORIES)]]
     assert sorted(cats) == sorted(CATEGORIES)  # round-robin: n = number of categories covers all
     meta = json.loads((dataset[3] / "meta.json").read_text())
     assert meta["generator"]["seed"] == object_seed(0, 3) and meta["generator"]["version"]
@@ -172,6 +175,26 @@ def test_handles_contrast_with_their_part(assets):
                 assert abs(handle @ lum - part @ lum) >= 0.2
                 checked += 1
     assert checked > 0
+
+
+def test_a_top_loading_washer_is_a_variant_a_dataset_never_draws(assets, tmp_path):
+    """``TopLoadingWasher`` makes a ``WashingMachine`` whose door is a lid in the top deck, hinged along its back
+    edge (a horizontal axis, across the front), opening upwards, with the console standing behind it; it is
+    asked for by name only, so adding it leaves every named benchmark's round-robin as it was."""
+    assert "TopLoadingWasher" in VARIANTS and "TopLoadingWasher" not in CATEGORIES
+    folder = generate_dataset(tmp_path, 1, seed=3, categories=["TopLoadingWasher"], progress=False)[0]
+    assert folder.name == "TopLoadingWasher_00000"
+    assert json.loads((folder / "meta.json").read_text())["model_cat"] == "WashingMachine"
+    asset = assets["TopLoadingWasher_00000"]
+    door = next(j for j in asset.movable_joints() if asset.links[j.child].label == "door")
+    pivot, axis = asset.joint_frames()[door.name]
+    assert abs(axis[1]) == pytest.approx(1.0)  # along the width: front is -X, up is +Z
+    lid = asset.mesh(links=[door.child]).vertices
+    lo, hi = asset.bounds()
+    assert lid[:, 2].min() > hi[2] - 0.25  # a lid on top, not a door in the front
+    assert pivot[0] > lid[:, 0].mean() + 0.1  # hinged at its back edge (the front faces -X)
+    raised = asset.mesh({door.name: 1.0}, links=[door.child]).vertices
+    assert raised[:, 2].max() > lid[:, 2].max() + 0.2  # opening lifts its front edge
 
 
 def test_same_seed_same_bytes_other_seed_other_object(tmp_path):

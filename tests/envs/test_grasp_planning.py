@@ -470,6 +470,36 @@ def _door_with_wheel():
     return _bare_door_with("wheel", parts, center), center
 
 
+def test_a_door_whose_only_pinch_lands_a_pad_on_its_dial_is_opened_with_the_cup():
+    """A safe's door (partnet_dev 102387): a 140 mm dial, too wide for the open fingers, and beside it a
+    short upright pull 3 mm off its rim, too close for a pad. The pull is the only pinch, and the pad on the
+    dial's side comes down on the dial before the hand reaches it (``landing``). ``auto`` then takes the cup
+    on the door's front beside them, which opens the door with the true hinge and not with the hinge turned
+    in the door's plane; the gripper, asked for, keeps the pinch."""
+    from spark_bench.envs import make_env
+    from spark_bench.rl.scripted import ground_truth_joint, open_with_ground_truth, open_with_joint
+
+    dial_at = np.array([-0.02, 0.40, 0.0])  # on the door's front, 180 mm from its free edge
+    pull = _box((-0.0325, 0.478, 0.0), (0.025, 0.01, 0.06))  # 25 mm proud, 3 mm beyond the dial's rim
+    asset = _bare_door_with("dial", [_cylinder((0.0, 0.0, 0.0), 0.07, 0.015)], dial_at, pull)
+    grasp = find_grasp(asset, "joint_1")
+    assert grasp.reason is None and grasp.source == "geometry" and grasp.landing
+    gripper = make_env("SparkDoor-v0", asset=asset, joint="joint_1", end_effector="gripper", max_episode_steps=150)
+    assert gripper.unwrapped.end_effector == "gripper" and gripper.unwrapped.scene.grasp.landing
+    gripper.close()
+    env = make_env("SparkDoor-v0", asset=asset, joint="joint_1", end_effector="auto", max_episode_steps=150)
+    scene = env.unwrapped.scene
+    assert scene.end_effector == "suction" and scene.grasp.reason is None
+    dial = asset.link_poses()["link_1"] @ np.append(dial_at, 1.0)
+    assert np.linalg.norm(scene.grasp.point - dial[:3]) > 0.07 + scene.grasp.cup_radius  # beside the dial
+    assert open_with_ground_truth(env, seed=0, max_steps=150).success
+    axis, pivot, joint_type = ground_truth_joint(env)
+    outward = scene.grasp.outward
+    wrong = np.cross(outward, axis) + outward * float(outward @ axis)  # the hinge turned in the door's plane
+    assert not open_with_joint(env, wrong, pivot, joint_type, seed=0, max_steps=150).success
+    env.close()
+
+
 def test_a_wheel_is_held_by_a_spoke_clear_of_its_hub():
     """A spoked wheel is wider than the open fingers: its pinchable pieces are searched from its axis out.
     The first one, beside the hub, would land an open pad on the hub (the hand stops on it, short of the

@@ -1,4 +1,5 @@
-"""Appliances: Refrigerator, Microwave, Oven, Dishwasher, WashingMachine, CoffeeMachine, Toaster, Printer."""
+"""Appliances: Refrigerator, Microwave, Oven, Dishwasher, WashingMachine (front- and top-loading), CoffeeMachine,
+Toaster, Printer."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 from spark_bench.data.synth import palette
 from spark_bench.data.synth.cabinet import CabinetStyle, Cell, Column, add_cabinet
 from spark_bench.data.synth.common import X, Y, Z, appliance_colors, choice, new_object
-from spark_bench.data.synth.handles import rotary_knob
+from spark_bench.data.synth.handles import handle_solids, place_on_face, rotary_knob
 from spark_bench.data.synth.primitives import box, cylinder
 from spark_bench.data.synth.spec import JointSpec, ObjectSpec
 
@@ -163,6 +164,43 @@ def washing_machine(rng: np.random.Generator) -> ObjectSpec:
     return spec
 
 
+def top_loading_washer(rng: np.random.Generator) -> ObjectSpec:
+    """A top-loading washing machine: its lid lies in the top deck, hinged at its back edge, the control console
+    standing behind it with its knobs facing the user; the lid's front is its top face, not the body's front."""
+    spec = new_object("WashingMachine")
+    w, h, d = rng.uniform(0.55, 0.68), rng.uniform(0.82, 0.95), rng.uniform(0.55, 0.68)
+    shell, handle = appliance_colors(rng)
+    foot = rng.uniform(0.01, 0.03)
+    body = spec.part("body")
+    body.solids += _feet(w, d, foot, palette.DARK) + [box((-0.5 * w, foot, -0.5 * d), (0.5 * w, h, 0.5 * d), shell,
+                                                         APPLIANCE)]
+    console_d, console_h = rng.uniform(0.08, 0.13), rng.uniform(0.1, 0.17)
+    console_front = -0.5 * d + console_d
+    body.solids.append(box((-0.5 * w, h - 0.001, -0.5 * d), (0.5 * w, h + console_h, console_front), shell, APPLIANCE))
+    _panel_knobs(spec, rng, (-0.4 * w, 0.4 * w, h + 0.02, h + console_h - 0.02), console_front,
+                 int(rng.integers(1, 4)), palette.PLASTIC["grey"])
+    # The hinge stands far enough in front of the console that the knobs (<= 24 mm proud) do not stop the lid
+    # before it stands upright; past upright the console stops it (the clearance repair trims the limit).
+    side, lid_t = rng.uniform(0.03, 0.07), rng.uniform(0.02, 0.035)
+    back, front = console_front + rng.uniform(0.035, 0.05), 0.5 * d - rng.uniform(0.02, 0.06)
+    y0 = h + 0.002
+    lid_c = palette.jitter(rng, shell[:3], 0.02)
+    lid = [box((-0.5 * w + side, y0, back), (0.5 * w - side, y0 + lid_t, front), lid_c, PLASTIC)]
+    if rng.uniform() < 0.5:  # a window in the lid
+        m = rng.uniform(0.04, 0.07)
+        lid.append(box((-0.5 * w + side + m, y0 + lid_t - 0.001, back + m), (0.5 * w - side - m, y0 + lid_t + 0.003,
+                                                                           front - m), palette.GLASS,
+                       palette.DENSITY["glass"]))
+    style = choice(rng, ["edge", "recessed"])
+    if style == "edge":  # a lip along the lid's front edge, pulled up
+        lid += place_on_face(handle_solids("edge", min(0.2, 0.5 * w), rng, handle, PLASTIC), (0, y0 + lid_t, front),
+                             X, Z)
+    pivot = np.array([0.0, y0 + lid_t, back])
+    spec.add("door", "door", lid, "body", JointSpec("revolute", pivot, -X, 0.0, rng.uniform(1.5, 2.0), min_upper=1.3))
+    spec.params = {"size": [w, h, d], "loading": "top", "handle_style": style, "console": [console_d, console_h]}
+    return spec
+
+
 def coffee_machine(rng: np.random.Generator) -> ObjectSpec:
     spec = new_object("CoffeeMachine", semantic="free")
     w, h, d = rng.uniform(0.2, 0.32), rng.uniform(0.3, 0.42), rng.uniform(0.3, 0.4)
@@ -245,3 +283,5 @@ def printer(rng: np.random.Generator) -> ObjectSpec:
 BUILDERS = {"Refrigerator": refrigerator, "Microwave": microwave, "Oven": oven, "Dishwasher": dishwasher,
             "WashingMachine": washing_machine, "CoffeeMachine": coffee_machine, "Toaster": toaster,
             "Printer": printer}
+#: Variants of a category that no named benchmark draws (:data:`~spark_bench.data.synth.generate.VARIANTS`).
+VARIANTS = {"TopLoadingWasher": top_loading_washer}

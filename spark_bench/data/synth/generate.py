@@ -42,7 +42,19 @@ def _builders() -> dict[str, Callable[[np.random.Generator], ObjectSpec]]:
 
 
 BUILDERS = _builders()
+#: The categories a dataset draws round-robin (a named benchmark's objects follow this order).
 CATEGORIES: tuple[str, ...] = tuple(BUILDERS)
+
+
+def _variants() -> dict[str, Callable[[np.random.Generator], ObjectSpec]]:
+    from spark_bench.data.synth import appliances
+
+    return dict(appliances.VARIANTS)
+
+
+#: Variants of a category, asked for by name (``TopLoadingWasher`` makes a ``WashingMachine``): kept out of
+#: :data:`CATEGORIES` so that adding one never changes a named benchmark's objects.
+VARIANTS = _variants()
 
 
 def object_seed(seed: int, index: int) -> int:
@@ -101,15 +113,16 @@ def _movable_chain(spec: ObjectSpec, part_name: str) -> list[str]:
 
 def build_object(category: str, seed: int) -> tuple[ObjectSpec, int]:
     """Sample a collision-free object of ``category`` from ``seed``; returns it and the attempt that worked."""
-    if category not in BUILDERS:
-        raise InputError(None, f"unknown synth category {category!r}; known: {', '.join(CATEGORIES)}")
+    builder = BUILDERS.get(category) or VARIANTS.get(category)
+    if builder is None:
+        raise InputError(None, f"unknown synth category {category!r}; known: {', '.join(CATEGORIES + tuple(VARIANTS))}")
     if int(seed) < 0:
         raise InputError(None, f"seed must be non-negative, got {seed}")
     last = None
     for attempt in range(MAX_ATTEMPTS):
         rng = np.random.default_rng([int(seed), attempt])
         try:
-            spec = BUILDERS[category](rng)
+            spec = builder(rng)
             settle_limits(spec)
         except (GenerationError, ValueError) as exc:
             last = exc
@@ -121,7 +134,7 @@ def build_object(category: str, seed: int) -> tuple[ObjectSpec, int]:
 def generate_object(category: str, seed: int, out: Path, object_id: str) -> Path:
     """Generate one object of ``category`` into the folder ``out / object_id``; returns that folder.
 
-    :param category: one of :data:`CATEGORIES`
+    :param category: one of :data:`CATEGORIES` or :data:`VARIANTS`
     :param seed: non-negative integer; the same seed gives the same bytes
     :param out: parent folder (created if missing)
     :param object_id: the object's folder name and URDF robot name
@@ -141,9 +154,9 @@ def generate_dataset(out: Path, n: int, seed: int = 0, categories: Sequence[str]
     :returns: the object folders, in index order
     """
     cats = tuple(categories) if categories else CATEGORIES
-    unknown = [c for c in cats if c not in BUILDERS]
+    unknown = [c for c in cats if c not in BUILDERS and c not in VARIANTS]
     if unknown:
-        raise InputError(None, f"unknown synth categories {unknown}; known: {', '.join(CATEGORIES)}")
+        raise InputError(None, f"unknown synth categories {unknown}; known: {', '.join(CATEGORIES + tuple(VARIANTS))}")
     if n < 0:
         raise InputError(None, f"number of objects must be non-negative, got {n}")
     out = Path(out)
