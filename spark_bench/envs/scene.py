@@ -426,8 +426,7 @@ def _compile_scene(asset: ArticulatedAsset, chosen: Joint, grasp: GraspTarget, e
     if grasp.reason is None:  # a part no pull of this hand can open: say so, like a flush lid
         reason = stuck_reason(scene)
         if reason is not None:
-            weak = effector == "gripper" and hand_pull(scene) < largest_pull(scene.gripper.config)
-            scene.grasp = replace(grasp, reason=reason, declined="weak_pinch" if weak else grasp.declined)
+            scene.grasp = replace(grasp, reason=reason, declined="weak_pinch" if pinch_limited(scene) else grasp.declined)
     return scene
 
 
@@ -473,6 +472,11 @@ def hand_pull(scene: Scene) -> float:
     return float(min(pull, pinch_hold(config) / along)) if along > 1e-6 else pull
 
 
+def pinch_limited(scene: Scene) -> bool:
+    """Whether one finger's servo, not the arm, limits the gripper's pull on ``scene``'s part (:func:`hand_pull`)."""
+    return scene.end_effector == "gripper" and hand_pull(scene) < largest_pull(scene.gripper.config)
+
+
 def stuck_reason(scene: Scene) -> str | None:
     """Why no policy of this end-effector can open ``scene``'s part, or None: driven directly (no gripper in
     the way) by the largest force it can open the part with (:func:`hand_pull`, at the grasp point, until it
@@ -491,7 +495,7 @@ def stuck_reason(scene: Scene) -> str | None:
         return (f"{scene.joint.name}: the simulated {part} is too heavy for the suction cup, or caught on its "
                 f"collision shapes: driven directly with the cup's largest hold ({pull:.0f} N at the grasp, nothing "
                 f"in the way) it stops at {reached:.2f} of its range, short of {JAM_FRACTION:.2f}")
-    if pull < largest_pull(scene.gripper.config):  # the finger's servo, not the arm, limits the pull
+    if pinch_limited(scene):
         return (f"{scene.joint.name}: the simulated {part} is too heavy for the pinch: it starts to move along the "
                 f"fingers' closing direction, where one finger's servo holds at most {pinch_hold(scene.gripper.config):.0f} "
                 f"N; driven directly with {pull:.0f} N at the grasp it stops at {reached:.2f} of its range, short of "

@@ -154,7 +154,8 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     """Apply the one rule to a ground-truth joint: the planner first (a part the gripper finds nothing to
     pinch on goes to the suction cup with ``auto``; a part declined for the end-effector that would open it
     needs no environment), then the scene's stuck check (with ``auto``, a pinch too weak for the part's pull
-    along the fingers' closing gives way to the cup), then one episode of the scripted opener with the
+    along the fingers' closing, or out of the hand's reach, gives way to the cup where the cup opens the part),
+    then one episode of the scripted opener with the
     joint's own parameters. The caller closes the result.
 
     :param gt_metres: the object the policies act on, in metres (:func:`object_acted_on`)
@@ -175,7 +176,7 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     if grasp.reason is not None and effector == "gripper":
         return JudgedJoint(joint.name, joint.type, grasp.reason, kind="planner")
     try:
-        # the rule as asked (``auto``: the scene may still take the cup, for a pinch too weak for the part)
+        # the rule as asked (``auto``: the scene may still take the cup, for a pinch too weak or out of reach)
         env = make_env(ENV_OF_JOINT_TYPE[joint.type], asset=gt_metres, joint=joint.name, max_episode_steps=max_steps,
                        end_effector=end_effector)
     except InputError as exc:  # the model does not compile, the cup finds no face...: not a method's fault
