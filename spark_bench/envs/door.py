@@ -80,8 +80,7 @@ class SparkDoorEnv(SparkArticulationEnv):
     where the grasp planner declines the part for lack of something to pinch (``scene.grasp.declined``
     ``no_handle``, ``too_wide`` or ``unholdable``), and where the cup opens a part whose pinch is too weak
     for it (``weak_pinch``: a heavy lid lifted by its lip moves along the fingers' closing, where one finger's
-    servo holds it) or out of the hand's reach (``scene.grasp.landing``: an open pad comes down on the object
-    first, as on a safe's dial beside its pull); the gripper everywhere else (a part declined for another
+    servo holds it); the gripper everywhere else (a part declined for another
     reason keeps the gripper and its reason). The one chosen is ``env.unwrapped.end_effector`` and every
     step's ``info["end_effector"]``; the scripted opener runs the cup's own phases
     (:class:`~spark_bench.rl.suction_opener.SuctionOpener`). A part the cup cannot hold (no flat patch for the

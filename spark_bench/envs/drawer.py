@@ -73,8 +73,7 @@ class SparkDrawerEnv(SparkArticulationEnv):
     ``"auto"`` (what the opening score uses) picks per part: the cup where the grasp planner declines the part
     for lack of something to pinch (``scene.grasp.declined`` ``no_handle``, ``too_wide`` or ``unholdable``),
     and where the cup opens a part whose pinch is too weak for it (``weak_pinch``: it starts to move along the
-    fingers' closing, heavier than one finger's servo holds) or out of the hand's reach
-    (``scene.grasp.landing``: an open pad comes down on the object first); the gripper everywhere else (a part
+    fingers' closing, heavier than one finger's servo holds); the gripper everywhere else (a part
     declined for another reason keeps the gripper and its reason). The one
     chosen is ``env.unwrapped.end_effector`` and every step's ``info["end_effector"]``; the scripted opener
     runs the cup's own phases (:class:`~spark_bench.rl.suction_opener.SuctionOpener`). A part the cup cannot

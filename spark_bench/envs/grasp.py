@@ -122,8 +122,7 @@ class GraspTarget:
     :param pad_thickness: pad thickness (m) the pads must not exceed to fit beside the handle (None: any)
     :param clearance: room (m) left on each side of a pad placed in a gap beside the handle
     :param reason: why a parallel gripper cannot pull this part open (one line), or None when it can
-    :param landing: an open pad comes down on the object (kept only when no other candidate is clear; the
-        environments' ``end_effector="auto"`` then takes the cup where the cup opens the part)
+    :param landing: an open pad comes down on the object (kept only when no other candidate is clear)
     :param declined: why the planner declined the part, as a word (None when it did not): ``no_handle``
         (nothing stands out of the front to pinch), ``too_wide`` (a handle wider than the open fingers),
         ``blocked`` (the object stands in the hand's way in), ``button`` (a push button), ``unholdable``

@@ -354,8 +354,7 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
         same (visual geoms have no contacts and no mass) and a real object's compiles 10-30x faster
     :param end_effector: ``gripper``, ``suction`` or ``auto`` (the cup where the planner finds nothing to
         pinch: :func:`~spark_bench.envs.suction.choose_end_effector`; also where the cup opens a part whose
-        pinch cannot hold its pull along the fingers' closing direction, ``weak_pinch`` (:func:`stuck_reason`),
-        or where an open pad comes down on the object before the hand reaches the pinch, ``landing``)
+        pinch cannot hold its pull along the fingers' closing direction, ``weak_pinch``: :func:`stuck_reason`)
     :param suction: the cup's dimensions and holding force
     """
     chosen = choose_joint(asset, kind, joint)
@@ -364,11 +363,9 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     if effector == "suction":  # on the face the gripper's planner looked at (a plate's broad face)
         grasp = plan_cup(asset, chosen.name, suction, outward=grasp.outward if grasp.broad_face else None)
     scene = _compile_scene(asset, chosen, grasp, effector, gripper, suction, visuals)
-    if end_effector == "auto" and effector == "gripper" and (scene.grasp.declined == "weak_pinch"
-                                                             or scene.grasp.landing):
-        # a pinch too weak for the part (a heavy lid lifted by its lip: one finger's servo holds that pull) or
-        # one the hand cannot reach (an open pad comes down on the object first: a low ring beside a safe's
-        # dial): the cup on the part's front, when it finds a place there and opens the part
+    if end_effector == "auto" and scene.grasp.declined == "weak_pinch":
+        # a pinch too weak for the part (a heavy lid lifted by its lip: one finger's servo holds that pull): the
+        # cup on the part's front, when it finds a place there and its drive check opens the part
         try:
             cup = _compile_scene(asset, chosen, plan_cup(asset, chosen.name, suction), "suction", gripper, suction,
                                  visuals)

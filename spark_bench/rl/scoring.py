@@ -12,7 +12,9 @@ one scripted episode planned from the predicted joint, ``eval``'s ``open`` stage
 - **Which end-effector opens a part** (:data:`SCORED_END_EFFECTOR`, ``auto``): the parallel gripper where
   the grasp planner finds something to pinch, the suction cup on the part's front face where it finds
   nothing (a flush lid, a handle-less drawer, a board: :mod:`spark_bench.envs.suction`); both plan from the
-  joint they are told, so a wrong axis fails with either. Every row says which (``end_effector``, and
+  joint they are told, so a wrong axis fails with either. The cup also takes a part whose pinch is too weak
+  for it (``weak_pinch``, the scene's drive check) and a part the gripper fails to open with its own joint
+  where the cup opens it (:func:`judge_joint`). Every row says which (``end_effector``, and
   ``cup_mm`` for the cup: a smaller one where the 40 mm cup has no place). The RL transfer score uses the
   same rule and the same end-effector per joint (its generalist policies drive either).
 - **A joint nobody can open is left out**, for every method alike, whether or not the prediction matched
@@ -20,7 +22,7 @@ one scripted episode planned from the predicted joint, ``eval``'s ``open`` stage
   declines the part before any episode (the gripper finds nothing to pinch and the cup no flat patch, or
   the hand's way in is blocked, or it is a push button); the scene says it is stuck (driven directly by
   the end-effector's largest pull or hold it does not open: too heavy, or jammed by its collision shapes); the scripted opener fails with the ground-truth joint too (one episode, the
-  score's seed and step limit); or, rarer, no environment can be made of it (``no opening task``: the
+  score's seed and step limit; with the cup too, where the gripper's fails); or, rarer, no environment can be made of it (``no opening task``: the
   model does not compile). Such a joint tests the opener or the object, not the prediction. Every
   result carries its coverage (:func:`coverage`): ``joints_total``, ``joints_scored``, ``left_out``.
 - **The pairing**: the predicted joint the metrics matched with each ground-truth joint
@@ -75,7 +77,8 @@ SOURCE_LENGTH_TOL = 1e-3
 #: Why a ground-truth joint counts as not opened when the metrics matched no predicted joint with it.
 NOT_MATCHED = "no matched predicted joint"
 #: The end-effector the scripted opening score opens each part with (:func:`judge_joint`): ``auto`` is the
-#: gripper where the planner finds something to pinch and the suction cup where it finds nothing.
+#: gripper where the planner finds something to pinch and the suction cup where it finds nothing (and where
+#: the gripper's pinch is too weak, or fails with the part's own joint, and the cup opens the part).
 SCORED_END_EFFECTOR = "auto"
 #: What left a joint out (a row's ``left_out_kind``): the grasp planner declined the part (nothing a parallel
 #: gripper can pull), the scene found it stuck (the gripper's largest pull does not open it), the scripted
@@ -154,9 +157,10 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     """Apply the one rule to a ground-truth joint: the planner first (a part the gripper finds nothing to
     pinch on goes to the suction cup with ``auto``; a part declined for the end-effector that would open it
     needs no environment), then the scene's stuck check (with ``auto``, a pinch too weak for the part's pull
-    along the fingers' closing, or out of the hand's reach, gives way to the cup where the cup opens the part),
-    then one episode of the scripted opener with the
-    joint's own parameters. The caller closes the result.
+    along the fingers' closing gives way to the cup where the cup opens the part), then one episode of the
+    scripted opener with the joint's own parameters; with ``auto``, where that episode fails with the gripper,
+    one with the cup (its own place and drive check), which then opens the part for the prediction too. The
+    caller closes the result.
 
     :param gt_metres: the object the policies act on, in metres (:func:`object_acted_on`)
     :param joint: one of its :func:`opening_joints`
@@ -176,7 +180,7 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     if grasp.reason is not None and effector == "gripper":
         return JudgedJoint(joint.name, joint.type, grasp.reason, kind="planner")
     try:
-        # the rule as asked (``auto``: the scene may still take the cup, for a pinch too weak or out of reach)
+        # the rule as asked (``auto``: the scene may still take the cup, for a pinch too weak for the part)
         env = make_env(ENV_OF_JOINT_TYPE[joint.type], asset=gt_metres, joint=joint.name, max_episode_steps=max_steps,
                        end_effector=end_effector)
     except InputError as exc:  # the model does not compile, the cup finds no face...: not a method's fault
@@ -190,6 +194,15 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     except BaseException:
         env.close()
         raise
+    if end_effector == "auto" and effector == "gripper" and reference is not None and not reference.success:
+        # the gripper fails with the part's own joint (a safe door's low ring beside its dial, where the pads
+        # land on the dial): the cup scores the part where it opens it with that joint
+        cup = _cup_reference(gt_metres, joint, seed, max_steps)
+        if cup is not None:
+            env.close()
+            env, reference = cup
+            scene, effector = env.unwrapped.scene, "suction"
+            grasp = scene.grasp
     reason = left_out_reason(grasp.reason, reference)
     if reason is not None:
         env.close()
@@ -198,6 +211,26 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
         return JudgedJoint(joint.name, joint.type, reason, grasp.source, kind=kind, end_effector=effector,
                            cup_radius=grasp.cup_radius)
     return JudgedJoint(joint.name, joint.type, None, grasp.source, env, end_effector=effector, cup_radius=grasp.cup_radius)
+
+
+def _cup_reference(gt_metres, joint, seed: int, max_steps: int):
+    """``(environment, reference episode)`` with the suction cup on ``joint``'s part when the cup finds a place,
+    passes its drive check and opens the part with the joint's own parameters; else None (nothing left open)."""
+    try:
+        env = make_env(ENV_OF_JOINT_TYPE[joint.type], asset=gt_metres, joint=joint.name, max_episode_steps=max_steps,
+                       end_effector="suction")
+    except InputError:  # no face for the cup
+        return None
+    try:
+        if env.unwrapped.scene.grasp.reason is None:
+            reference = open_with_ground_truth(env, seed=seed, max_steps=max_steps)
+            if reference.success:
+                return env, reference
+    except BaseException:
+        env.close()
+        raise
+    env.close()
+    return None
 
 
 def coverage(joints: dict[str, dict]) -> dict:
