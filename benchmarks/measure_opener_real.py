@@ -13,7 +13,7 @@ Also the issue's per-object number: ``spark-bench rollout --env SparkDrawer-v0|S
 scripted`` on each object's *default* joint (drawer for tables, door or lid otherwise).
 
 A part that no pull of the gripper can open (driven directly with the hand's largest force, nothing in
-the way: :func:`spark_bench.envs.scene.stuck_reason`) is declined by the scene with that reason (too heavy
+the way: :func:`spark_bench.envs.drive_check.stuck_reason`) is declined by the scene with that reason (too heavy
 for the gripper, or jammed by its collision shapes) and counted among the declined, as *stuck*; a failed
 joint also reports how far it opens driven so (:func:`free_motion`).
 
@@ -121,9 +121,9 @@ def run_joint(asset, object_id: str, row: dict, episodes: int, max_steps: int, v
 
 def free_motion(env) -> float:
     """The largest fraction of its range the environment's joint reaches when driven directly
-    (:func:`spark_bench.envs.scene.free_motion`: a force at the grasp, the gripper parked away), from rest."""
+    (:func:`spark_bench.envs.drive_check.free_motion`: a force at the grasp, the gripper parked away), from rest."""
+    from spark_bench.envs.drive_check import free_motion as drive
     from spark_bench.envs.gripper import largest_pull
-    from spark_bench.envs.scene import free_motion as drive
 
     scene = env.unwrapped.scene
     return scene.free_fraction if scene.free_fraction is not None else drive(scene, largest_pull(scene.gripper.config))
@@ -260,8 +260,8 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
                  sheet: Path | None) -> Path:
     """``opener_real.md``: rates per category, the issue's per-object number, every failure and every
     declined part with its reason, and the time taken."""
+    from spark_bench.envs.drive_check import OVERLOAD
     from spark_bench.envs.gripper import GripperConfig, largest_pull
-    from spark_bench.envs.scene import OVERLOAD
 
     lines = ["# The scripted opener on real objects", "",
              f"Produced by `python benchmarks/measure_opener_real.py` on {os.cpu_count()} CPU cores shared with "
@@ -273,7 +273,7 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
              f"(that line is the rollout's `reason`). Total time {seconds:.0f} s.", "",
              "*Stuck*: a joint that does not reach the success fraction when driven directly with the gripper's "
              f"largest pull ({largest_pull(GripperConfig()):.0f} N at the grasp point's lever arm, nothing in the "
-             "way, until it stands still: `spark_bench.envs.scene.stuck_reason`): no policy of this hand can open "
+             "way, until it stands still: `spark_bench.envs.drive_check.stuck_reason`): no policy of this hand can open "
              f"it, whatever it does; the reason says whether {OVERLOAD:g} times that force opens it (too heavy for "
              "the gripper) or not (jammed by its "
              "collision shapes). The scene checks this when it is built and declines such a part with that reason "

@@ -132,7 +132,7 @@ class GraspTarget:
         ``end_effector="auto"`` opens it with the suction cup
         (:func:`~spark_bench.envs.suction.choose_end_effector`). The scene's drive check adds ``weak_pinch``
         (a pinch whose part starts to move along the fingers' closing, too heavy for one finger's servo:
-        :func:`~spark_bench.envs.scene.stuck_reason`), where ``auto`` takes the cup when the cup opens it
+        :func:`~spark_bench.envs.drive_check.stuck_reason`), where ``auto`` takes the cup when the cup opens it
     :param cup_radius: for the suction cup, the radius (m) of the cup planned (one of
         :func:`~spark_bench.envs.suction.cup_sizes`; None: the gripper)
     :param broad_face: the grasp is on a sliding plate's broad face, not on its front (``outward`` is that

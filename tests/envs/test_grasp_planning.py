@@ -400,7 +400,8 @@ def test_a_part_its_collision_shapes_jam_is_declined_as_jammed():
     drives the joint directly when it is built and declines the part with that reason. The plain cabinet's
     drawer reaches the success fraction so, and keeps no reason. (The stop is a link of its own: MuJoCo
     leaves out contacts between a body and its parent.)"""
-    from spark_bench.envs.scene import JAM_FRACTION, build_scene
+    from spark_bench.envs.drive_check import JAM_FRACTION
+    from spark_bench.envs.scene import build_scene
 
     plain = build_scene(procedural_cabinet(0), "prismatic", "joint_0", visuals=False)
     assert plain.grasp.reason is None and plain.free_fraction >= JAM_FRACTION
@@ -422,8 +423,9 @@ def test_a_part_too_heavy_for_the_gripper_is_told_from_a_jammed_one():
     """A drawer whose joint friction (150 N) exceeds the hand's largest pull (104 N) but not four times it
     stays shut under that pull and opens under the harder one: the reason says it is too heavy for the
     gripper, not jammed."""
+    from spark_bench.envs.drive_check import JAM_FRACTION, free_motion, stuck_reason
     from spark_bench.envs.gripper import largest_pull
-    from spark_bench.envs.scene import JAM_FRACTION, build_scene, free_motion, stuck_reason
+    from spark_bench.envs.scene import build_scene
 
     scene = build_scene(procedural_cabinet(0), "prismatic", "joint_0", visuals=False)
     pull = largest_pull(scene.gripper.config)
@@ -441,8 +443,9 @@ def test_the_drive_check_turns_a_door_with_the_pull_at_its_grasp_lever_arm():
     friction 0.8 times that torque lets it open, 1.3 times holds it (a unit lever, or none, would tell
     these apart wrongly: the cabinet's grasp is well under 1 m from the hinge), and a held part stops the
     drive early (it stands still) whatever the step limit."""
+    from spark_bench.envs.drive_check import JAM_FRACTION, free_motion
     from spark_bench.envs.gripper import largest_pull
-    from spark_bench.envs.scene import JAM_FRACTION, build_scene, free_motion
+    from spark_bench.envs.scene import build_scene
 
     scene = build_scene(procedural_cabinet(0), "revolute", "joint_1", visuals=False)
     pivot, axis = scene.asset.joint_frames()["joint_1"]

@@ -233,8 +233,9 @@ def test_a_top_loading_washers_lid_lifted_by_its_lip_is_pinched_beside_the_deck_
     (``weak_pinch``, the drive check at that force), so ``auto`` takes the cup on the lid's top, which opens it
     with the true hinge and not with the hinge turned in the lid's plane; a 4.7 kg lid stays with the pinch."""
     from spark_bench.data.synth import generate_object
+    from spark_bench.envs.drive_check import hand_pull
     from spark_bench.envs.gripper import largest_pull, pinch_hold
-    from spark_bench.envs.scene import hand_pull, plan_grasp
+    from spark_bench.envs.scene import plan_grasp
 
     heavy = str(generate_object("TopLoadingWasher", 5003, tmp_path, "heavy"))
     light = str(generate_object("TopLoadingWasher", 5005, tmp_path, "light"))
