@@ -70,18 +70,23 @@ def measure_case(case_dir: str, scripted: list[dict], weights: str | None) -> li
         row["end_effector"] = "+".join(effectors)
         auto = make_task_env(kind, pairing.gt_metres, joint.name, end_effector="auto")
         row["env_end_effector"] = auto.unwrapped.end_effector  # the environment's own auto, for the record
-        auto.close()
         policy = policies.setdefault(kind, GeneralistPolicy(load_generalist(kind, weights)))
-        for effector in effectors:
-            env = make_task_env(kind, pairing.gt_metres, joint.name, end_effector=effector)
-            try:
-                for verdict in (v for v in opened if v["end_effector"] == effector):
-                    episode = run_episode(env, policy, verdict["seed"])
-                    row["episodes"].append({"seed": verdict["seed"], "end_effector": effector,
-                                            "opened": bool(episode["success"]),
-                                            "max_fraction": round(float(episode["max_fraction"]), 3)})
-            finally:
-                env.close()
+        try:
+            for effector in effectors:
+                # auto's scene where it chose the same end-effector (nearly every joint): one scene compiled
+                env = auto if effector == row["env_end_effector"] else make_task_env(
+                    kind, pairing.gt_metres, joint.name, end_effector=effector)
+                try:
+                    for verdict in (v for v in opened if v["end_effector"] == effector):
+                        episode = run_episode(env, policy, verdict["seed"])
+                        row["episodes"].append({"seed": verdict["seed"], "end_effector": effector,
+                                                "opened": bool(episode["success"]),
+                                                "max_fraction": round(float(episode["max_fraction"]), 3)})
+                finally:
+                    if env is not auto:
+                        env.close()
+        finally:
+            auto.close()
         row["episodes"].sort(key=lambda e: e["seed"])
     return out
 

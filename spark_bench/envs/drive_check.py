@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from spark_bench.envs.grasp import part_name
+from spark_bench.asset.transforms import unit
+from spark_bench.envs.grasp import outward_direction, part_name
 from spark_bench.envs.gripper import largest_pull, pinch_hold
 from spark_bench.envs.scene import N_SUBSTEPS, Scene
 from spark_bench.envs.suction import largest_hold
@@ -33,17 +34,6 @@ STALL_STEPS = 10
 STALL_TOLERANCE = 1e-3
 
 
-def opening_direction(scene: Scene) -> np.ndarray:
-    """The unit direction the grasp point starts to move in as ``scene``'s part opens (world, at rest)."""
-    pivot, axis = scene.asset.joint_frames()[scene.joint.name]
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    if not scene.joint.is_rotational:
-        return axis
-    move = np.cross(axis, scene.grasp.point - np.asarray(pivot, float))
-    norm = float(np.linalg.norm(move))
-    return move / norm if norm > 1e-9 else axis
-
-
 def hand_pull(scene: Scene) -> float:
     """The largest steady force (N) the end-effector opens ``scene``'s part with: the cup's largest hold
     (:func:`~spark_bench.envs.suction.largest_hold`); the hand's largest pull
@@ -57,7 +47,12 @@ def hand_pull(scene: Scene) -> float:
     pull = largest_pull(config)
     if scene.grasp.inside_grip:  # the fingers open against a notch's sides: the pull runs across them
         return pull
-    along = abs(float(opening_direction(scene) @ scene.grasp.closing))
+    pivot, axis = scene.asset.joint_frames()[scene.joint.name]
+    try:  # where the grasp point starts to move as the part opens
+        moving = outward_direction(scene.joint.type, pivot, unit(axis), scene.grasp.point[None])
+    except ValueError:  # a grasp on the hinge axis moves nowhere: nothing pulls along the closing
+        return pull
+    along = abs(float(moving @ scene.grasp.closing))
     return float(min(pull, pinch_hold(config) / along)) if along > 1e-6 else pull
 
 

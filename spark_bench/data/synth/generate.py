@@ -32,29 +32,22 @@ class GenerationError(Exception):
     """A sampled object is infeasible (too small, or a part cannot move freely); the generator resamples."""
 
 
-def _builders() -> dict[str, Callable[[np.random.Generator], ObjectSpec]]:
+def _builders(table: str) -> dict[str, Callable[[np.random.Generator], ObjectSpec]]:
+    """The category modules' builder tables named ``table`` (``BUILDERS`` or ``VARIANTS``), merged in order."""
     from spark_bench.data.synth import appliances, furniture, household
 
     out = {}
     for module in (furniture, appliances, household):
-        out.update(module.BUILDERS)
+        out.update(getattr(module, table, {}))
     return out
 
 
-BUILDERS = _builders()
+BUILDERS = _builders("BUILDERS")
 #: The categories a dataset draws round-robin (a named benchmark's objects follow this order).
 CATEGORIES: tuple[str, ...] = tuple(BUILDERS)
-
-
-def _variants() -> dict[str, Callable[[np.random.Generator], ObjectSpec]]:
-    from spark_bench.data.synth import appliances
-
-    return dict(appliances.VARIANTS)
-
-
 #: Variants of a category, asked for by name (``TopLoadingWasher`` makes a ``WashingMachine``): kept out of
 #: :data:`CATEGORIES` so that adding one never changes a named benchmark's objects.
-VARIANTS = _variants()
+VARIANTS = _builders("VARIANTS")
 
 
 def object_seed(seed: int, index: int) -> int:
