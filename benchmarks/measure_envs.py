@@ -27,8 +27,8 @@ from rich.console import Console
 from rich.table import Table
 
 import spark_bench  # noqa: F401  (registers the environments)
-from spark_bench.envs.scene import N_SUBSTEPS
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.opening.planning.scene import N_SUBSTEPS
 
 mujoco = mujoco_module()
 
@@ -85,7 +85,7 @@ def speed(env_id: str, n: int = 3000, rounds: int = 5) -> dict:
 def scripted_study(n_synth: int, out: Path) -> tuple[list[dict], list[dict]]:
     """Ground-truth scripted opener on every drawer and door of the synth and real objects."""
     from spark_bench.data.synth import generate_dataset
-    from spark_bench.rl.scoring import open_every_joint
+    from spark_bench.opening.judge import open_every_joint
 
     folders = generate_dataset(out / "synth", n_synth, seed=0, categories=["StorageFurniture"])
     synth = []

@@ -111,8 +111,8 @@ def measure_rl(args, cores: list[int]) -> int:
     from spark_bench.evaluation.runner import EvalOptions, resolve_bench, run_eval
     from spark_bench.evaluation.store import ResultsStore
     from spark_bench.methods.base import MethodSpec
+    from spark_bench.opening.pairing import opening_joints
     from spark_bench.rl import FINETUNE_STEPS
-    from spark_bench.rl.scoring import opening_joints
 
     name, folder = resolve_bench(args.bench)
 
@@ -182,7 +182,7 @@ def measure_rl(args, cores: list[int]) -> int:
                      f"{np.mean(secs):.1f} / {max(secs):.1f} | {np.mean(cpus):.1f} / {max(cpus):.1f} |"
                      if secs else f"| {steps} | {len(sel)} | - |")
     lines += ["", "Rates are over the ground-truth drawers and doors scored (joints; those nobody can open are left "
-              "out: spark_bench.rl.scoring), each joint one episode per column (eval --rl's default); "
+              "out: spark_bench.opening.judge), each joint one episode per column (eval --rl's default); "
               "holdable joints: a grasp on a handle, a notch, a lid's tab or the front's edges that the grasp planner "
               "gives no reason against (spark_bench.rl.tasks.holdable).", ""]
     out = Path(__file__).resolve().parent / "results" / ("generalist_transfer.md" if oracle else

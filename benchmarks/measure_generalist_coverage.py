@@ -7,7 +7,7 @@ Each joint-seed the scripted opener opened is run once with the shipped policy o
 (:func:`spark_bench.rl.generalist.make_task_env`, as ``eval --rl`` runs it: the same object acted on, the
 same end-effector, told the ground-truth joint, reset with the same seed, at most
 :data:`~spark_bench.rl.generalist.EPISODE_STEPS` steps; the scripted episode had
-:data:`~spark_bench.rl.scoring.OPENING_STEPS`). The joint-seeds the scripted opener did not open are left out
+:data:`~spark_bench.opening.judge.OPENING_STEPS`). The joint-seeds the scripted opener did not open are left out
 and counted with their reason's kind. Each joint-seed runs with the end-effector of its scripted verdict (the
 opening score's choice, which ``eval --rl`` reuses); the environment's own ``auto`` is recorded beside it.
 
@@ -46,8 +46,8 @@ def measure_case(case_dir: str, scripted: list[dict], weights: str | None) -> li
     """
     import spark_bench  # noqa: F401  (registers the environments)
     from spark_bench.data.case import BenchmarkCase
+    from spark_bench.opening.pairing import load_pairing
     from spark_bench.rl.generalist import GeneralistPolicy, load_generalist, make_task_env
-    from spark_bench.rl.scoring import load_pairing
     from spark_bench.rl.tasks import TASK_KIND, run_episode
 
     case = BenchmarkCase(Path(case_dir))

@@ -104,7 +104,7 @@ def rule_mass(product: CitedProduct) -> float:
 def part_masses(case_dir: Path) -> list[dict]:
     """Per drawer/door/lid joint of a case: the moved mass now and under the solid rule before."""
     from spark_bench.data.case import BenchmarkCase, ground_truth_in_metres
-    from spark_bench.rl.scoring import object_acted_on, opening_joints
+    from spark_bench.opening.pairing import object_acted_on, opening_joints
     from spark_bench.sim.mjcf import prepare, subtree_mass
     from spark_bench.sim.options import CATEGORY_MATERIAL, ConvertOptions
 

@@ -1,6 +1,6 @@
 """Coverage of the opening score on real objects: of every drawer, door and lid (``semantics.txt``) of prepared
 benchmarks, how many the opening score opens with the ground truth's own joint, the object acted on and the
-end-effector chosen as inside ``eval`` (:func:`spark_bench.rl.scoring.judge_joint`), at several seeds.
+end-effector chosen as inside ``eval`` (:func:`spark_bench.opening.judge.judge_joint`), at several seeds.
 
 The oracle's score of a joint is its reference episode (the same joint, the same seed: the oracle's own episode
 repeats it), so a joint counts as opened at a seed when the rule scores it, and as left out with the rule's
@@ -33,8 +33,9 @@ def measure_case(case_dir: str, seeds: list[int]) -> list[dict]:
     """One case's drawer, door and lid joints: per joint, the verdict at each seed."""
     import spark_bench  # noqa: F401  (registers the environments)
     from spark_bench.data.case import BenchmarkCase
-    from spark_bench.envs.suction import cup_mm
-    from spark_bench.rl.scoring import OPENING_STEPS, judge_joint, load_pairing, opening_joints
+    from spark_bench.opening.judge import OPENING_STEPS, judge_joint
+    from spark_bench.opening.pairing import load_pairing, opening_joints
+    from spark_bench.opening.planning.suction import cup_mm
 
     case = BenchmarkCase(Path(case_dir))
     gt_bench = case.load_gt()

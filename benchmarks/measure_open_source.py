@@ -3,15 +3,15 @@ the source object as the dataset gives it (after), on every drawer, door and lid
 
 For each case of each ``--bench`` (``spark-bench data prepare --src ... --out BENCH --image-size 128``): the
 ground truth is loaded once, brought to metres, and the case's source object (``case.json``'s ``source``)
-is loaded and checked against it (:func:`spark_bench.rl.scoring.object_acted_on`: the same drawers and
+is loaded and checked against it (:func:`spark_bench.opening.pairing.object_acted_on`: the same drawers and
 doors, axes, pivots and ranges). Then, per seed, the oracle's scripted opening score on the joints whose
 part is a drawer, door or lid (``semantics.txt``'s labels, ``benchmarks/measure_opener_real.py``'s
 ``OPENABLE``), once acting on the prepared ground truth in metres and once on the source object. The
 oracle's prediction is the ground truth, its joint carried into the frame acted on is the ground truth's
 own (to ~1e-16) and its episode has the reference episode's seed: it is the reference episode again, so
-the score's rule (:func:`spark_bench.rl.scoring.judge_joint`: the planner, the scene, the reference
+the score's rule (:func:`spark_bench.opening.judge.judge_joint`: the planner, the scene, the reference
 episode) is run once and a joint it keeps is *opened* by the oracle; ``--full`` runs the oracle's own
-episode too (:func:`spark_bench.rl.scoring.scripted_score`, twice the episodes). A joint-seed is
+episode too (:func:`spark_bench.opening.judge.scripted_score`, twice the episodes). A joint-seed is
 *opened*, *failed* (scored, not opened: only with ``--full``) or *left out* (with the rule's kind). The
 planner's and the scene's verdicts do not depend on the seed (no episode runs before them): a joint they
 left out at one seed is left out at the others without being built again; only the reference episode
@@ -41,15 +41,8 @@ import numpy as np
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.asset.transforms import unit
 from spark_bench.data.case import Benchmark, BenchmarkCase, ground_truth_in_metres, prediction_to_gt_metres
-from spark_bench.rl.scoring import (
-    ACTS_ON_SOURCE,
-    OPENING_STEPS,
-    Pairing,
-    judge_joint,
-    object_acted_on,
-    opening_joints,
-    scripted_score,
-)
+from spark_bench.opening.judge import OPENING_STEPS, judge_joint, scripted_score
+from spark_bench.opening.pairing import ACTS_ON_SOURCE, Pairing, object_acted_on, opening_joints
 
 sys.path.insert(0, str(Path(__file__).parent))
 from measure_opener_real import OPENABLE  # noqa: E402

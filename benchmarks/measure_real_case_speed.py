@@ -7,7 +7,7 @@ prediction:
 
 1. the sim checks of the case's ground truth (:func:`spark_bench.sim.run_checks` on the ``gt``
    folder: the call ``spark-bench eval`` makes for a prediction, here the oracle's);
-2. the oracle's opening score (:func:`spark_bench.rl.scoring.open_with_predicted_joints`, the
+2. the oracle's opening score (:func:`spark_bench.opening.judge.open_with_predicted_joints`, the
    ground truth predicted by itself, every joint matched with itself, as
    ``benchmarks/measure_opener_real.py --score`` does).
 
@@ -61,7 +61,7 @@ def child(bench: Path, case_id: str) -> dict:
     """One case, in this process (run by :func:`run_case` with a fresh ``$SPARK_BENCH_HOME``)."""
     from spark_bench.data import load_object
     from spark_bench.data.case import BenchmarkCase
-    from spark_bench.rl.scoring import open_with_predicted_joints
+    from spark_bench.opening.judge import open_with_predicted_joints
     from spark_bench.sim import run_checks
 
     gt_dir = BenchmarkCase(bench / "cases" / case_id).gt_dir

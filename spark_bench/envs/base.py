@@ -14,10 +14,11 @@ from gymnasium import spaces
 
 from spark_bench.envs import observation as OBS
 from spark_bench.envs.assets import AssetLike, asset_key, load_asset
-from spark_bench.envs.gripper import MAX_STEP, finger_target, grip_command
 from spark_bench.envs.observation import FRAME_OBS_SIZE, OBS_SIZE
-from spark_bench.envs.scene import N_SUBSTEPS, TIMESTEP, Scene, build_scene
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.opening.planning.gripper import MAX_STEP, finger_target, grip_command
+from spark_bench.opening.planning.scene import N_SUBSTEPS, TIMESTEP, Scene
+from spark_bench.opening.planning.task import build_scene
 
 mujoco = mujoco_module()
 
@@ -53,7 +54,7 @@ def make_scene(asset: AssetLike, kind: str, joint: str | None, visuals: bool = T
     :param visuals: compile the visual meshes; an environment that never renders leaves them out (the
         physics is the same: visual geoms have no contacts and no mass) and a real object's scene then
         compiles about 7 s faster per joint
-    :param end_effector: ``gripper``, ``suction`` or ``auto`` (:func:`~spark_bench.envs.scene.build_scene`)
+    :param end_effector: ``gripper``, ``suction`` or ``auto`` (:func:`~spark_bench.opening.planning.task.build_scene`)
     """
     key = asset_key(asset)
     if key is None:
@@ -80,7 +81,7 @@ class SparkArticulationEnv(gym.Env):
     :param joint_estimate: ``(axis, pivot, type)``, world frame at rest: the joint the ``frame``
         observation reports instead of the simulated one's (a prediction's joint, acting on the real object)
     :param end_effector: ``gripper`` (the parallel gripper, the default), ``suction`` (a suction cup on the
-        part's front face, :mod:`spark_bench.envs.suction`) or ``auto`` (the cup where the grasp planner finds
+        part's front face, :mod:`spark_bench.opening.planning.suction`) or ``auto`` (the cup where the grasp planner finds
         nothing to pinch, the gripper everywhere else); the one chosen is ``self.end_effector`` and every
         step's ``info["end_effector"]``
     """

@@ -61,14 +61,14 @@ class SparkDoorEnv(SparkArticulationEnv):
 
     Of the part's shape a policy may read, beyond the observation, what a robot's perception would give:
     the scene's grasp (``env.unwrapped.scene.grasp``: point, outward direction, grip) and the part's surface
-    at rest (:func:`~spark_bench.envs.scene.part_points`); the scripted opener reads the door's free edge and
+    at rest (:func:`~spark_bench.opening.planning.scene.part_points`); the scripted opener reads the door's free edge and
     thickness from it to push a door that slipped out of the fingers open from inside
-    (:func:`~spark_bench.rl.door_geometry.door_edge`).
+    (:func:`~spark_bench.opening.door_geometry.door_edge`).
 
     **End-effector** (``end_effector=``): ``"gripper"`` (the default, described above), ``"suction"`` or
     ``"auto"``. ``"suction"`` carries a 40 mm suction cup (a 32, 25 or 20 mm one where the 40 mm cup finds no
-    place: :func:`~spark_bench.envs.suction.cup_sizes`, ``scene.gripper.config``) on the same servoed carriage
-    instead of the fingers (:mod:`spark_bench.envs.suction`): it goes to a flat patch of the door's front face
+    place: :func:`~spark_bench.opening.planning.suction.cup_sizes`, ``scene.gripper.config``) on the same servoed carriage
+    instead of the fingers (:mod:`spark_bench.opening.planning.suction`): it goes to a flat patch of the door's front face
     (as far from the hinge as the patch allows; the passive wrist lets the cup turn with the face), approaches
     along the face's normal and holds by MuJoCo's ``adhesion`` actuator, up to its rated hold (75 N for the 40
     mm cup) along the normal (more tears it off; along the face only friction holds it). ``a[3]`` is then the
@@ -83,7 +83,7 @@ class SparkDoorEnv(SparkArticulationEnv):
     servo holds it); the gripper everywhere else (a part declined for another
     reason keeps the gripper and its reason). The one chosen is ``env.unwrapped.end_effector`` and every
     step's ``info["end_effector"]``; the scripted opener runs the cup's own phases
-    (:class:`~spark_bench.rl.suction_opener.SuctionOpener`). A part the cup cannot hold (no flat patch for the
+    (:class:`~spark_bench.opening.suction_opener.SuctionOpener`). A part the cup cannot hold (no flat patch for the
     smallest cup, something in its way, too heavy for its hold when driven directly) gets a ``reason``, as the
     gripper's do.
 

@@ -4,7 +4,7 @@
 (``observation="frame"``) add the grasp frame and the joint, :data:`FRAME_OBS_SIZE` in all. Vectors are
 slices, scalars are indices; world frame, metres, seconds. Every entry is clipped to ``[-10, 10]``.
 The environments write these (:mod:`spark_bench.envs.base`), the scripted opener
-(:mod:`spark_bench.rl.scripted`) and the generalist policies (:mod:`spark_bench.rl.generalist`) read them;
+(:mod:`spark_bench.opening.opener`) and the generalist policies (:mod:`spark_bench.rl.generalist`) read them;
 :data:`LAYOUT` describes each for the environments' docstrings.
 """
 

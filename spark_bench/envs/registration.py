@@ -15,7 +15,7 @@ ENVIRONMENTS = {
 MAX_EPISODE_STEPS = 100
 #: The environment that opens a joint of each type: a drawer (prismatic) is pulled, a door (revolute) and
 #: a part turning without limit (continuous: a knob, a cap) are swung. The one table of it. Which
-#: ground-truth joints the opening scores open is theirs to say (:data:`spark_bench.rl.scoring.OPENING_TYPES`:
+#: ground-truth joints the opening scores open is theirs to say (:data:`spark_bench.opening.pairing.OPENING_TYPES`:
 #: drawers and doors).
 ENV_OF_JOINT_TYPE = {"prismatic": "SparkDrawer-v0", "revolute": "SparkDoor-v0", "continuous": "SparkDoor-v0"}
 

@@ -9,7 +9,7 @@
   a failed case counting as not passed; None when the stage never ran. Beside each opening rate, its
   coverage (``open_coverage``, ``rl_coverage``: :func:`joint_coverage`): the ground-truth drawer and door
   joints scored out of all of them, and what left the others out. An opening score's case value is
-  itself over the case's scored joints (:mod:`spark_bench.rl.scoring`): a case whose every drawer and door
+  itself over the case's scored joints (:mod:`spark_bench.opening.judge`): a case whose every drawer and door
   is left out gives none.
 
 Rows scored under different metric conventions (the ``convention`` column) are never averaged together.
@@ -43,7 +43,7 @@ def _value(row: dict, key: str):
 
 #: The RL transfer rates of ``eval --rl`` (:func:`spark_bench.rl.transfer.rl_transfer_score`, stored in each
 #: row's ``checks["rl"]``): the summary key and the key of the per-case result it averages. A case's rate is
-#: over its scored joints (``joints_scored`` of ``joints_total``: :mod:`spark_bench.rl.scoring` leaves out
+#: over its scored joints (``joints_scored`` of ``joints_total``: :mod:`spark_bench.opening.judge` leaves out
 #: those nobody can open), None when it has none, as the scripted opening score's.
 RL_RATES = {"rl_success_rate": "success_rate", "rl_zero_shot_success_rate": "zero_shot_success_rate"}
 

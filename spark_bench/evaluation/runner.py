@@ -3,7 +3,7 @@
 Per case (:func:`evaluate_case`, plain data in and out, so it runs in a process pool or as a Ray task):
 generate (cached under ``runs/<bench>/<label>-<hash>/<case>/``), load, shape and articulation metrics,
 sim-readiness checks, the scripted opener with the predicted joints against the ground-truth object
-(:func:`spark_bench.rl.scoring.open_with_predicted_joints`), and, with ``rl``, the RL transfer score (the
+(:func:`spark_bench.opening.judge.open_with_predicted_joints`), and, with ``rl``, the RL transfer score (the
 shipped generalist opening policy fine-tuned on the prediction, run on the ground truth,
 :func:`spark_bench.rl.transfer.rl_transfer_score`). A failing stage fails the case with a one-line reason;
 the run goes on. The ground truth is loaded once, as stored (``gt_bench``: the benchmark frame), for the
@@ -264,13 +264,13 @@ def _sim_checks(pred_folder: Path) -> dict:
 
 
 def _load_pairing(pred_folder: Path, gt_folder: Path, metrics: dict, gt_bench):
-    from spark_bench.rl.scoring import load_pairing
+    from spark_bench.opening.pairing import load_pairing
 
     return load_pairing(pred_folder, gt_folder, metrics, gt_bench)
 
 
 def _scripted_open(pred_folder: Path, gt_folder: Path, metrics: dict, seed: int, pairing: Callable) -> dict:
-    from spark_bench.rl.scoring import open_with_predicted_joints
+    from spark_bench.opening.judge import open_with_predicted_joints
 
     return open_with_predicted_joints(pred_folder, gt_folder, metrics, seed=seed, pairing=pairing())
 

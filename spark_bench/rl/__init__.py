@@ -1,12 +1,7 @@
-"""Opening policies on the environments of :mod:`spark_bench.envs`: the scripted opener, rollouts and
-training.
+"""Learned opening policies on the environments of :mod:`spark_bench.envs`: rollouts, stable-baselines3
+training, the generalist policies and the RL transfer score (:func:`spark_bench.rl.transfer.rl_transfer_score`).
+The scripted opener and the opening score's judge are :mod:`spark_bench.opening`.
 
-- :func:`open_with_joint` ``(env, axis, pivot, joint_type, seed=None, ...) -> OpenResult``: one scripted
-  episode planned from given joint parameters; :func:`open_with_ground_truth` with the environment's own
-- :func:`open_with_predicted_joints`: the scripted opening score of a prediction, and
-  :func:`open_every_joint`, the opener on every joint of one object (:mod:`spark_bench.rl.scoring`: what
-  the scores that open each ground-truth joint share; the RL transfer score is
-  :func:`spark_bench.rl.transfer.rl_transfer_score`)
 - :func:`run_episodes`: score a policy over some episodes (:class:`RolloutStats`);
   :func:`spark_bench.rl.rollout.rollout` makes the environment too
 - :func:`spark_bench.rl.train.train` ``(env_id, algo="ppo", steps=..., out=...) -> TrainResult``: PPO or
@@ -16,8 +11,8 @@ training.
 Names are imported lazily (PEP 562), so that ``spark-bench --help`` does not import MuJoCo or torch.
 ``rollout`` and ``train`` are not exported here: they are also the names of their modules, which
 shadow a package attribute once imported.
-Imports run one way: ``train`` -> ``rollout`` -> ``policies`` -> ``scripted`` -> :mod:`spark_bench.envs`;
-``transfer`` -> ``tasks`` -> ``scoring`` -> ``scripted``.
+Imports run one way: ``train`` -> ``rollout`` -> ``policies`` -> :mod:`spark_bench.opening` ->
+:mod:`spark_bench.envs`; ``transfer`` -> ``tasks`` -> :mod:`spark_bench.opening.judge`.
 """
 
 from __future__ import annotations
@@ -30,13 +25,6 @@ from spark_bench.lazy import lazy_exports
 FINETUNE_STEPS = 1024
 
 _EXPORTS = {
-    "OpenResult": "spark_bench.rl.scripted",
-    "ScriptedOpener": "spark_bench.rl.scripted",
-    "ground_truth_joint": "spark_bench.rl.scripted",
-    "open_every_joint": "spark_bench.rl.scoring",
-    "open_with_predicted_joints": "spark_bench.rl.scoring",
-    "open_with_ground_truth": "spark_bench.rl.scripted",
-    "open_with_joint": "spark_bench.rl.scripted",
     "ModelPolicy": "spark_bench.rl.policies",
     "ScriptedPolicy": "spark_bench.rl.policies",
     "load_model": "spark_bench.rl.policies",

@@ -2,9 +2,9 @@
 (``benchmarks/train_generalist.py``) and shipped with the package (``spark_bench/rl/weights/``).
 
 **End-effectors.** Each policy drives either end-effector of the environments: the parallel gripper, or the
-suction cup (:mod:`spark_bench.envs.suction`) on a part the grasp planner finds nothing to pinch on. Which
+suction cup (:mod:`spark_bench.opening.planning.suction`) on a part the grasp planner finds nothing to pinch on. Which
 one is the environment's (made with ``end_effector="auto"`` by :func:`make_task_env`: the rule of the
-scripted opening score, :func:`spark_bench.envs.suction.choose_end_effector`); the policy is told by
+scripted opening score, :func:`spark_bench.opening.planning.suction.choose_end_effector`); the policy is told by
 feature 39. The cup's state lies where the fingers' does (:mod:`spark_bench.envs.observation`): entry 7
 is its suction command, 10-11 its contact force (both), 23 is -1 (approach released); its action's last
 entry is the suction command (> 0 sucks) where the gripper's is the finger command.

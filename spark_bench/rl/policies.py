@@ -13,7 +13,7 @@ import gymnasium as gym
 import numpy as np
 
 from spark_bench.errors import InputError
-from spark_bench.rl.scripted import ground_truth_joint, opener_for
+from spark_bench.opening.episodes import ground_truth_joint, opener_for
 
 #: The stable-baselines3 algorithms a model may be trained with.
 ALGOS = ("ppo", "sac")

@@ -16,10 +16,10 @@ import numpy as np
 
 import spark_bench.rl.rollout as rollout
 from spark_bench.errors import InputError
+from spark_bench.opening.pairing import OPENING_TYPES, opening_joints
 from spark_bench.rl.generalist import EPISODE_STEPS, KIND_OF_TYPE, GraspFrameWrapper, make_task_env
-from spark_bench.rl.scoring import OPENING_TYPES, opening_joints
 
-#: The policy kind of each joint type that is an opening task (:data:`spark_bench.rl.scoring.OPENING_TYPES`;
+#: The policy kind of each joint type that is an opening task (:data:`spark_bench.opening.pairing.OPENING_TYPES`;
 #: continuous joints, knobs and caps, are not).
 TASK_KIND = {t: KIND_OF_TYPE[t] for t in OPENING_TYPES}
 

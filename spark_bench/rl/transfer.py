@@ -1,7 +1,7 @@
 """The RL transfer score of a prediction: the shipped generalist policy, fine-tuned on the *predicted*
 object, acting on the *ground-truth* object (``eval --rl``).
 
-What it shares with the scripted opening score is in :mod:`spark_bench.rl.scoring`: which ground-truth
+What it shares with the scripted opening score is in :mod:`spark_bench.opening.judge`: which ground-truth
 joints are opening tasks (drawers and doors), the one rule that leaves out a joint nobody can open (the
 planner declines it, the scene says it is stuck, or the scripted opener fails with the ground-truth joint
 too: ``success`` None with the ``reason``, for every method alike), the pairing with the predicted joints
@@ -13,7 +13,7 @@ drawer and door not left out:
 1. the predicted joint matched with it by the metrics picks the policy (the drawer policy for a predicted
    prismatic joint, the door policy for a revolute or continuous one) and is what the policy is told about
    the joint, reported by the environment as ``joint_estimate``; the end-effector is the opening score's
-   (``auto``, :data:`~spark_bench.rl.scoring.SCORED_END_EFFECTOR`: the suction cup where the grasp planner
+   (``auto``, :data:`~spark_bench.opening.judge.SCORED_END_EFFECTOR`: the suction cup where the grasp planner
    finds nothing to pinch on the ground-truth part, the parallel gripper elsewhere; a row's
    ``end_effector``), and the policy drives either;
 2. **zero-shot**: the shipped policy opens the ground-truth joint in its environment (``SparkDrawer-v0``
@@ -42,6 +42,8 @@ import time
 from pathlib import Path
 
 from spark_bench.errors import InputError
+from spark_bench.opening.judge import OPENING_STEPS, SCORED_END_EFFECTOR, coverage, judge_joint, scored_mean
+from spark_bench.opening.pairing import Pairing, load_pairing, one_line, opening_joints
 from spark_bench.rl import FINETUNE_STEPS
 from spark_bench.rl.generalist import (
     FRAME_NOISE,
@@ -54,17 +56,6 @@ from spark_bench.rl.generalist import (
     weights_record,
 )
 from spark_bench.rl.policies import fused_adam
-from spark_bench.rl.scoring import (
-    OPENING_STEPS,
-    SCORED_END_EFFECTOR,
-    Pairing,
-    coverage,
-    judge_joint,
-    load_pairing,
-    one_line,
-    opening_joints,
-    scored_mean,
-)
 from spark_bench.rl.tasks import TASK_KIND, holdable, run_episode, run_episodes
 
 #: Episodes per ground-truth joint (the fine-tuning budget is :data:`spark_bench.rl.FINETUNE_STEPS`).
@@ -177,7 +168,7 @@ def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: d
         (``.gif`` / ``.mp4``)
     :param gt_bench: the object of ``gt_folder`` if the caller already loaded it (not modified)
     :param pairing: the prediction and the object acted on, if the caller already loaded them
-        (:func:`~spark_bench.rl.scoring.load_pairing` of the same folders and metrics: ``eval`` loads them
+        (:func:`~spark_bench.opening.pairing.load_pairing` of the same folders and metrics: ``eval`` loads them
         once for both scores); used as they are
     :returns: ``{"success_rate", "zero_shot_success_rate", "holdable_success_rate", "joints",
         "joints_total", "joints_scored", "left_out", "finetune", "policy", "assets", ...}``; the rates are
@@ -185,7 +176,7 @@ def rl_transfer_score(pred_folder: str | Path, gt_folder: str | Path, metrics: d
         and its ``reason``; the holdable rates are over the scored joints a parallel gripper can hold
         (:func:`spark_bench.rl.tasks.holdable`); ``assets`` names the prediction and the ground truth by
         path and content hash (the ground truth as stored: the metrics'), and ``acts_on`` what the episodes
-        opened (:func:`spark_bench.rl.scoring.object_acted_on`)
+        opened (:func:`spark_bench.opening.pairing.object_acted_on`)
     """
     import torch
 

@@ -15,8 +15,8 @@ from spark_bench.data.case import BenchmarkCase
 from spark_bench.envs import observation as OBS
 from spark_bench.envs.assets import asset_folder
 from spark_bench.envs.cabinet import procedural_cabinet
-from spark_bench.envs.grasp import find_grasp
 from spark_bench.errors import InputError
+from spark_bench.opening.planning.grasp import find_grasp
 
 ENV_IDS = ("SparkDrawer-v0", "SparkDoor-v0")
 
@@ -124,7 +124,7 @@ def test_start_state_is_in_front_of_the_handle():
 def _pads_cover(grasp, center, thickness, outward):
     """The grasp is over the bar (in the front plane) and the pads, from the fingertips back along their
     length, cover the bar's whole depth."""
-    from spark_bench.envs.gripper import GripperConfig
+    from spark_bench.opening.planning.gripper import GripperConfig
 
     config = GripperConfig()
     lateral = (grasp.point - center) - ((grasp.point - center) @ outward) * outward
@@ -136,7 +136,7 @@ def _pads_cover(grasp, center, thickness, outward):
 def test_grasp_point_is_the_handle_bar_on_the_procedural_cabinet():
     """The pads are centred on the bar and reach down past it towards the front (a bar or a knob's head is
     held from behind, not pinched at its rounded front), fingertips clear of the front."""
-    from spark_bench.envs.handles import TIP_CLEARANCE
+    from spark_bench.opening.planning.handles import TIP_CLEARANCE
 
     asset = procedural_cabinet(0)
     poses = asset.link_poses()
@@ -314,7 +314,7 @@ def test_a_notch_in_a_front_is_found_and_gripped_from_inside():
 def test_scripted_opener_opens_notched_fronts_with_an_inside_grip(env_id, joint):
     """No handle, a notch: the closed fingers enter it and open against its sides; a predicted axis 90
     degrees off still fails on the notched drawer."""
-    from spark_bench.rl import ground_truth_joint, open_with_joint
+    from spark_bench.opening.episodes import ground_truth_joint, open_with_joint
 
     env = gym.make(env_id, asset=notched_cabinet(0), joint=joint, max_episode_steps=150)
     assert env.unwrapped.scene.grasp.inside_grip
@@ -355,7 +355,7 @@ def _handle_points(asset, joint: str) -> np.ndarray:
 def test_clipped_vertices_are_the_mesh_inside_the_box():
     import trimesh
 
-    from spark_bench.envs.pads import clipped_vertices
+    from spark_bench.opening.planning.pads import clipped_vertices
 
     cube = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
     frame = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])  # box u = world y, v = z, w = x
@@ -369,7 +369,7 @@ def test_double_door_lips_are_pinched_one_at_a_time(double_door):
     """The two leaves' edge lips stand closer than a default pad is thick: each door's grasp puts its
     pads into the gaps beside its own lip, thin enough that the other lip stays outside the fingers."""
     from spark_bench.data import load_object
-    from spark_bench.envs.gripper import GripperConfig
+    from spark_bench.opening.planning.gripper import GripperConfig
 
     asset = load_object(double_door)
     doors = _door_joints(asset)
@@ -396,7 +396,7 @@ def test_scripted_opener_opens_each_leaf_of_a_double_door_alone(double_door):
     """The edge lips of a double door stand ~6 mm apart: with the default 12 mm pads closing from fully
     open, the fingers pinched both lips and neither door opened past 10 %. Each leaf must open while the
     other stays shut."""
-    from spark_bench.rl import open_with_ground_truth
+    from spark_bench.opening.episodes import open_with_ground_truth
 
     folder = str(double_door)
     env = gym.make("SparkDoor-v0", asset=folder, max_episode_steps=150)

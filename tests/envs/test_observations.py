@@ -11,7 +11,8 @@ from gymnasium.utils.env_checker import check_env
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.envs import observation as OBS
 from spark_bench.envs.observation import FRAME_OBS_SIZE, OBS_SIZE
-from spark_bench.rl.scripted import ground_truth_joint, rotate_about
+from spark_bench.opening.episodes import ground_truth_joint
+from spark_bench.opening.opener import rotate_about
 
 
 def frame_env(env_id: str, **kwargs):

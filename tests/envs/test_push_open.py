@@ -11,14 +11,9 @@ import numpy as np
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.envs import observation as OBS
 from spark_bench.envs.assets import load_asset
-from spark_bench.rl.door_geometry import door_edge, turns_in_place
-from spark_bench.rl.scripted import (
-    FIT_CLEARANCE,
-    ScriptedOpener,
-    ground_truth_joint,
-    opener_for,
-    rotate_about,
-)
+from spark_bench.opening.door_geometry import door_edge, turns_in_place
+from spark_bench.opening.episodes import ground_truth_joint, opener_for
+from spark_bench.opening.opener import FIT_CLEARANCE, ScriptedOpener, rotate_about
 
 #: The procedural cabinet's door given a safe's range (172 degrees), let go at RELEASE of it, to be opened to
 #: TARGET: the re-grasp reaches 0.78-0.87 on seeds 0-3 (the wrist has sprung back, the fingers meet the door
@@ -136,8 +131,8 @@ def test_a_cap_turns_in_place_and_a_door_swings():
 def test_part_points_are_memoized_per_asset_and_not_served_stale():
     """The part's samples are computed once per asset and joint (read-only, shared), a copy of the asset
     gets the same points, and an asset whose part moved in place gets fresh ones."""
-    from spark_bench.envs.handle_search import N_SAMPLES
-    from spark_bench.envs.scene import part_points
+    from spark_bench.opening.planning.handle_search import N_SAMPLES
+    from spark_bench.opening.planning.scene import part_points
 
     asset = load_asset("procedural:0")[0].copy()
     door = next(j for j in asset.joints.values() if j.type == "revolute")

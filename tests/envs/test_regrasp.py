@@ -10,14 +10,8 @@ import numpy as np
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.envs import observation as OBS
 from spark_bench.envs.observation import OBS_SIZE
-from spark_bench.rl.scripted import (
-    PREGRASP_OFFSET,
-    PUSH_GUARD,
-    REGRASP_DISTANCE,
-    ScriptedOpener,
-    ground_truth_joint,
-    opener_for,
-)
+from spark_bench.opening.episodes import ground_truth_joint, opener_for
+from spark_bench.opening.opener import PREGRASP_OFFSET, PUSH_GUARD, REGRASP_DISTANCE, ScriptedOpener
 
 
 def _obs(tcp, grasp, touch=(0.0, 0.0)) -> np.ndarray:
@@ -60,8 +54,8 @@ def test_the_re_grasp_of_an_open_door_waits_comes_in_slowly_and_stops_where_it_w
     """While the door still swings the hand holds at the pre-grasp; coming in, it moves at most REGRASP_STEP a
     step and stops (and closes there) as soon as the door is knocked towards closing or a pad touches it. A
     door at rest against its stop is approached at full speed, as at first."""
-    from spark_bench.envs.gripper import MAX_STEP
-    from spark_bench.rl.scripted import REGRASP_STEP
+    from spark_bench.opening.opener import REGRASP_STEP
+    from spark_bench.opening.planning.gripper import MAX_STEP
 
     opener, grasp, tcp, outward, _ = _slipped_door_opener((-0.05, 0.0, 0.0))
     pre = PREGRASP_OFFSET * outward
@@ -132,7 +126,7 @@ def test_a_door_let_go_half_open_is_not_pushed_shut_by_the_hand_coming_back():
 def test_the_wait_for_a_swinging_door_ends():
     """A door that never comes to rest (a hand nudging it, a part oscillating on its joint) is waited for at
     most twice the pre-grasp's step budget; then the approach starts."""
-    from spark_bench.rl.scripted import PREGRASP_STEPS
+    from spark_bench.opening.opener import PREGRASP_STEPS
 
     opener, grasp, tcp, outward, _ = _slipped_door_opener((-0.05, 0.0, 0.0))
     pre = PREGRASP_OFFSET * outward

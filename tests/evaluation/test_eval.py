@@ -395,7 +395,7 @@ def test_a_case_prepared_again_is_scored_again_and_an_unchanged_one_is_not(tiny_
 def test_the_open_and_rl_scores_share_one_pairing(tmp_path, isolated_home, monkeypatch):
     """``eval`` with the opening score and ``--rl``: the prediction and the object the scores act on (a real
     object's source takes seconds to read) are loaded once per case, for both scores."""
-    import spark_bench.rl.scoring as scoring
+    import spark_bench.opening.judge as scoring
     import spark_bench.rl.transfer as transfer
     from spark_bench.evaluation.runner import EvalOptions
 

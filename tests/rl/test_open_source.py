@@ -17,12 +17,8 @@ from spark_bench.asset.model import Collision, Visual
 from spark_bench.data.case import BenchmarkCase, ground_truth_in_metres
 from spark_bench.data.prepare import PrepareOptions, prepare_case
 from spark_bench.envs.cabinet import procedural_cabinet
-from spark_bench.rl.scoring import (
-    ACTS_ON_SOURCE,
-    object_acted_on,
-    open_with_predicted_joints,
-    source_mismatch,
-)
+from spark_bench.opening.judge import open_with_predicted_joints
+from spark_bench.opening.pairing import ACTS_ON_SOURCE, object_acted_on, source_mismatch
 
 #: A remesh coarse enough (R=16: ~36 mm voxels on the drawer) to fill the 20 mm gap behind its bar handle.
 COARSE = PrepareOptions(image_size=16, resolution=16)

@@ -12,7 +12,8 @@ from helpers_open import opens_with_its_hinge_only
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.cli import main
 from spark_bench.envs import observation as OBS
-from spark_bench.rl.scripted import ground_truth_joint, open_with_ground_truth, open_with_joint, rotate_about
+from spark_bench.opening.episodes import ground_truth_joint, open_with_ground_truth, open_with_joint
+from spark_bench.opening.opener import rotate_about
 
 
 def test_rotate_about_keeps_the_axis_distance():
@@ -159,7 +160,7 @@ def test_sac_trains_a_few_steps(tmp_path):
 
 @pytest.mark.slow
 def test_scripted_opener_opens_every_drawer_and_door_of_a_real_object(real_object):
-    from spark_bench.rl.scoring import open_every_joint
+    from spark_bench.opening.judge import open_every_joint
 
     rows = open_every_joint(str(real_object("41083")))
     assert sorted(r["type"] for r in rows) == ["prismatic", "prismatic", "revolute", "revolute"]
@@ -167,7 +168,7 @@ def test_scripted_opener_opens_every_drawer_and_door_of_a_real_object(real_objec
 
 
 def test_grip_command_spans_the_gripper_travel():
-    from spark_bench.envs.gripper import GripperConfig, finger_target, grip_command
+    from spark_bench.opening.planning.gripper import GripperConfig, finger_target, grip_command
 
     cfg = GripperConfig()
     assert grip_command(cfg, cfg.max_opening) == pytest.approx(-1.0)
@@ -209,9 +210,9 @@ def test_a_washers_door_whose_rim_tab_the_body_blocks_is_opened_from_its_front(t
     grasps (nothing to pinch there: ``no_handle``, not ``blocked``), and ``auto`` opens the door with the cup
     on its front, with the true hinge, and not with the hinge turned in the door's plane."""
     from spark_bench.data.synth import generate_object
-    from spark_bench.envs.grasp import _find, find_grasp
-    from spark_bench.envs.gripper import GripperConfig
-    from spark_bench.envs.rest_meshes import RestMeshes
+    from spark_bench.opening.planning.grasp import _find, find_grasp
+    from spark_bench.opening.planning.gripper import GripperConfig
+    from spark_bench.opening.planning.rest_meshes import RestMeshes
 
     folder = str(generate_object("WashingMachine", 5001, tmp_path, "WashingMachine_5001"))
     env = gym.make("SparkDoor-v0", asset=folder, joint="joint_3", end_effector="auto", max_episode_steps=200)
@@ -233,9 +234,9 @@ def test_a_top_loading_washers_lid_lifted_by_its_lip_is_pinched_beside_the_deck_
     (``weak_pinch``, the drive check at that force), so ``auto`` takes the cup on the lid's top, which opens it
     with the true hinge and not with the hinge turned in the lid's plane; a 4.7 kg lid stays with the pinch."""
     from spark_bench.data.synth import generate_object
-    from spark_bench.envs.drive_check import hand_pull
-    from spark_bench.envs.gripper import largest_pull, pinch_hold
-    from spark_bench.envs.scene import plan_grasp
+    from spark_bench.opening.planning.drive_check import hand_pull
+    from spark_bench.opening.planning.gripper import largest_pull, pinch_hold
+    from spark_bench.opening.planning.scene import plan_grasp
 
     heavy = str(generate_object("TopLoadingWasher", 5003, tmp_path, "heavy"))
     light = str(generate_object("TopLoadingWasher", 5005, tmp_path, "light"))
@@ -274,7 +275,7 @@ def test_the_opener_moves_on_when_its_approach_stalls_and_grasps_again_when_the_
     the opener closes there instead of pushing out the phase's step budget. While opening, a handle
     REGRASP_DISTANCE away has slipped out of the fingers: the opener opens them and goes back to the
     pre-grasp in front of where the handle now is, at most MAX_REGRASPS times."""
-    from spark_bench.rl.scripted import (
+    from spark_bench.opening.opener import (
         MAX_REGRASPS,
         PREGRASP_OFFSET,
         REGRASP_DISTANCE,

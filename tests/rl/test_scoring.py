@@ -1,4 +1,4 @@
-"""Opening each ground-truth joint with a policy (``spark_bench.rl.scoring``): the scripted opening score
+"""Opening each ground-truth joint with a policy (``spark_bench.opening.judge``): the scripted opening score
 (the scripted opener, planned from the predicted joints, acting on the ground-truth object at its real size;
 a case's ground truth is stored normalized to [-1, 1]^3), and the one rule, shared with the RL transfer
 score, for a joint nobody can open."""
@@ -20,12 +20,8 @@ from spark_bench.data.case import BenchmarkCase, ground_truth_in_metres
 from spark_bench.envs.assets import load_asset
 from spark_bench.envs.cabinet import procedural_cabinet
 from spark_bench.errors import InputError
-from spark_bench.rl.scoring import (
-    Pairing,
-    open_every_joint,
-    open_with_predicted_joints,
-    opening_joints,
-)
+from spark_bench.opening.judge import open_every_joint, open_with_predicted_joints
+from spark_bench.opening.pairing import Pairing, opening_joints
 
 
 def jammed_cabinet():
@@ -263,8 +259,8 @@ def test_the_pairing_says_why_a_matched_joint_cannot_be_attempted():
 def _reference_fails_on(joint_name: str, monkeypatch) -> None:
     """Make the scripted opener's ground-truth reference episode fail on ``joint_name`` (a real failure
     needs an object the opener cannot open; the rule under test is what the scores do with one)."""
-    import spark_bench.rl.scoring as scoring
-    from spark_bench.rl.scripted import OpenResult
+    import spark_bench.opening.judge as scoring
+    from spark_bench.opening.episodes import OpenResult
 
     real = scoring.open_with_ground_truth
 

@@ -161,7 +161,7 @@ def test_a_ground_truth_the_caller_loaded_is_not_loaded_again(cabinet, tmp_path,
     ~0.6 s CPU a load); the prediction in its own folder is still read."""
     from spark_bench.asset.urdf import write_object_folder
     from spark_bench.data.readers import load_object
-    from spark_bench.rl.scoring import open_with_predicted_joints
+    from spark_bench.opening.judge import open_with_predicted_joints
 
     copy = tmp_path / "copy"
     write_object_folder(load_object(cabinet), copy)

@@ -17,20 +17,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset, Joint
-from spark_bench.envs.grasp import GraspTarget, find_grasp
-from spark_bench.envs.gripper import GripperConfig, GripperHandles, add_gripper
-from spark_bench.envs.handle_search import N_SAMPLES
-from spark_bench.envs.rest_meshes import RestMeshes
-from spark_bench.envs.suction import (
-    SuctionConfig,
-    SuctionHandles,
-    add_suction,
-    choose_end_effector,
-    fitted_cup,
-    plan_suction,
-)
 from spark_bench.errors import InputError
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.opening.planning.grasp import GraspTarget, find_grasp
+from spark_bench.opening.planning.gripper import GripperConfig, GripperHandles
+from spark_bench.opening.planning.handle_search import N_SAMPLES
+from spark_bench.opening.planning.rest_meshes import RestMeshes
+from spark_bench.opening.planning.suction import (
+    SuctionConfig,
+    SuctionHandles,
+    plan_suction,
+)
 
 mujoco = mujoco_module()
 
@@ -47,7 +44,7 @@ NOTCH_CLEARANCE = 0.014
 NOTCH_MIN_PAD_HEIGHT = 0.008
 #: Contact ``solref`` of pads thinned to fit beside a handle: the stiffest MuJoCo allows at this step
 #: (2 steps), so that a 3 mm pad squeezing a 5 mm lip sinks about 0.5 mm into it, not 2 mm (at 0.02 s).
-#: The default pads use it too (:class:`~spark_bench.envs.gripper.GripperConfig`'s ``pad_solref``).
+#: The default pads use it too (:class:`~spark_bench.opening.planning.gripper.GripperConfig`'s ``pad_solref``).
 THIN_PAD_SOLREF = (2 * TIMESTEP, 1.0)
 #: Half-range (joint units) left to a joint hinged to the opened part (:func:`hold_hinged_parts`).
 HELD_RANGE = 1e-4
@@ -76,11 +73,11 @@ class Scene:
     :param rest_qpos: the full ``qpos`` with every object joint at rest, gripper at the origin
     :param held_joints: joints of parts hinged to the opened part, held at rest (:func:`hold_hinged_parts`)
     :param free_fraction: the fraction of its range the joint reaches driven directly with the gripper's
-        largest pull (:func:`~spark_bench.envs.drive_check.stuck_reason`), when checked (the planner found a grasp): below
-        :data:`~spark_bench.envs.drive_check.JAM_FRACTION` the grasp's ``reason`` says why no policy of this gripper can open the part
+        largest pull (:func:`~spark_bench.opening.planning.drive_check.stuck_reason`), when checked (the planner found a grasp): below
+        :data:`~spark_bench.opening.planning.drive_check.JAM_FRACTION` the grasp's ``reason`` says why no policy of this gripper can open the part
     :param end_effector: ``gripper`` (the parallel gripper: ``gripper`` holds :class:`GripperHandles`) or
-        ``suction`` (the suction cup, :mod:`spark_bench.envs.suction`: ``gripper`` holds its
-        :class:`~spark_bench.envs.suction.SuctionHandles`, ``grasp`` the cup's place)
+        ``suction`` (the suction cup, :mod:`spark_bench.opening.planning.suction`: ``gripper`` holds its
+        :class:`~spark_bench.opening.planning.suction.SuctionHandles`, ``grasp`` the cup's place)
     """
 
     model: mujoco.MjModel
@@ -179,7 +176,7 @@ def workspace_box(asset: ArticulatedAsset, margin: float = WORKSPACE_MARGIN, joi
 
 def fitted_gripper(grasp: GraspTarget, gripper: GripperConfig | None = None) -> GripperConfig:
     """The gripper fitted to ``grasp``: pads lowered to enter a notch with room to spare, or thinned to fit
-    into the gaps beside the handle (:func:`~spark_bench.envs.pads.plan_pads` planned them for ``gripper``).
+    into the gaps beside the handle (:func:`~spark_bench.opening.planning.pads.plan_pads` planned them for ``gripper``).
 
     :param gripper: the gripper to fit (default: :class:`GripperConfig`'s defaults)
     """
@@ -250,7 +247,7 @@ def collision_mesh(asset: ArticulatedAsset, links: list[str]):
 
 
 def plan_grasp(asset: ArticulatedAsset, joint: str, gripper: GripperConfig | None = None) -> GraspTarget:
-    """The grasp on the part moved by ``joint`` (:func:`~spark_bench.envs.grasp.find_grasp`), memoized per
+    """The grasp on the part moved by ``joint`` (:func:`~spark_bench.opening.planning.grasp.find_grasp`), memoized per
     asset; its ``reason`` says why the scripted opener cannot open the part, if it cannot. Handle candidates
     are judged on the part's simulated collision shapes too (:func:`collision_mesh`, the object prepared for
     MuJoCo as its scenes are: :func:`prepared_object`): the pads squeeze those, not the visual surface.
@@ -274,7 +271,7 @@ def plan_grasp(asset: ArticulatedAsset, joint: str, gripper: GripperConfig | Non
 def part_points(asset: ArticulatedAsset, joint: str, n: int = N_SAMPLES) -> np.ndarray:
     """``n`` points sampled (seed 0) on the visual surface of the part moved by ``joint``, world frame at rest,
     memoized per asset (read-only: shared by the joint's environments): what a policy reads of the part's
-    shape (a door's width and thickness, :func:`~spark_bench.rl.door_geometry.door_edge`); by default the
+    shape (a door's width and thickness, :func:`~spark_bench.opening.door_geometry.door_edge`); by default the
     grasp planner's own samples of the part. Empty when the part has no faces.
 
     :param asset: the object
@@ -294,7 +291,7 @@ def part_points(asset: ArticulatedAsset, joint: str, n: int = N_SAMPLES) -> np.n
 
 def plan_cup(asset: ArticulatedAsset, joint: str, config: SuctionConfig | None = None,
              outward: np.ndarray | None = None) -> GraspTarget:
-    """The suction cup's place on the part moved by ``joint`` (:func:`~spark_bench.envs.suction.plan_suction`),
+    """The suction cup's place on the part moved by ``joint`` (:func:`~spark_bench.opening.planning.suction.plan_suction`),
     memoized per asset as :func:`plan_grasp` is.
 
     :param outward: the face to plan on, where the gripper's planner took another than the part's front (a
@@ -337,92 +334,3 @@ def hold_hinged_parts(spec, asset: ArticulatedAsset, joint: str) -> list[str]:
         mj_joint.range = [rest - HELD_RANGE, rest + HELD_RANGE]
         held.append(parent.name)
     return held
-
-
-def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
-                gripper: GripperConfig | None = None, visuals: bool = True, end_effector: str = "gripper",
-                suction: SuctionConfig | None = None) -> Scene:
-    """Compile the object with the gripper (or the suction cup), for opening ``joint`` (or the first joint of
-    ``kind``).
-
-    :param asset: the object (benchmark frame or metres; Z up, front facing -X)
-    :param kind: ``prismatic`` (drawers) or ``revolute`` (doors)
-    :param joint: the joint's name, or None for the first of ``kind``
-    :param gripper: gripper dimensions and gains
-    :param visuals: compile the object's visual meshes (for rendering); without them the scene simulates the
-        same (visual geoms have no contacts and no mass) and a real object's compiles 10-30x faster
-    :param end_effector: ``gripper``, ``suction`` or ``auto`` (the cup where the planner finds nothing to
-        pinch: :func:`~spark_bench.envs.suction.choose_end_effector`; also where the cup opens a part whose
-        pinch cannot hold its pull along the fingers' closing direction, ``weak_pinch``: :func:`~spark_bench.envs.drive_check.stuck_reason`)
-    :param suction: the cup's dimensions and holding force
-    """
-    chosen = choose_joint(asset, kind, joint)
-    grasp = plan_grasp(asset, chosen.name, gripper)
-    effector = choose_end_effector(end_effector, grasp.declined)
-    if effector == "suction":  # on the face the gripper's planner looked at (a plate's broad face)
-        grasp = plan_cup(asset, chosen.name, suction, outward=grasp.outward if grasp.broad_face else None)
-    scene = _compile_scene(asset, chosen, grasp, effector, gripper, suction, visuals)
-    if end_effector == "auto" and scene.grasp.declined == "weak_pinch":
-        # a pinch too weak for the part (a heavy lid lifted by its lip: one finger's servo holds that pull): the
-        # cup on the part's front, when it finds a place there and its drive check opens the part
-        try:
-            cup = _compile_scene(asset, chosen, plan_cup(asset, chosen.name, suction), "suction", gripper, suction,
-                                 visuals)
-        except InputError:  # no face for the cup: the pinch stays, with its reason
-            return scene
-        if cup.grasp.reason is None:
-            return cup
-    return scene
-
-
-def _compile_scene(asset: ArticulatedAsset, chosen: Joint, grasp: GraspTarget, effector: str,
-                   gripper: GripperConfig | None, suction: SuctionConfig | None, visuals: bool) -> Scene:
-    """:func:`build_scene` for a planned ``grasp`` and a chosen end-effector (``gripper`` or ``suction``): the
-    compiled scene, its drive check run when the planner found a grasp (:func:`~spark_bench.envs.drive_check.stuck_reason`)."""
-    from spark_bench.sim import build_spec
-
-    spec = build_spec(asset, prepared=prepared_object(asset), visuals=visuals)
-    spec.option.timestep = TIMESTEP
-    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    spec.option.impratio = IMPRATIO
-    spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, 640)
-    spec.visual.global_.offheight = max(spec.visual.global_.offheight, 480)
-    workspace = workspace_box(asset, joint=chosen)
-    spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
-    spec.visual.headlight.diffuse = [0.6, 0.6, 0.6]
-    spec.worldbody.add_light(pos=[-2.0, -1.0, 3.0], dir=[0.5, 0.25, -0.8], diffuse=[0.5, 0.5, 0.5])
-    held = hold_hinged_parts(spec, asset, chosen.name)
-    wrist = asset.joint_frames()[chosen.name][1] if chosen.is_rotational else None
-    if effector == "suction":
-        handles = add_suction(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
-                              workspace=workspace, config=fitted_cup(grasp, suction))
-    else:
-        handles = add_gripper(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
-                              workspace=workspace, config=fitted_gripper(grasp, gripper))
-    try:
-        model = spec.compile()
-    except ValueError as exc:
-        raise InputError(asset.source or asset.name, f"MJCF does not compile: {exc}") from None
-
-    data = mujoco.MjData(model)
-    for j in asset.movable_joints():
-        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
-        if jid >= 0:
-            data.qpos[model.jnt_qposadr[jid]] = j.rest_value
-    mujoco.mj_kinematics(model, data)
-    body = chosen.child
-    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body)
-    if bid < 0:
-        raise InputError(asset.source or asset.name, f"MJCF has no body for link {body!r}")
-    local = data.xmat[bid].reshape(3, 3).T @ (grasp.point - data.xpos[bid])
-    scene = Scene(model=model, asset=asset, joint=chosen, grasp=grasp, grasp_body=body, grasp_local=local,
-                  gripper=handles, workspace=workspace, rest_qpos=data.qpos.copy(), held_joints=tuple(held),
-                  end_effector=effector)
-    if grasp.reason is None:  # a part no pull of this hand can open: say so, like a flush lid
-        from spark_bench.envs.drive_check import pinch_limited, stuck_reason
-
-        reason = stuck_reason(scene)
-        if reason is not None:
-            scene.grasp = replace(grasp, reason=reason, declined="weak_pinch" if pinch_limited(scene) else grasp.declined)
-    return scene

@@ -1,7 +1,7 @@
 """What the scripted opener reads of a rotational part's shape at rest: whether it swings about a hinge at
 its side (a door, a lid) or turns in place about an axis through itself (a cap, a dial), and a door's free
 edge and inside face, where the hand pushes a door that slipped out of the fingers open from inside
-(:class:`spark_bench.rl.scripted.ScriptedOpener`). Plain arrays in, plain values out.
+(:class:`spark_bench.opening.opener.ScriptedOpener`). Plain arrays in, plain values out.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from spark_bench.asset.transforms import unit
 #: its inside face there (:func:`door_edge`); the inside face is read within :data:`EDGE_BAND` (m) of the edge.
 HEIGHT_BAND = 0.1
 EDGE_BAND = 0.1
-#: A part swings like a door (:mod:`spark_bench.rl.scripted`: a door's guarded re-grasp, the push from inside)
+#: A part swings like a door (:mod:`spark_bench.opening.opener`: a door's guarded re-grasp, the push from inside)
 #: when it hangs on one side of its axis: the centroid of its surface, across the axis, lies at least this
 #: fraction of the grasp's distance from the axis (a door's is about half). A part around its axis (a bottle's cap, a dial, a wheel)
 #: turns in place: its re-grasp is a drawer's, in front of the grasp at once (backing out and waiting as for a

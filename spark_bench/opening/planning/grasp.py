@@ -2,25 +2,25 @@
 
 The part's *front* is found first: its outward direction (the pull direction of a drawer, the swing
 direction of a door's far edge, made exact by the normal of the faces facing it) and the front face's
-level along it (:func:`~spark_bench.envs.features.front_level`). Handles are then looked for, first
+level along it (:func:`~spark_bench.opening.planning.features.front_level`). Handles are then looked for, first
 found first taken:
 
 1. a link labelled ``handle`` among the part's links (``semantics.txt`` label, or GAPartNet's annotation
    ``category``);
 2. a labelled handle of a part hinged to it (a safe's lever, its own joint) standing in front of the front;
 3. geometry: the surface of the part and of the parts hinged to it (a dial, a knob) standing proud of the
-   front face by more than :data:`~spark_bench.envs.handle_search.HANDLE_MIN_PROUD`, in connected clusters.
+   front face by more than :data:`~spark_bench.opening.planning.handle_search.HANDLE_MIN_PROUD`, in connected clusters.
 
 Only clusters the open fingers can close around count (narrower than the open fingers by
 :data:`PINCH_MARGIN` on each side, across the closing direction); the chosen one is the central one
 (drawers) or the one farthest from the hinge (doors). A labelled handle whose bounding box's center is
-not over the handle (a bucket's bail, an arc) is grasped at its far end (:func:`~spark_bench.envs.handle_search.on_handle`). The fingers
+not over the handle (a bucket's bail, an arc) is grasped at its far end (:func:`~spark_bench.opening.planning.handle_search.on_handle`). The fingers
 reach down the handle as far as they can: the fingertips :data:`TIP_CLEARANCE` above the front face, or
 the pads' whole length below the handle's top when it stands out further, so that a knob's head or a
 bar is held from behind, not pinched at its rounded front.
 
 A part with no handle but a finger-pull notch cut into an edge of its front
-(:func:`~spark_bench.envs.features.find_notch`) gets an *inside grip*: the closed fingers enter the
+(:func:`~spark_bench.opening.planning.features.find_notch`) gets an *inside grip*: the closed fingers enter the
 notch, the hand presses against the notch's inner wall and the fingers open against its sides
 (``inside_grip=True``, ``press`` the direction of that wall). A revolute part with none of these but a tab
 standing out past its free edge (a box lid's lifting tab, :func:`find_tab`) is pinched across the tab
@@ -28,14 +28,14 @@ from beyond that edge (``outward`` is then the edge's direction, not the swing's
 its front face's center (drawers) or a point of the front face near its free edge (doors), with
 ``has_handle=False`` and a one-line ``reason`` why a parallel gripper cannot pull it.
 
-A pinch grasp is then checked against its neighbourhood (:func:`spark_bench.envs.pads.plan_pads`), and
+A pinch grasp is then checked against its neighbourhood (:func:`spark_bench.opening.planning.pads.plan_pads`), and
 the hand's way in against the object (:func:`find_grasp`). A tab whose way in is blocked (a front-loading
 washer's handle on its door's rim) gives way to the front's own grasps; a sliding plate (a sash) whose front
 has nothing to pinch or no way in is looked at from its broad face
-(:func:`~spark_bench.envs.plate_front.plate_face`).
+(:func:`~spark_bench.opening.planning.plate_front.plate_face`).
 
-Where the handle candidates are looked for is :mod:`spark_bench.envs.handle_search`; which of them a
-parallel gripper can pinch, and where, :mod:`spark_bench.envs.handles`.
+Where the handle candidates are looked for is :mod:`spark_bench.opening.planning.handle_search`; which of them a
+parallel gripper can pinch, and where, :mod:`spark_bench.opening.planning.handles`.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ import numpy as np
 from spark_bench.asset.mesh import sample_surface
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.asset.transforms import unit
-from spark_bench.envs.features import (
+from spark_bench.opening.planning.features import (
     LEVEL_BIN,
     Front,
     clusters,
@@ -60,8 +60,8 @@ from spark_bench.envs.features import (
     perpendicular_basis,
     rasterise_front,
 )
-from spark_bench.envs.gripper import GripperConfig
-from spark_bench.envs.handle_search import (
+from spark_bench.opening.planning.gripper import GripperConfig
+from spark_bench.opening.planning.handle_search import (
     HANDLE_MIN_PROUD,
     N_HANDLE_SAMPLES,
     N_SAMPLES,
@@ -69,7 +69,7 @@ from spark_bench.envs.handle_search import (
     handle_searches,
     on_handle,
 )
-from spark_bench.envs.handles import (
+from spark_bench.opening.planning.handles import (
     PINCH_MARGIN,
     candidates,
     edge_pinch,
@@ -77,9 +77,9 @@ from spark_bench.envs.handles import (
     reach_depth,
     sides_hold,
 )
-from spark_bench.envs.pads import approach_blocked, pad_landing, plan_pads
-from spark_bench.envs.plate_front import plate_face
-from spark_bench.envs.rest_meshes import RestMeshes
+from spark_bench.opening.planning.pads import approach_blocked, pad_landing, plan_pads
+from spark_bench.opening.planning.plate_front import plate_face
+from spark_bench.opening.planning.rest_meshes import RestMeshes
 
 #: A revolute part's free edge must lie this far (m) from its hinge for a feature past it to be a lid's tab:
 #: a shorter part is a lever (a toilet's flush lever, 8 cm), pressed on its face, not pinched at its end.
@@ -130,13 +130,13 @@ class GraspTarget:
         or the simulated collision shape has no side to hold); a part declined
         for ``no_handle``, ``too_wide`` or ``unholdable`` has nothing to pinch, and the environments'
         ``end_effector="auto"`` opens it with the suction cup
-        (:func:`~spark_bench.envs.suction.choose_end_effector`). The scene's drive check adds ``weak_pinch``
+        (:func:`~spark_bench.opening.planning.suction.choose_end_effector`). The scene's drive check adds ``weak_pinch``
         (a pinch whose part starts to move along the fingers' closing, too heavy for one finger's servo:
-        :func:`~spark_bench.envs.drive_check.stuck_reason`), where ``auto`` takes the cup when the cup opens it
+        :func:`~spark_bench.opening.planning.drive_check.stuck_reason`), where ``auto`` takes the cup when the cup opens it
     :param cup_radius: for the suction cup, the radius (m) of the cup planned (one of
-        :func:`~spark_bench.envs.suction.cup_sizes`; None: the gripper)
+        :func:`~spark_bench.opening.planning.suction.cup_sizes`; None: the gripper)
     :param broad_face: the grasp is on a sliding plate's broad face, not on its front (``outward`` is that
-        face's; :func:`~spark_bench.envs.plate_front.plate_face`)
+        face's; :func:`~spark_bench.opening.planning.plate_front.plate_face`)
     """
 
     point: np.ndarray
@@ -263,7 +263,7 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
     (below the handle search's proud cut too), has sides too shallow for the pads at every level (a low
     rounded rib), or, given ``collision`` (the part's simulated collision shapes, world frame at rest), one
     whose simulated shape's sides give the pads no hold
-    (:func:`~spark_bench.envs.handles.sides_hold`)."""
+    (:func:`~spark_bench.opening.planning.handles.sides_hold`)."""
     n, basis = front.outward, front.basis
     widest = None
     unheld: list[str] = []
@@ -311,7 +311,7 @@ def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperCo
 def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: str, gripper: GripperConfig
               ) -> GraspTarget:
     """The pinch grasp on handle candidate ``best``, its pads placed; ``landing`` set when an open pad would
-    come down on the object (:func:`~spark_bench.envs.pads.pad_landing`)."""
+    come down on the object (:func:`~spark_bench.opening.planning.pads.pad_landing`)."""
     n, basis = front.outward, front.basis
     depth = best.points @ n
     point = pad_center(best, front, gripper) @ basis + reach_depth(best.base, float(depth.max()),
@@ -330,7 +330,7 @@ def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: s
 def _place_pads(asset: ArticulatedAsset, joint: str, grasp: GraspTarget, held: np.ndarray, face: float,
                 gripper: GripperConfig) -> list[str]:
     """Put ``grasp``'s pads in the gaps beside the feature it holds when something else of the object stands
-    in the open fingers' sweep (:func:`~spark_bench.envs.pads.plan_pads`: ``opening``, ``pad_thickness``,
+    in the open fingers' sweep (:func:`~spark_bench.opening.planning.pads.plan_pads`: ``opening``, ``pad_thickness``,
     ``clearance`` set and the point shifted; unchanged when nothing is in the way or no pads fit).
 
     :param held: surface points of the feature held (a handle candidate's, a tab's)
@@ -338,7 +338,7 @@ def _place_pads(asset: ArticulatedAsset, joint: str, grasp: GraspTarget, held: n
     :returns: the parts hinged to the part that the feature lies on
     """
     # the handle's side: the part, and a part hinged to it that the feature lies on (a safe's dial or lever,
-    # held at rest: :func:`~spark_bench.envs.scene.hold_hinged_parts`); any other hinged part (a big dial
+    # held at rest: :func:`~spark_bench.opening.planning.scene.hold_hinged_parts`); any other hinged part (a big dial
     # beside a bar) stands in the pads' way like another part's feature
     links = asset.part_of_joint(joint)
     holding = [name for name in carried_links(asset, joint, links) if _holds(asset, name, held)]
@@ -359,7 +359,7 @@ def _place_pads(asset: ArticulatedAsset, joint: str, grasp: GraspTarget, held: n
 SWEEP_STEP = 0.002
 SWEEP_GAIN = 2 * PINCH_MARGIN
 #: Points of the piece count in its section when they stand this far (m) above the fingertips' level (as
-#: :data:`~spark_bench.envs.pads.LANDING_MARGIN`).
+#: :data:`~spark_bench.opening.planning.pads.LANDING_MARGIN`).
 SWEEP_PROUD = 0.004
 
 
@@ -473,12 +473,12 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
 
 
 def _way_in(asset: ArticulatedAsset, joint: str, grasp: GraspTarget, gripper: GripperConfig):
-    """What blocks ``grasp``'s way in (:func:`~spark_bench.envs.pads.approach_blocked`), or None."""
+    """What blocks ``grasp``'s way in (:func:`~spark_bench.opening.planning.pads.approach_blocked`), or None."""
     blocked = approach_blocked(asset, grasp, gripper, APPROACH_CLEAR)
     if blocked is not None and grasp.source == "face" and blocked[0] in asset.moving_links(joint):
         # nothing to pinch, and what stands before the face's centre is the part's own (the knob the pads
         # cannot hold): no other part in the way, the cup (``auto``) plans its own place and way in
-        # (:func:`~spark_bench.envs.suction.plan_suction`)
+        # (:func:`~spark_bench.opening.planning.suction.plan_suction`)
         return None
     return blocked
 
@@ -504,7 +504,7 @@ def is_push_button(asset: ArticulatedAsset, joint: str) -> bool:
 
 
 def _edge_sides_hold(front: Front, edge: tuple, gripper: GripperConfig, collision=None) -> bool:
-    """Whether the pads hold an edge pinch's two edges (:func:`~spark_bench.envs.handles.sides_hold`, on the
+    """Whether the pads hold an edge pinch's two edges (:func:`~spark_bench.opening.planning.handles.sides_hold`, on the
     part's surface and, given them, its collision shapes): the crown of a rounded lid is a strip narrower than
     the open fingers at its face level, but its sides slope away and the pads slide off them."""
     point, along, _ = edge

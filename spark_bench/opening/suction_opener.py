@@ -1,6 +1,6 @@
-"""The scripted opener of the suction cup (``end_effector="suction"``, :mod:`spark_bench.envs.suction`): its
-own phases on :class:`~spark_bench.rl.scripted.ScriptedOpener`'s pre-grasp and opening trajectory, planned from
-the given (predicted) joint as the gripper's opener is. :func:`~spark_bench.rl.scripted.opener_for` makes it
+"""The scripted opener of the suction cup (``end_effector="suction"``, :mod:`spark_bench.opening.planning.suction`): its
+own phases on :class:`~spark_bench.opening.opener.ScriptedOpener`'s pre-grasp and opening trajectory, planned from
+the given (predicted) joint as the gripper's opener is. :func:`~spark_bench.opening.episodes.opener_for` makes it
 for an environment with the cup.
 """
 
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from spark_bench.rl.scripted import (
+from spark_bench.opening.opener import (
     APPROACH_STEPS,
     MAX_REGRASPS,
     PREGRASP_OFFSET,
