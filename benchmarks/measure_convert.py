@@ -14,7 +14,7 @@ and, on 41083, CoACD with its default parameters on each link's mesh (the refere
 is set against), so that the speed-up is a ratio measured under the same CPU load. With ``--synth N``
 it also reports the pass rate of N generated objects.
 
-Run: ``python benchmarks/measure_convert.py [--ids 41083 7179] [--synth 40] [--no-reference]``.
+Run: ``python -m benchmarks.measure_convert [--ids 41083 7179] [--synth 40] [--no-reference]``.
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@
 3. **Training**: PPO and SAC on the default drawer for ``--train-minutes`` each: success rate reached,
    environment steps and wall time (``--skip-train`` to skip).
 
-Run: ``python benchmarks/measure_envs.py [--synth 30] [--train-minutes 30] [--skip-train] [--out DIR]``.
+Run: ``python -m benchmarks.measure_envs [--synth 30] [--train-minutes 30] [--skip-train] [--out DIR]``.
 """
 
 from __future__ import annotations
@@ -142,7 +142,7 @@ def write_training_md(rows: list[dict], results: Path, note: str = "") -> Path:
 
     results.mkdir(parents=True, exist_ok=True)
     lines = ["# Training on the default drawer (SparkDrawer-v0, no kwargs)", "",
-             "Produced by `python benchmarks/measure_envs.py` (training part), on the 2 shared CPU cores",
+             "Produced by `python -m benchmarks.measure_envs` (training part), on the 2 shared CPU cores",
              f"({os.cpu_count()} visible; other jobs were running). Evaluation: 20 episodes with the",
              "deterministic policy every 20k (PPO) / 5k (SAC) environment steps; wall time includes evaluations.",
              *([note] if note else []), "",
@@ -172,7 +172,7 @@ def write_scripted_md(report: dict, n_synth: int, results: Path) -> Path:
     results.mkdir(parents=True, exist_ok=True)
     load = report.get("load", {})
     lines = ["# Opening environments: speed and the scripted opener", "",
-             "Produced by `python benchmarks/measure_envs.py --skip-train --results benchmarks/results` on "
+             "Produced by `python -m benchmarks.measure_envs --skip-train --results benchmarks/results` on "
              f"{os.cpu_count()} visible CPU cores shared with other engineers' jobs (1-minute load average "
              f"{load.get('start', float('nan')):.1f} at the start, {load.get('end', float('nan')):.1f} at the end): "
              "absolute steps/s vary with that load; the overhead ratios compare runs interleaved in the same "

@@ -2,7 +2,7 @@
 workers, and report the 2-worker speed-up against the 1-worker run measured here.
 
 Each configuration starts from an empty results store and an empty generation cache, so nothing is
-reused between them. Run: ``python benchmarks/measure_eval.py [--bench synth-v1] [--methods oracle,geometry]``
+reused between them. Run: ``python -m benchmarks.measure_eval [--bench synth-v1] [--methods oracle,geometry]``
 (``--cases 10`` for a quick look; ``--no-sim`` to time the metrics alone).
 
 ``--rl N`` instead times the RL transfer score of ``eval --rl`` (the ``rl`` stage: the shipped generalist
@@ -148,7 +148,7 @@ def measure_rl(args, cores: list[int]) -> int:
     oracle = args.rl_method == "oracle"
     lines = ["# eval --rl: seconds per case and the oracle's ceiling" if oracle else
              f"# eval --rl on {summary.run.label}'s predictions: fine-tuned against zero-shot", "",
-             f"Produced by `python benchmarks/measure_eval.py --rl {args.rl} --finetune-steps "
+             f"Produced by `python -m benchmarks.measure_eval --rl {args.rl} --finetune-steps "
              f"{' '.join(map(str, settings))}"
              f"{' --rl-cases ' + args.rl_cases if args.rl_cases else ''}"
              f"{'' if oracle else ' --rl-method ' + args.rl_method}` on {name} ({len(cases)} cases with a drawer or door, spread over its categories: "

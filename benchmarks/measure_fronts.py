@@ -4,11 +4,11 @@ window's sash (its leading edge inside the frame). For every drawer, door and wi
 x ``--seeds`` (synth objects generated for this run, none of a named benchmark's): the grasp the planner
 takes (where it looks: the front, the front's own grasps after a blocked tab, a sliding plate's broad face),
 the end-effector ``auto`` chooses, and ``--episodes`` scripted episodes (seeds 0..) planned from the TRUE
-joint and as many from a WRONG axis (the true axis turned by 90 degrees, as ``measure_suction.py`` turns it).
+joint and as many from a WRONG axis (the true axis turned by 90 degrees, as ``benchmarks/wrong_axis.py`` turns it).
 
 Writes ``benchmarks/results/fronts.md`` (and, with ``--out``, a per-joint JSON).
 
-Run: ``nice -n 10 python benchmarks/measure_fronts.py [--categories WashingMachine TopLoadingWasher Window]
+Run: ``nice -n 10 python -m benchmarks.measure_fronts [--categories WashingMachine TopLoadingWasher Window]
 [--seeds 5000:5030]``.
 """
 
@@ -25,21 +25,20 @@ from pathlib import Path
 from tqdm import tqdm
 
 import spark_bench  # noqa: F401  (registers the environments)
+from benchmarks.wrong_axis import wrong_axis
 from spark_bench.data.synth import generate_object
 from spark_bench.envs import make_env
 from spark_bench.envs.assets import load_asset
 from spark_bench.envs.registration import ENV_OF_JOINT_TYPE
 from spark_bench.errors import InputError
 from spark_bench.opening.episodes import ground_truth_joint, open_with_ground_truth, open_with_joint
-from spark_bench.opening.planning.grasp import _find
+from spark_bench.opening.judge import OPENING_STEPS
+from spark_bench.opening.planning.grasp import find_grasp_unchecked
 from spark_bench.opening.planning.gripper import GripperConfig
 from spark_bench.opening.planning.rest_meshes import RestMeshes
 from spark_bench.opening.planning.scene import plan_grasp
 from spark_bench.opening.planning.suction import cup_mm
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from measure_suction import MAX_STEPS, wrong_axis  # noqa: E402
-from train_generalist import seed_range  # noqa: E402
+from spark_bench.rl.generalist_recipe import seed_range
 
 RESULTS = Path(__file__).resolve().parent / "results"
 #: Where the planner took a part (:func:`where`).
@@ -50,7 +49,7 @@ def where(asset, joint: str, end_effector: str) -> str:
     """Where the part was taken: the grasp planner's choice (:func:`~spark_bench.opening.planning.grasp.find_grasp`: its
     broad face (a sliding plate), its front after a tab whose way in is blocked, a tab, or its front), and
     its front (the cup's) where the scene found the tab's pinch too weak for the part (``weak_pinch``)."""
-    first = _find(RestMeshes(asset), joint, 0, GripperConfig()).source  # before the way-in check
+    first = find_grasp_unchecked(RestMeshes(asset), joint, 0, GripperConfig()).source  # before the way-in check
     taken = plan_grasp(asset, joint)
     if taken.broad_face:
         return "broad face"
@@ -89,7 +88,7 @@ def run_joint(asset, joint, episodes: int, max_steps: int) -> dict:
 def write_report(rows: list[dict], args, seconds: float, path: Path) -> Path:
     """``fronts.md``: per category, how many joints are attempted, opened with the true joint, and with a wrong one."""
     lines = ["# Parts whose front is not where the planner looks first (synth)", "",
-             f"Produced by `python benchmarks/measure_fronts.py --categories {' '.join(args.categories)} --seeds "
+             f"Produced by `python -m benchmarks.measure_fronts --categories {' '.join(args.categories)} --seeds "
              f"{args.seeds} --episodes {args.episodes}` on {os.cpu_count()} CPU cores ({seconds:.0f} s): every drawer, "
              "door and window joint of freshly generated synth objects, `end_effector=\"auto\"`, "
              f"{args.episodes} scripted episodes (seeds 0..) of at most {args.max_steps} steps from the TRUE joint and "
@@ -126,7 +125,7 @@ def main() -> None:
     parser.add_argument("--categories", nargs="+", default=["WashingMachine", "TopLoadingWasher", "Window"])
     parser.add_argument("--seeds", default="5000:5030", help="synth seeds, A:B or a comma list")
     parser.add_argument("--episodes", type=int, default=3)
-    parser.add_argument("--max-steps", type=int, default=MAX_STEPS)
+    parser.add_argument("--max-steps", type=int, default=OPENING_STEPS)
     parser.add_argument("--results", type=Path, default=RESULTS, help="folder for fronts.md")
     parser.add_argument("--out", type=Path, default=None, help="per-joint JSON")
     args = parser.parse_args()

@@ -11,7 +11,7 @@ same end-effector, told the ground-truth joint, reset with the same seed, at mos
 and counted with their reason's kind. Each joint-seed runs with the end-effector of its scripted verdict (the
 opening score's choice, which ``eval --rl`` reuses); the environment's own ``auto`` is recorded beside it.
 
-    python benchmarks/measure_generalist_coverage.py --bench /work/bench_partnet \\
+    python -m benchmarks.measure_generalist_coverage --bench <bench_partnet> \\
         --coverage benchmarks/results/open_coverage.json --workers 2 \\
         --out benchmarks/results/generalist_coverage.md
 """
@@ -26,9 +26,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from dev_split import read_halves  # noqa: E402
+from benchmarks.partnet_dev_split import read_halves
 
 RESULTS = Path(__file__).resolve().parent / "results"
 #: The issue's target: the generalist opens at least this share of what the scripted opener opens.
@@ -148,7 +146,7 @@ def main() -> int:
     start = time.perf_counter()
     record = weights_record(args.weights)
     scripted = json.loads(args.coverage.read_text())
-    key = next((k for k in scripted if Path(k).resolve() == args.bench.resolve()), None)
+    key = next((k for k in scripted if k == f"<{args.bench.name}>" or Path(k).resolve() == args.bench.resolve()), None)
     if key is None:
         raise SystemExit(f"{args.coverage} has no records of {args.bench}")
     by_case: dict[str, list[dict]] = {}
@@ -187,7 +185,7 @@ def main() -> int:
     mismatched = [f"{r['case']}/{r['joint']} ({r.get('end_effector')}; auto: {r.get('env_end_effector')})" for r in rows
                   if r.get("env_end_effector", r.get("end_effector")) != r.get("end_effector")]
     lines = ["# The generalist against the scripted opener on real objects, zero-shot (issue 23, item 6)", "",
-             f"Written by `python benchmarks/measure_generalist_coverage.py --bench {args.bench} --coverage "
+             f"Written by `python -m benchmarks.measure_generalist_coverage --bench <{Path(args.bench).name}> --coverage "
              f"{args.coverage}` at commit {commit} ({earlier['written'] if earlier else time.strftime('%Y-%m-%d %H:%M')}"
              f" UTC, {wall:.0f} s on 2 shared cores), with the generalist weights version "
              f"{record.get('version')} (feature version {record.get('feature_version')}). Every drawer, door and lid "

@@ -2,9 +2,9 @@
 ``../shared/partnet_dev`` prepared as a benchmark (75 PartNet-Mobility objects; aim: <= 10 s each on 2
 cores).
 
-    python benchmarks/measure_joint_opt_real.py                      # prepares partnet_dev once, then times
-    python benchmarks/measure_joint_opt_real.py --bench /path/to/prepared --limit 10
-    python benchmarks/measure_joint_opt_real.py --ids 102278 7265 ... [--cached]   # a subset; report only
+    python -m benchmarks.measure_joint_opt_real                      # prepares partnet_dev once, then times
+    python -m benchmarks.measure_joint_opt_real --bench /path/to/prepared --limit 10
+    python -m benchmarks.measure_joint_opt_real --ids 102278 7265 ... [--cached]   # a subset; report only
 
 The benchmark is prepared on first use (``spark-bench data prepare --src ../shared/partnet_dev --out
 $SPARK_BENCH_HOME/benchmarks/partnet_dev``: watertight R=200, 512 px renders; about 30 min on 2 busy
@@ -28,8 +28,7 @@ from pathlib import Path
 import numpy as np
 from rich.console import Console
 
-sys.path.insert(0, str(Path(__file__).parent))
-from measure_joint_opt import VARIANTS, cached_results, case_dirs, run_tasks, write_result  # noqa: E402
+from benchmarks.joint_opt_runs import VARIANTS, cached_results, case_dirs, run_tasks, write_result
 
 #: Where the shared development objects are, relative to the repository.
 SOURCE = Path(__file__).resolve().parents[1].parent / "shared" / "partnet_dev"
@@ -106,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
              "(annotation prior seed 0, annotation geometry, dataset open state) per method, torch 1 thread, "
              f"one object at a time; {os.cpu_count()} cores shared with other jobs (the load column: the "
              "1-min load average while they ran; wall seconds grow with it, CPU seconds hardly). Produced by "
-             f"`python benchmarks/measure_joint_opt_real.py`; SPARK sources {', '.join(codes)}.", "",
+             f"`python -m benchmarks.measure_joint_opt_real`; SPARK sources {', '.join(codes)}.", "",
              *[x for note in args.note for x in (note, "")],
              "| method | objects | optimizer CPU s | objects <= 10 s | run_ours CPU s | run_ours wall s | load |",
              "|---|---|---|---|---|---|---|"]

@@ -18,13 +18,21 @@ Two parts:
   does not crash): NumPy dispatches by instruction set alone and is pinned already, the part checks the rest.
   ``--code DIR`` runs another checkout's ``spark_bench`` (a commit before a change, for the "before" row).
 
+An AVX-512 model (``Icelake-Server``) is in the list, and each CPU's row says what the emulated CPU offers
+NumPy (its ``__cpu_features__`` without the pins: ``AVX-512: yes/no``), so that a row is never taken for an
+AVX-512 test it was not: QEMU's translator (7.2, Debian 12's) implements no AVX-512, so under it
+``Icelake-Server`` offers only AVX2 and tells nothing AVX-512 would; on a real AVX-512 machine the native row
+is the AVX-512 one. ``--numpy-first`` also runs the verdict part as a script that imports NumPy before
+spark_bench (``import numpy`` and then the CLI, in one process), the order of a notebook: its rows must
+equal the CLI's.
+
 What emulation cannot show: QEMU computes the approximate instructions (``rcpps``/``rsqrtps``) exactly, as no
 real CPU does, so a function built on them differs between QEMU and this machine as it would between two real
-CPU makers; and QEMU 7.2 has no AVX-512, so an AVX-512 machine is not emulated (its NumPy, OpenBLAS, torch and
-oneDNN kernels are pinned to AVX2's). Emulation is slow (about 8x): a case takes minutes.
+CPU makers. Emulation is slow (about 8x): a case takes minutes.
 
-Run: ``python benchmarks/measure_kernels.py [--cpus Haswell-v4,EPYC-v3] [--cases Dishwasher_00009,Door_00004]``
-(needs ``qemu-x86_64`` on the PATH; writes ``benchmarks/results/kernels.md``; ``--jobs`` runs at once).
+Run from the repository root: ``python -m benchmarks.measure_kernels [--cpus Haswell-v4,EPYC-v3,Icelake-Server]
+[--cases Dishwasher_00009,Door_00004] [--numpy-first]`` (needs ``qemu-x86_64`` on the PATH: Debian's
+``qemu-user``; writes ``benchmarks/results/kernels.md``; ``--jobs`` runs at once).
 """
 
 from __future__ import annotations
@@ -47,8 +55,14 @@ from pathlib import Path
 #: (a run of another checkout, ``--code``, pins what that checkout pins).
 USER_ENV = dict(os.environ)
 RESULTS = Path(__file__).resolve().parent / "results"
-#: Emulated CPUs: Intel and AMD, both with AVX2 and FMA (the kernels spark-bench pins).
-CPUS = ("Haswell-v4", "EPYC-v3")
+#: Emulated CPUs: Intel and AMD with AVX2 and FMA (the kernels spark-bench pins), and an Intel AVX-512 model
+#: (offered as such only by a QEMU that emulates AVX-512: each row says what its CPU offered).
+CPUS = ("Haswell-v4", "EPYC-v3", "Icelake-Server")
+#: NumPy's dispatch targets of an AVX-512 CPU, as ``__cpu_features__`` names them.
+AVX512_TARGETS = ("AVX512F", "X86_V4", "AVX512_SKX", "AVX512_ICL")
+#: Prints what the CPU offers NumPy (no spark_bench, no pins): run natively or under QEMU.
+CPU_OFFERS = ("import json; from numpy._core._multiarray_umath import __cpu_features__ as f; "
+              "print(json.dumps(sorted(k for k, v in f.items() if v)))")
 #: NumPy at its baseline kernels (the verdict part's workaround for QEMU 7.2's crash in its AVX2 code).
 NUMPY_BASELINE = "X86_V3 X86_V4 AVX512_ICL AVX512_SPR"
 CASES = ("Dishwasher_00009", "Door_00004")
@@ -140,8 +154,24 @@ def _python(cpu: str | None) -> list[str]:
     return ([] if cpu is None else ["qemu-x86_64", "-cpu", cpu]) + [sys.executable]
 
 
+def cpu_offers(cpu: str | None, env: dict) -> str:
+    """What NumPy finds on the CPU (``cpu`` under QEMU, None: natively), without the pins: ``AVX-512: yes``
+    with the AVX-512 targets found, ``AVX-512: no`` (the highest x86 target found), or the error."""
+    clean = {k: v for k, v in env.items() if k != "NPY_DISABLE_CPU_FEATURES"}
+    done = subprocess.run(_python(cpu) + ["-c", CPU_OFFERS], env=clean, capture_output=True, text=True, timeout=600)
+    if done.returncode:
+        return "error: " + (done.stderr.strip().splitlines() or ["no output"])[-1][:120]
+    features = set(json.loads(done.stdout.strip().splitlines()[-1]))
+    found = [t for t in AVX512_TARGETS if t in features]
+    if found:
+        return f"AVX-512: yes ({' '.join(found)})"
+    top = next((t for t in ("X86_V3", "X86_V2") if t in features), "baseline")
+    return f"AVX-512: no (up to {top})"
+
+
 def run_probe(cpu: str | None, env: dict) -> dict:
     """:func:`probe` in a fresh process, natively (``cpu`` None) or under ``qemu-x86_64 -cpu cpu``."""
+    # this file as a script, not ``-m`` from the root: a ``--code`` checkout on PYTHONPATH must come before the root
     done = subprocess.run(_python(cpu) + [__file__, "--probe"], env=env, capture_output=True, text=True,
                           timeout=3600)
     lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
@@ -150,14 +180,23 @@ def run_probe(cpu: str | None, env: dict) -> dict:
     return json.loads(lines[-1])
 
 
-def run_eval(cpu: str | None, bench: Path, cases: list[str], home: Path, env: dict) -> dict:
+#: The CLI run from a script that imports NumPy first (a notebook's order), in one process.
+NUMPY_FIRST = ("import numpy, runpy, sys; sys.argv = ['spark-bench', *sys.argv[1:]]; "
+               "runpy.run_module('spark_bench.cli', run_name='__main__')")
+
+
+def run_eval(cpu: str | None, bench: Path, cases: list[str], home: Path, env: dict, numpy_first: bool = False) -> dict:
     """``spark-bench eval --method ours`` on ``cases`` of the prepared benchmark folder ``bench`` (read in
-    place), in a fresh home: per case and variant, the row's verdict fields, and the prediction files' digests."""
+    place), in a fresh home: per case and variant, the row's verdict fields, and the prediction files' digests.
+
+    :param numpy_first: run it from a script that imports NumPy before spark_bench (:data:`NUMPY_FIRST`)
+    """
     home.mkdir(parents=True)
     t0 = time.perf_counter()
-    done = subprocess.run(_python(cpu) + ["-m", "spark_bench.cli", "eval", "--method", "ours", "--bench",
-                                          str(bench.resolve()), "--cases", ",".join(cases), "--workers", "0",
-                                          "--no-progress"],
+    entry = ["-c", NUMPY_FIRST] if numpy_first else ["-m", "spark_bench.cli"]
+    done = subprocess.run(_python(cpu) + entry + ["eval", "--method", "ours", "--bench",
+                                                  str(bench.resolve()), "--cases", ",".join(cases), "--workers",
+                                                  "0", "--no-progress"],
                           env={**env, "SPARK_BENCH_HOME": str(home)}, capture_output=True, text=True, timeout=7200,
                           cwd=home)  # not this folder: `python -m` would import its spark_bench before PYTHONPATH's
     out: dict = {"_wall_s": round(time.perf_counter() - t0, 1)}
@@ -166,9 +205,10 @@ def run_eval(cpu: str | None, bench: Path, cases: list[str], home: Path, env: di
     db = home / "results.sqlite"
     if db.is_file():
         with sqlite3.connect(db) as connection:
-            query = f"select case_id, variant, {', '.join(ROW_FIELDS)} from results"
-            for case, variant, *fields in connection.execute(query):
+            query = f"select case_id, variant, info, {', '.join(ROW_FIELDS)} from results"
+            for case, variant, info, *fields in connection.execute(query):
                 out[f"{case} {variant}".strip()] = {f: without_timings(v) for f, v in zip(ROW_FIELDS, fields)}
+                out.setdefault("_kernels", set()).add(json.loads(info or "{}").get("versions", {}).get("cpu kernels"))
     for path in sorted((home / "runs").rglob("*.urdf")):
         out[f"file {path.relative_to(home / 'runs')}"] = hashlib.sha1(path.read_bytes()).hexdigest()[:12]
     return out
@@ -222,6 +262,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--bench", default=None, help="a prepared benchmark folder (default: synth-v1, built)")
     parser.add_argument("--unpinned", action="store_true", help="also probe with MKL_CBWR=AUTO (before the pin)")
     parser.add_argument("--numpy-avx2", action="store_true", help="verdict part: NumPy's AVX2 kernels too")
+    parser.add_argument("--numpy-first", action="store_true",
+                        help="verdict part: also from a script that imports NumPy before spark_bench")
     parser.add_argument("--code", default=None, help="run this checkout's spark_bench (PYTHONPATH)")
     parser.add_argument("--jobs", type=int, default=2, help="runs at once")
     parser.add_argument("--out", default=str(RESULTS / "kernels.md"))
@@ -232,16 +274,31 @@ def main(argv: list[str] | None = None) -> int:
     if shutil.which("qemu-x86_64") is None:
         print("needs qemu-x86_64 (Debian: apt-get install qemu-user)", file=sys.stderr)
         return 2
-    from rich.progress import track
-
-    from spark_bench.kernels import cpu_field  # after USER_ENV: importing spark_bench pins this process
-
     cpus = [c for c in args.cpus.split(",") if c]
     cases = [c for c in args.cases.split(",") if c]
     env = dict(USER_ENV)
     if args.code:
         env["PYTHONPATH"] = os.pathsep.join(p for p in (str(Path(args.code).resolve()), env.get("PYTHONPATH")) if p)
     settings = [("pinned", env)] + ([("MKL_CBWR=AUTO", {**env, "MKL_CBWR": "AUTO"})] if args.unpinned else [])
+    offers = {cpu: cpu_offers(cpu, env) for cpu in [None, *cpus]}
+    probes, lines = _kernel_section(args, cpus, settings, offers)
+    runs = _verdict_section(args, cpus, env, lines) if cases else {}
+    Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    raw = {"offers": {cpu or "native": text for cpu, text in offers.items()},
+           "probes": {f"{name} {cpu or 'native'}": found for (name, cpu), found in probes.items()},
+           "runs": {key: found for key, found in runs.items()}}
+    Path(args.out).with_suffix(".json").write_text(json.dumps(raw, indent=1, default=str), encoding="utf-8")
+    print("\n".join(lines))
+    return 0
+
+
+def _kernel_section(args, cpus: list[str], settings: list[tuple[str, dict]], offers: dict) -> tuple[dict, list[str]]:
+    """The probes of every CPU and setting, and the report's first part: what each CPU offered, and per
+    library whether its bits equal the native ones."""
+    from rich.progress import track
+
+    from spark_bench.kernels import cpu_field
+
     jobs = [(name, cpu) for name, _ in settings for cpu in [None, *cpus]]
     with ThreadPoolExecutor(max(1, args.jobs)) as pool:
         futures = [pool.submit(run_probe, cpu, dict(settings)[name]) for name, cpu in jobs]
@@ -252,6 +309,8 @@ def main(argv: list[str] | None = None) -> int:
              f"{_qemu_version()}) as {', '.join(cpus)}. Recorded kernels: "
              f"`{probes[('pinned', None)].get('_kernels', '?')}`."
              + (f" Code: `{args.code}`." if args.code else ""), "",
+             "What each CPU offers NumPy (unpinned): " + "; ".join(f"{cpu or 'native'}: {text}"
+                                                              for cpu, text in offers.items()) + ".", "",
              "## Kernels: the bits of each library's results (same: equal to this machine's, natively)", ""]
     keys = [k for k in probes[("pinned", None)] if not k.startswith("_")]
     columns = [(name, cpu) for name, cpu in jobs if cpu is not None]
@@ -267,30 +326,39 @@ def main(argv: list[str] | None = None) -> int:
     errors = [f"{cpu or 'native'} ({name}): {found['_error']}" for (name, cpu), found in probes.items()
               if "_error" in found]
     lines += [""] + [f"- probe failed: {e}" for e in errors] if errors else []
-    if cases:
-        bench = Path(args.bench) if args.bench else _synth_bench()
-        eval_env = env if args.numpy_avx2 else {**env, "NPY_DISABLE_CPU_FEATURES": NUMPY_BASELINE}
-        with tempfile.TemporaryDirectory() as scratch, ThreadPoolExecutor(max(1, args.jobs)) as pool:
-            futures = {cpu: pool.submit(run_eval, cpu, bench, cases, Path(scratch) / (cpu or "native"), eval_env)
-                       for cpu in [None, *cpus]}
-            runs = {cpu: f.result() for cpu, f in zip(futures, track(list(futures.values()), description="eval runs"))}
-        native = runs[None]
-        numpy_note = "" if args.numpy_avx2 else f" (NumPy at its baseline: `NPY_DISABLE_CPU_FEATURES={NUMPY_BASELINE}`)"
-        lines += ["", f"## Verdicts: `spark-bench eval --method ours --bench {bench.name} --cases {','.join(cases)}`"
-                  f"{numpy_note}", "",
-                  "| CPU | wall s | rows | differences from native (row fields; prediction files) |", "|---|---|---|---|"]
-        for cpu, found in runs.items():
-            rows = sum(1 for k in found if not k.startswith(("_", "file ")))
-            diff = "; ".join(_row_differences(native, found)) or "none"
-            if "_error" in found:
-                diff = f"failed: {found['_error']}"
-            lines.append(f"| {cpu or 'native'} | {found['_wall_s']} | {rows} | {diff} |")
-    Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
-    raw = {"probes": {f"{name} {cpu or 'native'}": found for (name, cpu), found in probes.items()},
-           "runs": {cpu or "native": found for cpu, found in runs.items()} if cases else {}}
-    Path(args.out).with_suffix(".json").write_text(json.dumps(raw, indent=1, default=str), encoding="utf-8")
-    print("\n".join(lines))
-    return 0
+    return probes, lines
+
+
+def _verdict_section(args, cpus: list[str], env: dict, lines: list[str]) -> dict:
+    """``eval`` natively and under each CPU (and, with ``--numpy-first``, from a script that imports NumPy
+    first), compared with the native CLI run; appends the report's second part to ``lines``."""
+    from rich.progress import track
+
+    cases = [c for c in args.cases.split(",") if c]
+    bench = Path(args.bench) if args.bench else _synth_bench()
+    eval_env = env if args.numpy_avx2 else {**env, "NPY_DISABLE_CPU_FEATURES": NUMPY_BASELINE}
+    entries = [(cpu, False) for cpu in [None, *cpus]] + ([(cpu, True) for cpu in [None, *cpus]] if args.numpy_first else [])
+    with tempfile.TemporaryDirectory() as scratch, ThreadPoolExecutor(max(1, args.jobs)) as pool:
+        futures = {(cpu, first): pool.submit(run_eval, cpu, bench, cases,
+                                             Path(scratch) / f"{cpu or 'native'}{'-numpy-first' if first else ''}",
+                                             eval_env, first) for cpu, first in entries}
+        found_all = [f.result() for f in track(list(futures.values()), description="eval runs")]
+    runs = {f"{cpu or 'native'}{' (numpy first)' if first else ''}": found
+            for (cpu, first), found in zip(futures, found_all)}
+    native = runs["native"]
+    numpy_note = "" if args.numpy_avx2 else f" (NumPy at its baseline: `NPY_DISABLE_CPU_FEATURES={NUMPY_BASELINE}`)"
+    lines += ["", f"## Verdicts: `spark-bench eval --method ours --bench {bench.name} --cases {','.join(cases)}`"
+              f"{numpy_note}", "",
+              "| CPU | wall s | rows | rows' cpu kernels | differences from native (row fields; prediction files) |",
+              "|---|---|---|---|---|"]
+    for key, found in runs.items():
+        rows = sum(1 for k in found if not k.startswith(("_", "file ")))
+        diff = "; ".join(_row_differences(native, found)) or "none"
+        if "_error" in found:
+            diff = f"failed: {found['_error']}"
+        kernels = "; ".join(sorted(str(k) for k in found.get("_kernels", ())))
+        lines.append(f"| {key} | {found['_wall_s']} | {rows} | {kernels} | {diff} |")
+    return runs
 
 
 def _qemu_version() -> str:

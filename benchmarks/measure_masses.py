@@ -11,23 +11,20 @@ every drawer, door and lid of prepared benchmarks under the rule and under the s
    harness reads as metres), converted as in ``eval``; the mass of everything each drawer/door/lid joint
    moves, before (solid hulls x the category density the converter used until conv-3) and now.
 
-    python benchmarks/measure_masses.py --bench /tmp/bench_partnet --bench /tmp/bench_real \\
+    python -m benchmarks.measure_masses --bench <bench_partnet> --bench <bench_real> \\
         --out benchmarks/results/masses.md
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from measure_open_source import openable  # noqa: E402
+from benchmarks.openable import openable
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -154,7 +151,7 @@ def markdown(rows: list[dict], seconds: float, benches: list[Path]) -> str:
                      f"{published} | {mass:.1f} | {ratio:.2f} | {product.url} | {product.note} |")
     lines += ["", f"Rule / published (1.00 inside a published range): from {min(ratios):.2f} to {max(ratios):.2f}.",
               "", "## 2. Drawers, doors and lids of the benchmarks", "",
-              f"Benchmarks: {', '.join(f'`{b}`' for b in benches)}. The object the opening score acts on (the "
+              f"Benchmarks: {', '.join(f'`<{Path(b).name}>`' for b in benches)} (see benchmarks/README.md). The object the opening score acts on (the "
               "case's source at its real size, `spark_bench.data.real_size`, as `eval` does); *moved kg* is everything the joint "
               "moves; *before*: solid hulls x the category density used until `spark-bench-conv-3` (sheet "
               "metal and safes 800 kg/m^3 effective).", "",

@@ -8,7 +8,7 @@ formulas are the same as ours. For each sample count this script times
 - the distance part alone, both on the same samples;
 
 prints the ratios, and checks that both give the same distances and metrics (to 1e-6) on the same
-samples. Run: ``python benchmarks/measure_metrics.py [--sizes 100000 1000000] [--repeats 3]``.
+samples. Run: ``python -m benchmarks.measure_metrics [--sizes 100000 1000000] [--repeats 3]``.
 """
 
 from __future__ import annotations

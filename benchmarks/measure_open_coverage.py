@@ -5,10 +5,10 @@ end-effector chosen as inside ``eval`` (:func:`spark_bench.opening.judge.judge_j
 The oracle's score of a joint is its reference episode (the same joint, the same seed: the oracle's own episode
 repeats it), so a joint counts as opened at a seed when the rule scores it, and as left out with the rule's
 kind otherwise. The planner's and the scene's verdicts do not depend on the seed and are judged once. Reported
-per half of ``partnet_dev`` (``benchmarks/dev_split.py``: tune / holdout) and for any other benchmark, with
+per half of ``partnet_dev`` (``benchmarks/partnet_dev_split.py``: tune / holdout) and for any other benchmark, with
 the end-effector of each joint opened.
 
-    python benchmarks/measure_open_coverage.py --bench /tmp/bench_partnet --bench /tmp/bench_real \\
+    python -m benchmarks.measure_open_coverage --bench <bench_partnet> --bench <bench_real> \\
         --seeds 0 1 2 3 4 --workers 2 --out benchmarks/results/open_coverage.md
 """
 
@@ -21,10 +21,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from dev_split import read_halves  # noqa: E402
-from measure_open_source import openable  # noqa: E402
+from benchmarks.openable import openable
+from benchmarks.partnet_dev_split import read_halves
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -141,7 +139,9 @@ def main() -> int:
                 why = next((v["reason"] for v in r["verdicts"] if v["reason"]), "")
                 lines.append(f"| {Path(bench).name} | {r['case']} | {r['joint']} | {r['part']} | {cells} ({why[:140]}) |")
     args.out.write_text("\n".join(lines) + "\n")
-    args.out.with_suffix(".json").write_text(json.dumps(records, indent=1) + "\n")
+    # keyed by the benchmark folder's name as a placeholder (benchmarks/README.md), not by one machine's path
+    keyed = {f"<{Path(bench).name}>": found for bench, found in records.items()}
+    args.out.with_suffix(".json").write_text(json.dumps(keyed, indent=1) + "\n")
     print("\n".join(lines[:12]))
     return 0
 

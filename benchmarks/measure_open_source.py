@@ -5,7 +5,7 @@ For each case of each ``--bench`` (``spark-bench data prepare --src ... --out BE
 ground truth is loaded once, brought to metres, and the case's source object (``case.json``'s ``source``)
 is loaded and checked against it (:func:`spark_bench.opening.pairing.object_acted_on`: the same drawers and
 doors, axes, pivots and ranges). Then, per seed, the oracle's scripted opening score on the joints whose
-part is a drawer, door or lid (``semantics.txt``'s labels, ``benchmarks/measure_opener_real.py``'s
+part is a drawer, door or lid (``semantics.txt``'s labels, ``benchmarks/openable.py``'s
 ``OPENABLE``), once acting on the prepared ground truth in metres and once on the source object. The
 oracle's prediction is the ground truth, its joint carried into the frame acted on is the ground truth's
 own (to ~1e-16) and its episode has the reference episode's seed: it is the reference episode again, so
@@ -23,15 +23,14 @@ none left once the score acts on the source) and the converse, and the coverage 
 under both. Results are cached per case, variant and seed in ``--cache`` (JSON): a run resumes, and
 ``--seeds 0`` first then ``--seeds 1 2 3 4`` gives a complete first pass early.
 
-Run: ``nice -n 10 python benchmarks/measure_open_source.py --bench /tmp/i23_4/bench_partnet
---bench /tmp/i23_4/bench_real --seeds 0 1 2 3 4``.
+Run: ``nice -n 10 python -m benchmarks.measure_open_source --bench <bench_partnet>
+--bench <bench_real> --seeds 0 1 2 3 4``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -39,26 +38,14 @@ from pathlib import Path
 import numpy as np
 
 import spark_bench  # noqa: F401  (registers the environments)
+from benchmarks.openable import openable
 from spark_bench.asset.transforms import unit
 from spark_bench.data.case import Benchmark, BenchmarkCase, ground_truth_in_metres, prediction_to_gt_metres
 from spark_bench.opening.judge import OPENING_STEPS, judge_joint, scripted_score
 from spark_bench.opening.pairing import ACTS_ON_SOURCE, Pairing, object_acted_on, opening_joints
 
-sys.path.insert(0, str(Path(__file__).parent))
-from measure_opener_real import OPENABLE  # noqa: E402
-
 RESULTS = Path(__file__).resolve().parent / "results"
 VARIANTS = ("prepared", "source")
-
-
-def openable(gt_bench) -> dict[str, str]:
-    """``{joint: label}``: the drawers, doors and lids of a case's ground truth (by its links' labels)."""
-    out = {}
-    for joint in gt_bench.movable_joints():
-        label = OPENABLE.get(gt_bench.links[joint.child].label)
-        if label is not None and joint.type in ("prismatic", "revolute"):
-            out[joint.name] = label
-    return out
 
 
 def frame_deviation(source, gt_metres) -> dict:

@@ -22,7 +22,7 @@ view of the grasp) into ``--videos`` (default ``benchmarks/results/opener_failur
 sheet of their frames, and the report as ``opener_real.md`` (``--results``), with each episode's outcome
 (seed, opened or not, largest opening) for every joint not opened in all of them. A per-joint JSON goes to ``--out``.
 
-Run: ``nice -n 10 python benchmarks/measure_opener_real.py [--ids 24644,7304] [--episodes 2]``.
+Run: ``nice -n 10 python -m benchmarks.measure_opener_real [--ids 24644,7304] [--episodes 2]``.
 
 Timing mode (issue 12, item 5): ``--score BENCH --cases ...`` times the opening score
 (:func:`spark_bench.opening.judge.open_with_predicted_joints`) of the oracle on cases of a prepared
@@ -42,32 +42,17 @@ import numpy as np
 from rich.console import Console
 
 import spark_bench  # noqa: F401  (registers the environments)
+from benchmarks.openable import openable_joints
 from spark_bench.envs import ENV_OF_JOINT_TYPE, make_env
 from spark_bench.envs.assets import load_asset
 from spark_bench.errors import InputError
 
 ROOT = Path(__file__).resolve().parents[1].parent / "shared" / "partnet_dev"
 RESULTS = Path(__file__).resolve().parent / "results"
-#: Part labels (PartNet-Mobility ``semantics.txt``) that make a joint a drawer, door or lid.
-OPENABLE = {"drawer": "drawer", "door": "door", "rotation_door": "door", "translation_door": "door",
-            "lid": "lid", "rotation_lid": "lid", "translation_lid": "lid", "rotation_window": "window",
-            "translation_window": "window", "board": "board"}
 FPS = 12
 #: The task's success fraction (the environments' default ``target_fraction``).
 TARGET = 0.75
 console = Console()
-
-
-def openable_joints(asset) -> list[dict]:
-    """``[{"joint", "type", "label", "category", "env"}]``: the drawers, doors and lids of an object."""
-    out = []
-    for joint in asset.movable_joints():
-        kind = OPENABLE.get(asset.links[joint.child].label)
-        if kind is None or joint.type not in ENV_OF_JOINT_TYPE:
-            continue
-        out.append({"joint": joint.name, "type": joint.type, "label": kind, "category": asset.category,
-                    "env": ENV_OF_JOINT_TYPE[joint.type]})
-    return out
 
 
 def _close_camera(env, distance: float = 0.6):
@@ -264,7 +249,7 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
     from spark_bench.opening.planning.gripper import GripperConfig, largest_pull
 
     lines = ["# The scripted opener on real objects", "",
-             f"Produced by `python benchmarks/measure_opener_real.py` on {os.cpu_count()} CPU cores shared with "
+             f"Produced by `python -m benchmarks.measure_opener_real` on {os.cpu_count()} CPU cores shared with "
              f"other jobs: every drawer, door and lid (by the part's `semantics.txt` label) of the "
              f"PartNet-Mobility objects in `{args.root.name}/`, opened by the scripted opener with the "
              f"ground-truth joint, {args.episodes} episodes of at most {args.max_steps} steps each (seeds 0..), "
@@ -351,7 +336,7 @@ def write_score_speed(rows: list[dict], before: list[dict] | None, path: Path, n
     earlier code's run on the same cases, with whether the verdicts changed)."""
     old = {r["case"]: r for r in before or []}
     lines = ["# The opening score's time per real case (oracle)", "",
-             f"Produced by `python benchmarks/measure_opener_real.py --score BENCH --cases ...` on "
+             f"Produced by `python -m benchmarks.measure_opener_real --score BENCH --cases ...` on "
              f"{os.cpu_count()} CPU cores shared with other jobs. {note}", "",
              "| case | category | joints (scored / left out) | seconds" + (" | before (s) | verdicts" if old else "")
              + " |", "|---|---|---|---" + ("|---|---" if old else "") + "|"]
@@ -386,7 +371,7 @@ def main() -> None:
     parser.add_argument("--root", type=Path, default=ROOT, help="folder of PartNet-Mobility objects")
     parser.add_argument("--ids", default=None, help="comma-separated object ids (default: every object)")
     parser.add_argument("--half", choices=("tune", "holdout"), default=None,
-                        help="only the objects of this half of partnet_dev (benchmarks/dev_split.py): tune a rule "
+                        help="only the objects of this half of partnet_dev (benchmarks/partnet_dev_split.py): tune a rule "
                              "on one, report the other")
     parser.add_argument("--episodes", type=int, default=2)
     parser.add_argument("--max-steps", type=int, default=None,
@@ -417,7 +402,7 @@ def main() -> None:
         raise SystemExit(f"{args.root}: no such folder")
     ids = args.ids.split(",") if args.ids else sorted(p.name for p in args.root.iterdir() if (p / "mobility.urdf").is_file())
     if args.half is not None:
-        from dev_split import read_halves
+        from benchmarks.partnet_dev_split import read_halves
 
         half = set(read_halves()[args.half])
         ids = [i for i in ids if i in half]

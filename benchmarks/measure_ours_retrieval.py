@@ -17,7 +17,7 @@ Make the rows first (one worker, the machine is shared)::
     spark-bench eval --method retrieval --bench synth-v1 --workers 1
     spark-bench eval --method ours --config benchmarks/configs/ours_retrieval.toml --bench synth-v1 --workers 1
 
-Run: ``python benchmarks/measure_ours_retrieval.py [--db FILE] [--bench synth-v1] [--out FILE.md]``.
+Run: ``python -m benchmarks.measure_ours_retrieval [--db FILE] [--bench synth-v1] [--out FILE.md]``.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ peak memory. The watertight stage is profiled (cProfile) to split it into voxeli
 marching cubes and cleanup. As the peer measured in the same run, the watertight stage is repeated at
 a coarser resolution (``--peer-resolution``, default 64) and the ratio printed: what R costs.
 
-Run: ``python benchmarks/measure_prepare.py [--ids 40147 3763] [--resolution 200] [--peer-resolution 64]``
+Run: ``python -m benchmarks.measure_prepare [--ids 40147 3763] [--resolution 200] [--peer-resolution 64]``
 (the seven objects at R=200 take several minutes on 2 cores).
 """
 

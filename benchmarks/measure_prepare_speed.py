@@ -20,7 +20,7 @@ difference (0-255) of each rendered state.
 The checkout's ``prepare_case`` runs with one BLAS thread; ``--baseline-blas-threads 1`` gives the
 baseline the same, to separate that from the rest of the speed-up.
 
-Run: ``nice -n 10 python benchmarks/measure_prepare_speed.py [--ids 47645 7179] [--baseline REV]
+Run: ``nice -n 10 python -m benchmarks.measure_prepare_speed [--ids 47645 7179] [--baseline REV]
 [--render-mesh watertight] [--baseline-blas-threads 1] [--src FOLDER_OF_OBJECTS]``.
 """
 

@@ -17,7 +17,7 @@ Per stage: wall seconds, and CPU seconds of the child itself plus those of its C
 machine's load average is recorded at the start and end of every case: on a shared machine wall
 seconds carry the other work, CPU seconds much less.
 
-Run: ``nice -n 10 python benchmarks/measure_real_case_speed.py --cases 48492 100435 ...
+Run: ``nice -n 10 python -m benchmarks.measure_real_case_speed --cases 48492 100435 ...
 [--bench DIR] [--out runs.json] [--compare old.json] [--results benchmarks/results/real_case_speed.md]``.
 """
 
@@ -83,11 +83,11 @@ def run_case(bench: Path, case_id: str, timeout: float) -> dict:
     with tempfile.TemporaryDirectory(prefix="spark_case_speed_") as home, \
             tempfile.NamedTemporaryFile(suffix=".json") as out:
         env = dict(os.environ, SPARK_BENCH_HOME=home)
-        command = [sys.executable, str(Path(__file__).resolve()), "--child", case_id, "--bench", str(bench),
-                   "--child-out", out.name]
+        command = [sys.executable, "-m", "benchmarks.measure_real_case_speed", "--child", case_id, "--bench",
+                   str(Path(bench).resolve()), "--child-out", out.name]
         start = time.perf_counter()
         try:
-            proc = subprocess.run(command, env=env, capture_output=True, text=True, timeout=timeout)
+            proc = subprocess.run(command, env=env, capture_output=True, text=True, timeout=timeout, cwd=ROOT)
             text = Path(out.name).read_text()
             row = json.loads(text) if proc.returncode == 0 and text else {
                 "case": case_id, "error": (proc.stderr.strip().splitlines() or [f"exit {proc.returncode}"])[-1]}

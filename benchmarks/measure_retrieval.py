@@ -11,7 +11,7 @@
    metrics of the leaderboard (:func:`~spark_bench.metrics.compute_metrics`, 100k samples, no
    alignment): CD and F-Score at rest, plus AxisErr / PivotErr / TypeErr, per benchmark and per category.
 
-Run: ``python benchmarks/measure_retrieval.py [--skip-build] [--real-bench DIR] [--out FILE.md]``.
+Run: ``python -m benchmarks.measure_retrieval [--skip-build] [--real-bench DIR] [--out FILE.md]``.
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ What it does:
 
 Run (about a minute when nothing is local; fetch the repositories first)::
 
-    nice -n 10 python benchmarks/measure_shipped_outputs.py --mirrors /work/.mirror --shared ../shared \\
+    nice -n 10 python -m benchmarks.measure_shipped_outputs --mirrors <mirrors> --shared ../shared \\
         --work /tmp/realout --out benchmarks/results/shipped_outputs.md
 """
 

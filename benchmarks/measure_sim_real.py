@@ -26,7 +26,7 @@ benchmark case costs the first time it is checked. Without it, the shared cache 
 running in another process); with ``--fill-from LABEL`` the objects not yet checked under ``--label``
 take LABEL's stored result, marked as such in the report.
 
-Run: ``nice -n 10 python benchmarks/measure_sim_real.py [--ids 100247 7310] [--subset] [--cases BENCH]
+Run: ``nice -n 10 python -m benchmarks.measure_sim_real [--ids 100247 7310] [--subset] [--cases BENCH]
 [--cold] [--workers 1] [--label after] [--compare before] [--report-only [--fill-from before]]``.
 """
 

@@ -2,7 +2,7 @@
 in the given folders (default ``../shared/partnet_dev`` and ``../shared/real_objects``) that the grasp planner
 declines today, opened with ``end_effector="auto"``.
 
-Per joint (the joints :func:`measure_opener_real.openable_joints` enumerates, by the part's label):
+Per joint (the joints :func:`benchmarks.openable.openable_joints` enumerates, by the part's label):
 
 - the planner's verdict for the gripper (``declined``: ``no_handle``, ``too_wide``, ``blocked``, ``button``;
   a part the planner takes is not measured here: ``auto`` leaves it to the gripper, unchanged);
@@ -16,7 +16,7 @@ Per joint (the joints :func:`measure_opener_real.openable_joints` enumerates, by
 
 Writes ``benchmarks/results/suction.md`` and, with ``--out``, a per-joint JSON.
 
-Run: ``nice -n 10 python benchmarks/measure_suction.py [--episodes 5] [--ids 100664,7304]``.
+Run: ``nice -n 10 python -m benchmarks.measure_suction [--episodes 5] [--ids 100664,7304]``.
 """
 
 from __future__ import annotations
@@ -24,13 +24,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 import spark_bench  # noqa: F401  (registers the environments)
+from benchmarks.openable import openable_joints
+from benchmarks.wrong_axis import wrong_axis
 from spark_bench.envs import make_env
 from spark_bench.envs.assets import load_asset
 from spark_bench.errors import InputError
@@ -38,30 +37,11 @@ from spark_bench.opening.episodes import ground_truth_joint, open_with_joint
 from spark_bench.opening.planning.scene import plan_grasp
 from spark_bench.opening.planning.suction import SuctionConfig, cup_mm, cup_sizes
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from measure_opener_real import openable_joints  # noqa: E402
-
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 ROOTS = (SHARED / "partnet_dev", SHARED / "real_objects")
 RESULTS = Path(__file__).resolve().parent / "results"
 #: The opening score's step limit (:data:`spark_bench.opening.judge.OPENING_STEPS`).
 MAX_STEPS = 200
-
-
-def turned(axis: np.ndarray, about: np.ndarray) -> np.ndarray:
-    """``axis`` turned by 90 degrees about the unit direction ``about``."""
-    return np.cross(about, axis) + about * float(about @ axis)
-
-
-def wrong_axis(axis: np.ndarray, joint_type: str, outward: np.ndarray) -> np.ndarray:
-    """The true axis turned by 90 degrees: a drawer's about the vertical (or, for a vertical drawer, about the
-    face's first in-plane direction), a door's or lid's about the face's outward direction."""
-    if joint_type == "prismatic":
-        about = np.array([0.0, 0.0, 1.0])
-        if abs(float(axis @ about)) > 0.9:
-            about = np.cross(axis, [1.0, 0.0, 0.0])
-        return turned(axis, about / np.linalg.norm(about))
-    return turned(axis, outward)
 
 
 def episodes(env, axis, pivot, joint_type: str, n: int, max_steps: int) -> list[dict]:
@@ -123,7 +103,7 @@ def write_report(rows: list[dict], args, seconds: float, path: Path) -> Path:
     wrong_open = [r for r in tried if any(e["success"] for e in r["wrong"])]
     lines = [
         "# The suction cup on the parts the grasp planner declines", "",
-        f"Produced by `python benchmarks/measure_suction.py --episodes {args.episodes}` on {os.cpu_count()} CPU "
+        f"Produced by `python -m benchmarks.measure_suction --episodes {args.episodes}` on {os.cpu_count()} CPU "
         f"cores shared with other jobs ({seconds:.0f} s): every drawer, door, lid, window and board (by the part's "
         f"`semantics.txt` label) of the PartNet-Mobility objects in {', '.join(f'`{p.name}/`' for p in args.roots)} "
         "that the grasp planner declines for the parallel gripper, opened with `end_effector=\"auto\"`, "

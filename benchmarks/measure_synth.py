@@ -1,6 +1,6 @@
 """Speed of the procedural generator, against loading the same objects back (the peer, same run).
 
-Run: ``python benchmarks/measure_synth.py [--per-category K]``. Prints seconds per object for
+Run: ``python -m benchmarks.measure_synth [--per-category K]``. Prints seconds per object for
 sampling + clearance repair, for writing, and for ``load_object`` of the written folder, and ratios.
 """
 

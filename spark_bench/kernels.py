@@ -21,11 +21,16 @@ exactly and CPU makers each their own way), so the code whose numbers reach a ve
 (:func:`spark_bench.methods.ours.exact.sqrt`, NumPy's correctly rounded ``sqrt``; the fused Adam step,
 :func:`spark_bench.rl.policies.fused_adam`).
 
-This works only when ``spark_bench`` is imported before NumPy and torch (the ``spark-bench`` command, the
-evaluation's worker processes, ``import spark_bench`` first in a script): :func:`cpu_kernels` says what was
-pinned, and whether NumPy was already loaded, and every results row records it beside the package versions
-(:mod:`spark_bench.versions`). CoACD (OpenMP) gives the same hulls whatever its thread count; MuJoCo and
-PyBullet have no run-time kernel choice.
+The variables take effect only in a library that loads after they are set: the ``spark-bench`` command, the
+evaluation's worker processes (started with them, :func:`pinned_env`) and a script that imports
+``spark_bench`` first are pinned; a script or notebook that imports NumPy (or gymnasium, torch) first
+runs the kernels its CPU offers. So what is recorded is not what was asked but what runs
+(:func:`kernel_mismatches`: NumPy's dispatched targets, each loaded OpenBLAS's core type, torch's
+capability), and :func:`cpu_kernels` says "not pinned" with the difference where they disagree; every
+results row records it beside the package versions (:mod:`spark_bench.versions`), the evaluation runs the
+cases of such a process in pinned worker processes, and the leaderboard names any row made unpinned.
+On a CPU without AVX-512 NumPy loaded first dispatches as pinned, and is recorded as pinned. CoACD
+(OpenMP) gives the same hulls whatever its thread count; MuJoCo and PyBullet have no run-time kernel choice.
 """
 
 from __future__ import annotations
@@ -92,16 +97,87 @@ def pin_cpu_kernels() -> None:
         os.environ.setdefault(name, value)
 
 
+def pinned_env() -> dict[str, str]:
+    """The variables of :data:`PINS` a child process must start with to run the pinned kernels: the value
+    set in this process where there is one (a user's own choice is kept), else the pinned one for this CPU;
+    empty where nothing is pinned (no ``/proc/cpuinfo`` flags)."""
+    flags = cpu_flags()
+    if not flags:
+        return {}
+    return {name: os.environ.get(name) or value for name, value in pinned_values(flags).items()}
+
+
+def _numpy_mismatch() -> str | None:
+    """NumPy's dispatch targets that run although ``NPY_DISABLE_CPU_FEATURES`` turns them off (NumPy was
+    loaded before the variable was set); None when NumPy is not loaded or runs what was asked."""
+    if "numpy" not in sys.modules:
+        return None
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__ as features
+    except ImportError:  # NumPy 1.x
+        from numpy.core._multiarray_umath import __cpu_features__ as features
+    running = [name for name in os.environ.get("NPY_DISABLE_CPU_FEATURES", "").split() if features.get(name)]
+    return f"numpy runs {' '.join(running)}" if running else None
+
+
+def _openblas_mismatch() -> str | None:
+    """The loaded OpenBLAS libraries (NumPy's, SciPy's) whose core type is not ``OPENBLAS_CORETYPE``."""
+    asked = os.environ.get("OPENBLAS_CORETYPE", "")
+    if not asked or "numpy" not in sys.modules:
+        return None
+    from threadpoolctl import threadpool_info
+
+    found = sorted({str(lib.get("architecture")) for lib in threadpool_info()
+                    if lib.get("internal_api") == "openblas" and str(lib.get("architecture")).lower() != asked.lower()})
+    return f"openblas runs {' '.join(found)}" if found else None
+
+
+def _torch_mismatch() -> str | None:
+    """torch's kernels where torch loaded before the variables were set: its capability when that is not
+    ``ATEN_CPU_CAPABILITY``, and MKL's and oneDNN's choices (read once, at load, not observable)."""
+    if "torch" not in sys.modules:
+        return None
+    asked = os.environ.get("ATEN_CPU_CAPABILITY", "")
+    running = str(sys.modules["torch"].backends.cpu.get_cpu_capability())
+    if asked and running.lower() != asked.lower():
+        return f"torch runs {running}"
+    if "torch" in _LOADED_BEFORE_US and any(_ENV_BEFORE_US[name] != os.environ.get(name)
+                                            for name in ("MKL_CBWR", "ONEDNN_MAX_CPU_ISA")):
+        return "torch loaded before the MKL and oneDNN pins"
+    return None
+
+
+def kernel_mismatches() -> list[str]:
+    """How the kernels this process runs differ from those :data:`PINS`' variables ask for, one phrase per
+    library (empty: they are the asked ones). Looked at in the libraries themselves, not inferred from the
+    import order: NumPy loaded first on a CPU without AVX-512 dispatches exactly as pinned."""
+    return [found for found in (_numpy_mismatch(), _openblas_mismatch(), _torch_mismatch()) if found]
+
+
+#: How :func:`cpu_kernels` starts when this process runs other kernels than the pinned ones.
+NOT_PINNED = "not pinned"
+
+
+def kernels_hold() -> bool:
+    """Whether this process runs the kernels that :data:`PINS`' variables ask for (no ``/proc/cpuinfo``
+    flags: nothing to pin, so nothing to hold)."""
+    return not cpu_kernels().startswith(NOT_PINNED) or not cpu_flags()
+
+
 @lru_cache(maxsize=1)
 def cpu_kernels() -> str:
-    """What this process's kernels were asked to be, in one comparable line: the pinned variables, or why
-    they do not hold (NumPy was imported before ``spark_bench``; not an x86 machine with ``/proc/cpuinfo``)."""
+    """What this process's kernels are, in one comparable line: the pinned variables, or ``not pinned``
+    and how the running kernels differ from them (a library was loaded before ``spark_bench`` pinned it;
+    not an x86 machine with ``/proc/cpuinfo``). Asked once, after the verdict work has loaded NumPy."""
     if not cpu_flags():
-        return "not pinned (no /proc/cpuinfo flags)"
-    if _NUMPY_BEFORE_US:
-        return "not pinned (numpy was imported before spark_bench)"
+        return f"{NOT_PINNED} (no /proc/cpuinfo flags)"
+    mismatches = kernel_mismatches()
+    if mismatches:
+        return f"{NOT_PINNED} ({'; '.join(mismatches)}: loaded before spark_bench set the pins)"
     return ", ".join(f"{name}={os.environ.get(name, '')}" for name in PINS)
 
 
-#: Whether NumPy was loaded before this module (then its kernels were chosen already).
-_NUMPY_BEFORE_US = "numpy" in sys.modules
+#: The libraries that choose kernels and were loaded before this module (they read the variables already).
+_LOADED_BEFORE_US = frozenset(name for name in ("numpy", "torch") if name in sys.modules)
+#: The variables as they were when this module loaded, before :func:`pin_cpu_kernels` set any.
+_ENV_BEFORE_US = {name: os.environ.get(name) for name in PINS}

@@ -43,19 +43,19 @@ def cleanup(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS, keep_larges
             fix_normals: bool = True) -> trimesh.Trimesh:
     """Weld close vertices, drop degenerate/duplicate faces and unused vertices, fix normals, and
     (``keep_largest``) keep the largest connected component (most faces, then largest volume)."""
-    return _cleanup(mesh, weld_radius, keep_largest, fix_normals)[0]
+    return cleanup_with_watertight(mesh, weld_radius, keep_largest, fix_normals)[0]
 
 
-def _cleanup(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS, keep_largest: bool = True,
+def cleanup_with_watertight(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS, keep_largest: bool = True,
              fix_normals: bool = True) -> tuple[trimesh.Trimesh, bool | None]:
     """:func:`cleanup`, and whether the result is watertight where that came for free (else None)."""
     mesh = mesh.copy()
     mesh.merge_vertices(digits_vertex=_weld_digits(weld_radius))
-    if _min_height(mesh) <= 100 * trimesh.tol.merge:  # else no face is degenerate: skip the slow test
+    if min_face_height(mesh) <= 100 * trimesh.tol.merge:  # else no face is degenerate: skip the slow test
         mesh.update_faces(mesh.nondegenerate_faces())
     # a watertight mesh in one piece repeats no face (two copies of a face would be a closed piece of
     # their own): then removing repeated faces would change nothing and is skipped
-    structure = _edge_structure(mesh.faces) if keep_largest else None
+    structure = edge_structure(mesh.faces) if keep_largest else None
     if structure != (True, True) or len(mesh.faces) <= 2:
         mesh.update_faces(mesh.unique_faces())
         structure = None
@@ -63,7 +63,7 @@ def _cleanup(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS, keep_large
     watertight = None
     if keep_largest:
         # a mesh in one piece is kept as it is: check that first, which costs a fraction of splitting
-        one_piece, watertight = structure or _edge_structure(mesh.faces)
+        one_piece, watertight = structure or edge_structure(mesh.faces)
         parts = [mesh] if one_piece else mesh.split(only_watertight=False)
         if len(parts) > 1:
             mesh = max(parts, key=lambda m: (len(m.faces), abs(m.volume) if m.is_watertight else 0.0))
@@ -75,14 +75,14 @@ def _cleanup(mesh: trimesh.Trimesh, weld_radius: float = WELD_RADIUS, keep_large
 
 
 def _weld_digits(weld_radius: float) -> int:
-    """The decimals that :func:`_cleanup`'s weld rounds vertices to (trimesh's ``digits_vertex``).
+    """The decimals that :func:`cleanup_with_watertight`'s weld rounds vertices to (trimesh's ``digits_vertex``).
 
     :param weld_radius: the weld radius
     """
     return max(0, int(-np.log10(weld_radius)))
 
 
-def _min_height(mesh: trimesh.Trimesh) -> float:
+def min_face_height(mesh: trimesh.Trimesh) -> float:
     """The smallest height of a face over its first two edges (what trimesh's ``nondegenerate_faces``
     compares with its tolerance), in plain float64 arithmetic: 0 for a face with a zero-length edge."""
     vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces)
@@ -97,20 +97,20 @@ def _min_height(mesh: trimesh.Trimesh) -> float:
     return float(np.min(height))
 
 
-def _edge_structure(faces: np.ndarray) -> tuple[bool, bool]:
+def edge_structure(faces: np.ndarray) -> tuple[bool, bool]:
     """``(one piece, watertight)`` of a triangle list, from one sort of its edges.
 
     One piece: the faces form one connected component, two faces being adjacent when they share an
     edge that no third face has (trimesh's ``face_adjacency``, which ``split`` follows). Watertight:
     every edge has exactly two faces (trimesh's ``is_watertight``).
     """
-    count, _, watertight = _face_components(faces)
+    count, _, watertight = face_components(faces)
     return count == 1, watertight
 
 
-def _face_components(faces: np.ndarray) -> tuple[int, np.ndarray, bool]:
+def face_components(faces: np.ndarray) -> tuple[int, np.ndarray, bool]:
     """``(number of components, label per face, watertight)`` of a triangle list (see
-    :func:`_edge_structure`). The labels are scipy's for the face-adjacency graph, numbered in the order
+    :func:`edge_structure`). The labels are scipy's for the face-adjacency graph, numbered in the order
     of each component's first face: the array trimesh's ``split`` groups its faces by.
     """
     from scipy.sparse import coo_matrix
@@ -119,7 +119,7 @@ def _face_components(faces: np.ndarray) -> tuple[int, np.ndarray, bool]:
     faces = np.asarray(faces, dtype=np.int64)
     if len(faces) == 0:
         return 1, np.zeros(0, dtype=np.int32), False
-    paired = _twin_pairs(faces)
+    paired = twin_pairs(faces)
     if paired is not None:  # every edge has exactly two faces, walked in opposite directions
         a, b = paired
         graph = coo_matrix((np.ones(len(a), dtype=np.int8), (a, b)), shape=(len(faces), len(faces)))
@@ -138,7 +138,7 @@ def _face_components(faces: np.ndarray) -> tuple[int, np.ndarray, bool]:
     return int(count), labels, bool(len(pairs) * 2 == len(key))
 
 
-def _twin_pairs(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def twin_pairs(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """The pairs of faces sharing an edge, when every directed edge ``u -> v`` of the faces occurs
     exactly once and so does its twin ``v -> u`` (a closed, consistently oriented surface: marching
     cubes'); None otherwise. Then every edge has exactly two faces, and these are the pairs of
@@ -163,7 +163,7 @@ def _twin_pairs(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     return a[keep], b[keep]
 
 
-def _vertex_spacing(grid_vertices: np.ndarray) -> float:
+def vertex_spacing(grid_vertices: np.ndarray) -> float:
     """A lower bound of the largest per-axis difference between any two distinct marching-cubes
     vertices, in voxels (0: two coincide).
 
@@ -186,15 +186,15 @@ def _vertex_spacing(grid_vertices: np.ndarray) -> float:
     return float(min(0.5, distance[:, 1].min()))
 
 
-def _shell_cleanup(mesh: trimesh.Trimesh, spacing: float) -> tuple[trimesh.Trimesh, bool] | None:
-    """:func:`_cleanup` (``fix_normals=False``) of a marching-cubes shell whose vertices lie at least
+def shell_cleanup(mesh: trimesh.Trimesh, spacing: float) -> tuple[trimesh.Trimesh, bool] | None:
+    """:func:`cleanup_with_watertight` (``fix_normals=False``) of a marching-cubes shell whose vertices lie at least
     ``spacing`` apart along some axis, without the steps it can prove change nothing; None where a
-    proof fails (then the caller runs :func:`_cleanup`). Byte-identical to :func:`_cleanup`.
+    proof fails (then the caller runs :func:`cleanup_with_watertight`). Byte-identical to :func:`cleanup_with_watertight`.
 
     - Welding at ``WELD_RADIUS`` merges only vertices that round to the same multiple of it on every
       axis, so none when ``spacing`` exceeds twice that and every vertex is used: the weld keeps them
       all, in order.
-    - No face is degenerate (:func:`_min_height` above trimesh's tolerance): none is dropped.
+    - No face is degenerate (:func:`min_face_height` above trimesh's tolerance): none is dropped.
     - Every edge has exactly two faces (watertight) and every piece at least four faces: no face is
       repeated (two copies of a face would be a closed piece of two), so the dedupe keeps them all.
     - The largest piece (most faces, then largest volume) is trimesh's ``split`` piece: the same
@@ -203,18 +203,18 @@ def _shell_cleanup(mesh: trimesh.Trimesh, spacing: float) -> tuple[trimesh.Trime
 
     :param mesh: the shell (vertices and faces; nothing cached is used)
     :param spacing: a lower bound of the distance between two vertices along the axis where they
-        differ most (:func:`_vertex_spacing` times the pitch, times the smallest rescale)
+        differ most (:func:`vertex_spacing` times the pitch, times the smallest rescale)
     :returns: ``(mesh, True)``: the cleaned shell, watertight, or None
     """
     vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
-    quantum = 10.0 ** -_weld_digits(WELD_RADIUS)  # what _cleanup's merge_vertices rounds to
+    quantum = 10.0 ** -_weld_digits(WELD_RADIUS)  # what cleanup_with_watertight's merge_vertices rounds to
     if len(faces) <= 2 or not spacing > 2.0 * quantum:
         return None
     used = np.zeros(len(vertices), dtype=bool)
     used[faces] = True
-    if not used.all() or _min_height(mesh) <= 100 * trimesh.tol.merge:
+    if not used.all() or min_face_height(mesh) <= 100 * trimesh.tol.merge:
         return None
-    count, labels, watertight = _face_components(faces)
+    count, labels, watertight = face_components(faces)
     if not watertight:
         return None
     if count > 1:
@@ -297,10 +297,10 @@ def make_watertight(mesh: trimesh.Trimesh, resolution: int = 200, n_min: int = 3
     shell.vertices = (shell.vertices - center_shell) * scale + center_orig
     # how far apart the vertices are at least (what decides whether welding merges any), less the
     # rounding of the float32 arithmetic above
-    spacing = _vertex_spacing(grid_verts) - 8 * float(np.spacing(np.float32(np.abs(grid_verts).max() + 2)))
+    spacing = vertex_spacing(grid_verts) - 8 * float(np.spacing(np.float32(np.abs(grid_verts).max() + 2)))
     # marching cubes orients its faces consistently: skip fix_normals, the slowest part of cleanup
-    fast = _shell_cleanup(shell, spacing * pitch * float(scale.min()))
-    shell, watertight = fast if fast is not None else _cleanup(shell, fix_normals=False)
+    fast = shell_cleanup(shell, spacing * pitch * float(scale.min()))
+    shell, watertight = fast if fast is not None else cleanup_with_watertight(shell, fix_normals=False)
     if signed_volume(shell) < 0:
         shell.invert()  # flips every face: the same edges, as watertight as before
     if simplify > 0:

@@ -15,10 +15,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
+from spark_bench.asset.joint_type import MOVABLE_TYPES, JointType, is_movable, is_rotational
 from spark_bench.asset.transforms import axis_angle_matrix, transform_points
 
-JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
-MOVABLE_TYPES = ("revolute", "continuous", "prismatic")
+#: The joint types an asset holds (:class:`~spark_bench.asset.joint_type.JointType`; floating and planar
+#: joints are not read).
+JOINT_TYPES = (*MOVABLE_TYPES, JointType.FIXED)
 #: Opening angle used for the "open" state of a continuous joint, which has no upper limit.
 CONTINUOUS_OPEN_ANGLE = np.pi / 2
 #: Upper limit assumed for a revolute joint whose URDF has no ``<limit>`` (SPARK appendix: pi).
@@ -151,23 +153,23 @@ class Joint:
 
     @property
     def is_movable(self) -> bool:
-        return self.type in MOVABLE_TYPES
+        return is_movable(self.type)
 
     @property
     def is_rotational(self) -> bool:
-        return self.type in ("revolute", "continuous")
+        return is_rotational(self.type)
 
     @property
     def rest_value(self) -> float:
         """The rest configuration: the lower limit, 0 for continuous joints."""
-        return 0.0 if self.type in ("continuous", "fixed") else float(self.lower)
+        return 0.0 if self.type in (JointType.CONTINUOUS, JointType.FIXED) else float(self.lower)
 
     @property
     def open_value(self) -> float:
         """The open configuration: the upper limit, :data:`CONTINUOUS_OPEN_ANGLE` for continuous joints."""
-        if self.type == "continuous":
+        if self.type == JointType.CONTINUOUS:
             return CONTINUOUS_OPEN_ANGLE
-        if self.type == "fixed":
+        if self.type == JointType.FIXED:
             return 0.0
         return float(self.upper)
 
@@ -176,7 +178,7 @@ class Joint:
         out = np.eye(4)
         if self.is_rotational:
             out[:3, :3] = axis_angle_matrix(self.axis, value)
-        elif self.type == "prismatic":
+        elif self.type == JointType.PRISMATIC:
             out[:3, 3] = np.asarray(self.axis, dtype=float) * value
         return out
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 
 
@@ -38,7 +39,7 @@ def _scale_in_place(out: ArticulatedAsset, scale: float) -> ArticulatedAsset:
     for joint in out.joints.values():
         joint.origin = joint.origin.copy()
         joint.origin[:3, 3] *= scale
-        if joint.type == "prismatic":
+        if joint.type == JointType.PRISMATIC:
             joint.lower *= scale
             joint.upper *= scale
     return out

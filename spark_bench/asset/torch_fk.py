@@ -20,6 +20,7 @@ from collections.abc import Mapping
 
 import torch
 
+from spark_bench.asset.joint_type import JointType, is_rotational
 from spark_bench.asset.model import ArticulatedAsset, Joint
 
 TensorLike = torch.Tensor | float
@@ -54,9 +55,9 @@ def joint_motion_torch(joint_type: str, axis: torch.Tensor, value: torch.Tensor)
     dtype, device = axis.dtype, axis.device
     top_left = torch.eye(3, dtype=dtype, device=device)
     translation = torch.zeros(3, dtype=dtype, device=device)
-    if joint_type in ("revolute", "continuous"):
+    if is_rotational(joint_type):
         top_left = axis_angle_matrix_torch(axis, value)
-    elif joint_type == "prismatic":
+    elif joint_type == JointType.PRISMATIC:
         translation = axis / torch.linalg.norm(axis) * value
     return homogeneous(top_left, translation)
 

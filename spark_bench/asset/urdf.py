@@ -2,7 +2,8 @@
 
 Reading validates what yourdfpy does not: no DTD or XML entities (no expansion, no external fetch),
 unique link and joint names, a single tree (no cycles, one parent per link), finite non-zero axes,
-mesh paths that stay inside the object folder, and meshes with a surface. Every problem raises
+mesh paths that stay inside the object folder (or, for a URDF the user names directly, resolve as ROS
+resolves them: :mod:`spark_bench.asset.mesh_paths`), and meshes with a surface. Every problem raises
 :class:`~spark_bench.errors.InputError` naming the file.
 
 A mesh file with no surface (missing, empty, no vertices, vertices but no faces) is an
@@ -19,6 +20,7 @@ import json
 import logging
 import math
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +28,7 @@ import trimesh
 import yourdfpy
 from lxml import etree
 
+from spark_bench.asset.mesh_paths import MeshPathResolver, resolver_for
 from spark_bench.asset.model import (
     DEFAULT_REVOLUTE_UPPER,
     JOINT_TYPES,
@@ -105,19 +108,13 @@ def _check_structure(path: Path, robot: yourdfpy.Robot) -> None:
         raise InputError(path, f"expected one root link, found {len(roots)}: {roots[:5]}")
 
 
-def _resolve_mesh_path(urdf_path: Path, folder: Path, filename: str) -> Path:
-    name = filename
-    for prefix in ("package://", "file://"):
-        if name.startswith(prefix):
-            name = name[len(prefix):]
-    candidate = Path(name)
-    resolved = (candidate if candidate.is_absolute() else urdf_path.parent / candidate).resolve()
-    if not resolved.is_relative_to(folder):
-        raise InputError(urdf_path, f"mesh path {filename!r} escapes the object folder")
+def _resolve_mesh_path(resolver: MeshPathResolver, filename: str) -> Path:
+    """The existing mesh file ``filename`` names (:mod:`spark_bench.asset.mesh_paths`)."""
+    resolved = resolver.resolve(filename)
     if resolved.is_dir():
-        raise EmptyMeshError(urdf_path, f"mesh file {filename!r} is a directory, not a file")
+        raise EmptyMeshError(resolver.urdf, f"mesh file {filename!r} is a directory, not a file")
     if not resolved.is_file():
-        raise EmptyMeshError(urdf_path, f"mesh file {filename!r} not found")
+        raise EmptyMeshError(resolver.urdf, f"mesh file {filename!r} not found")
     return resolved
 
 
@@ -187,15 +184,15 @@ def load_mesh_file(path: Path) -> tuple[trimesh.Trimesh, tuple[float, float, flo
     return mesh, rgba
 
 
-def _geometry_mesh(urdf_path, folder, mesh_geom, cache) -> tuple[trimesh.Trimesh, tuple | None, str]:
-    resolved = _resolve_mesh_path(urdf_path, folder, mesh_geom.filename)
+def _geometry_mesh(resolver: MeshPathResolver, mesh_geom, cache) -> tuple[trimesh.Trimesh, tuple | None, str]:
+    resolved = _resolve_mesh_path(resolver, mesh_geom.filename)
     if resolved not in cache:
         cache[resolved] = load_mesh_file(resolved)
     mesh, rgba = cache[resolved]
     mesh = mesh.copy()
     if mesh_geom.scale is not None:
         mesh.vertices = mesh.vertices * np.broadcast_to(np.asarray(mesh_geom.scale, dtype=float), (3,))
-    return mesh, rgba, str(resolved.relative_to(folder))
+    return mesh, rgba, resolver.source_name(resolved)
 
 
 def _origin(element) -> np.ndarray:
@@ -203,7 +200,8 @@ def _origin(element) -> np.ndarray:
     return np.eye(4) if origin is None else np.asarray(origin, dtype=float)
 
 
-def _read_link(urdf_path: Path, folder: Path, ylink, materials: dict, cache: dict, load_meshes: bool) -> Link:
+def _read_link(resolver: MeshPathResolver, ylink, materials: dict, cache: dict, load_meshes: bool) -> Link:
+    urdf_path = resolver.urdf
     link = Link(name=ylink.name)
     empty: dict[str, list[str]] = {"visual": [], "collision": []}  # mesh files with no surface, by role
     for visual in ylink.visuals:
@@ -217,7 +215,7 @@ def _read_link(urdf_path: Path, folder: Path, ylink, materials: dict, cache: dic
             if not load_meshes:
                 continue
             try:
-                mesh, file_rgba, source = _geometry_mesh(urdf_path, folder, geom.mesh, cache)
+                mesh, file_rgba, source = _geometry_mesh(resolver, geom.mesh, cache)
             except EmptyMeshError as exc:
                 empty["visual"].append(_empty_problem(exc, geom.mesh.filename))
                 continue
@@ -233,7 +231,7 @@ def _read_link(urdf_path: Path, folder: Path, ylink, materials: dict, cache: dic
             if not load_meshes:
                 continue
             try:
-                mesh, _, source = _geometry_mesh(urdf_path, folder, geom.mesh, cache)
+                mesh, _, source = _geometry_mesh(resolver, geom.mesh, cache)
             except EmptyMeshError as exc:
                 empty["collision"].append(_empty_problem(exc, geom.mesh.filename))
                 continue
@@ -332,15 +330,20 @@ def _optional_number(value, urdf_path, what: str) -> float | None:
     return number
 
 
-def load_urdf(path: str | Path, folder: str | Path | None = None, load_meshes: bool = True) -> ArticulatedAsset:
+def load_urdf(path: str | Path, folder: str | Path | None = None, load_meshes: bool = True, *,
+              as_it_lies: bool = False, package_paths: Sequence[str | Path] | None = None) -> ArticulatedAsset:
     """Read a URDF into an :class:`ArticulatedAsset`, meshes in link frames.
 
     :param path: the URDF file
     :param folder: the object folder that mesh paths must stay inside (default: the URDF's folder)
     :param load_meshes: read mesh files (False: structure only, much faster)
+    :param as_it_lies: resolve mesh paths as ROS does, ``..``, ``package://`` and absolute paths included
+        (a URDF the user named directly; :mod:`spark_bench.asset.mesh_paths`); ``folder`` is then unused
+    :param package_paths: folders searched for ``package://NAME/`` before ``ROS_PACKAGE_PATH``
     """
     path = Path(path).resolve()
-    folder = Path(folder).resolve() if folder is not None else path.parent
+    folder = None if as_it_lies else (Path(folder).resolve() if folder is not None else path.parent)
+    resolver = resolver_for(path, folder, [Path(p) for p in package_paths or []])
     data, root = _read_urdf_tree(path)
     # yourdfpy fills a missing <axis> with its default: which joints wrote one is read here
     with_axis = {element.get("name") for element in root.iter("joint") if element.find("axis") is not None}
@@ -352,7 +355,7 @@ def load_urdf(path: str | Path, folder: str | Path | None = None, load_meshes: b
     _check_structure(path, robot)
     materials = {m.name: m for m in robot.materials}
     cache: dict = {}
-    links = {yl.name: _read_link(path, folder, yl, materials, cache, load_meshes) for yl in robot.links}
+    links = {yl.name: _read_link(resolver, yl, materials, cache, load_meshes) for yl in robot.links}
     joints = {yj.name: _read_joint(path, yj, yj.name in with_axis) for yj in robot.joints}
     return ArticulatedAsset(name=robot.name or path.parent.name, links=links, joints=joints, source=str(path))
 

@@ -59,7 +59,7 @@ _WALK_COST = 6.0
 _BLOCK_POINTS = 1 << 16
 
 
-class _Grid:
+class VoxelGrid:
     """The voxel grid of :func:`voxelize_surface`, and the one formula from a triangle's lattice point
     to its voxel, shared by both samplers so that a point lands in the same voxel whichever visits it.
 
@@ -133,7 +133,7 @@ class _Grid:
         return self.coordinates(1.0 - u - v, u, v, triangles[:, 0], triangles[:, 1], triangles[:, 2])
 
 
-def _sample_grids(grid: _Grid, triangles: np.ndarray, steps: np.ndarray) -> None:
+def sample_grids(grid: VoxelGrid, triangles: np.ndarray, steps: np.ndarray) -> None:
     """Mark the voxel of every point of every triangle's full lattice (``steps`` per side)."""
     for n in np.unique(steps):
         group = triangles[steps == n]
@@ -162,13 +162,13 @@ def _lattice_rows(triangles: np.ndarray, steps: np.ndarray, family: np.ndarray) 
             "m": np.where(fam == 2, r, n - r)}
 
 
-def _walk_rows(grid: _Grid, triangles: np.ndarray, steps: np.ndarray, family: np.ndarray) -> None:
+def walk_rows(grid: VoxelGrid, triangles: np.ndarray, steps: np.ndarray, family: np.ndarray) -> None:
     """Mark the voxels of every lattice point of ``triangles``, evaluating only the points next to a
     voxel face.
 
     Along a row the voxel changes only where the row crosses a voxel face, so the row's voxels are
     those of its ends and of the points on either side of each crossing. Each crossing is located
-    from the row's ends, and the lattice points around it are evaluated with :meth:`_Grid.lattice`
+    from the row's ends, and the lattice points around it are evaluated with :meth:`VoxelGrid.lattice`
     (the formula of the full-grid sampler), with one more on each side where the crossing falls
     within 1e-6 steps of a lattice point. Rounding can move a point across a face only within ~1e-13
     voxels of it, so a point two steps from every crossing has the voxel of its run, unless the row
@@ -231,7 +231,7 @@ def voxelize_surface(mesh: trimesh.Trimesh, pitch: float, walk: bool = True, max
     triangles = np.asarray(mesh.vertices, dtype=float)[np.asarray(mesh.faces)]
     origin = triangles.reshape(-1, 3).min(0) - 0.5 * pitch
     shape = np.ceil((triangles.reshape(-1, 3).max(0) + 0.5 * pitch - origin) / pitch).astype(int) + 1
-    grid = _Grid(origin, pitch, shape)
+    grid = VoxelGrid(origin, pitch, shape)
     edges = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).max(1)
     steps = np.maximum(1, np.ceil(edges / (0.5 * pitch))).astype(int)
     # rows along the shortest edge: how many voxel faces a row crosses at most, against the grid's size
@@ -240,13 +240,13 @@ def voxelize_surface(mesh: trimesh.Trimesh, pitch: float, walk: bool = True, max
     family = np.argmin(np.linalg.norm(sides, axis=2), axis=1)
     span = np.abs(sides[np.arange(len(sides)), family]).sum(1) / pitch
     walked = walk & (_WALK_COST * (steps + 1) * (2 + 2 * (span + 1)) < (steps + 1) * (steps + 2) / 2)
-    _sample_grids(grid, triangles[~walked], steps[~walked])
+    sample_grids(grid, triangles[~walked], steps[~walked])
     index = np.flatnonzero(walked)
     rows = np.cumsum(steps[index] + 1)
     cuts = np.searchsorted(rows, np.arange(max_rows, rows[-1] if len(rows) else 0, max_rows))
     for block in np.split(index, cuts):
         if len(block):
-            _walk_rows(grid, triangles[block], steps[block], family[block])
+            walk_rows(grid, triangles[block], steps[block], family[block])
     return grid.occupancy, origin
 
 

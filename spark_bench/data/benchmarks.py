@@ -132,7 +132,7 @@ def is_built(folder: Path, spec: BenchmarkSpec | None = None) -> bool:
     return found is not None and {k: found.get(k) for k in expected} == expected
 
 
-def _is_stale(spec: BenchmarkSpec, folder: Path) -> bool:
+def is_stale(spec: BenchmarkSpec, folder: Path) -> bool:
     """A finished build of other settings, or generated objects of another generator version."""
     if (folder / BUILT_MARKER).is_file():
         return not is_built(folder, spec)
@@ -218,7 +218,7 @@ def ensure_benchmark(name: str = DEFAULT_BENCHMARK, rebuild: bool = False, worke
     if is_built(folder, spec) and not rebuild:
         return folder
     with bench_lock(folder.parent / f".{name}.build", wait=True):
-        if folder.exists() and (rebuild or _is_stale(spec, folder)):
+        if folder.exists() and (rebuild or is_stale(spec, folder)):
             shutil.rmtree(folder)
         if not is_built(folder, spec):  # another process may have finished it while we waited
             build_benchmark(spec, folder, workers=workers, progress=progress, isolate=isolate)

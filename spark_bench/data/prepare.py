@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset, Link, Visual
+from spark_bench.convention import CONVENTION_VERSION
 from spark_bench.data.case import Benchmark, BenchmarkCase
 from spark_bench.data.contact_sheet import write_contact_sheet
 from spark_bench.data.readers import URDF_NAMES, load_object
@@ -365,8 +366,6 @@ def _prepare_one(src: Path, case_dir: Path, options: PrepareOptions) -> CaseResu
 def write_manifest(bench: Benchmark, name: str, options: PrepareOptions, failed: dict[str, str],
                    source: str | None, created: str | None = None) -> dict:
     """(Re)write the benchmark's manifest from its complete case folders and the failures of this run."""
-    from spark_bench import CONVENTION_VERSION
-
     cases = bench.complete_case_ids()
     now = datetime.now(UTC).isoformat(timespec="seconds")
     manifest = {"name": name, "convention": CONVENTION_VERSION, "cases": cases,

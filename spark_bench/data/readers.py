@@ -5,12 +5,16 @@ included); what differs is the side files: ``semantics.txt`` and ``meta.json`` (
 ``link_annotation_gapartnet.json`` and ``semantics_gapartnet.txt`` (GAPartNet). SPARK's run folders are
 not object folders (their URDF points where no mesh is, their frame is SPARK's):
 :mod:`spark_bench.formats.spark.reader` converts them.
+
+A model file named directly (:func:`load_model_file`) is read as it lies: a URDF anywhere (mesh paths as ROS
+resolves them), an MJCF file through MuJoCo, a USD file through ``usd-core``.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -82,19 +86,62 @@ def read_json(path: Path, default=REQUIRED, missing: str = "file not found"):
         raise InputError(path, f"malformed JSON: {exc}") from None
 
 
-def load_object(path: str | Path, variant: str = "mobility", load_meshes: bool = True) -> ArticulatedAsset:
-    """Read an object folder (or a URDF file) into an :class:`ArticulatedAsset`.
+#: Suffixes of the model files :func:`load_object` reads besides URDF: MJCF (through MuJoCo) and USD.
+MJCF_SUFFIXES = (".xml", ".mjcf")
+USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 
-    :param path: PartNet-Mobility / GAPartNet / SPARK object folder, or a URDF file
+
+def load_model_file(path: Path) -> ArticulatedAsset | None:
+    """A model file the user named directly, read as it lies: an MJCF (:mod:`spark_bench.asset.mjcf_model`: its
+    visuals, its own collision geoms as MuJoCo simulates them and its joints' damping and friction loss) or a
+    USD file (:mod:`spark_bench.asset.usd_model`); None for anything else (a URDF: :func:`load_object` reads
+    it with its side files, its mesh paths as ROS resolves them, :mod:`spark_bench.asset.mesh_paths`).
+
+    :param path: the file
+    """
+    suffix = path.suffix.lower()
+    if suffix in MJCF_SUFFIXES:
+        from spark_bench.asset.mjcf_model import build_asset, collision_shapes, compile_model, visual_geometry
+
+        compiled = compile_model(path)
+        geometry, collisions = visual_geometry(compiled, path.resolve().parent), collision_shapes(compiled)
+        for body, shapes in collisions.items():  # a body drawn by its collision geoms only
+            if body not in geometry.meshes:
+                geometry.meshes[body] = [(s.to_trimesh(), (0.7, 0.7, 0.7, 1.0), s.source) for s in shapes]
+        asset, _ = build_asset(compiled, geometry, path.stem, collisions=collisions)
+        asset.source = str(path)
+        return asset
+    if suffix in USD_SUFFIXES:
+        from spark_bench.asset.usd_model import read_usd
+
+        return read_usd(path)
+    return None
+
+
+def load_object(path: str | Path, variant: str = "mobility", load_meshes: bool = True,
+                package_paths: Sequence[str | Path] | None = None) -> ArticulatedAsset:
+    """Read an object folder (or a model file) into an :class:`ArticulatedAsset`.
+
+    :param path: PartNet-Mobility / GAPartNet / SPARK object folder, or a URDF, MJCF (``.xml``) or USD
+        (``.usd``, ``.usda``, ``.usdc``) file
     :param variant: which URDF of a GAPartNet folder to read, see :func:`find_urdf`
     :param load_meshes: read the mesh files (False reads the kinematic structure only)
+    :param package_paths: folders searched for a URDF's ``package://NAME/`` paths (then ``ROS_PACKAGE_PATH``)
 
-    A PartNet-Mobility object comes back at its real size (:mod:`spark_bench.data.real_size`: its lengths
-    times :func:`~spark_bench.data.real_size.source_scale`); every other object as its files give it.
+    A folder's URDF must keep its mesh paths inside the folder (a benchmark case, an import); a file named
+    directly is read as it lies (:func:`load_model_file`). A PartNet-Mobility object comes back at its real
+    size (:mod:`spark_bench.data.real_size`: its lengths times
+    :func:`~spark_bench.data.real_size.source_scale`); every other object as its files give it.
     """
+    as_it_lies = Path(path).is_file()
+    if as_it_lies:
+        model = load_model_file(Path(path))
+        if model is not None:
+            return model
     urdf = find_urdf(path, variant)
     folder = urdf.parent
-    asset = load_urdf(urdf, folder=folder, load_meshes=load_meshes)
+    asset = load_urdf(urdf, folder=folder, load_meshes=load_meshes, as_it_lies=as_it_lies,
+                      package_paths=package_paths)
     asset.name = folder.name if Path(path).is_dir() else asset.name
     meta = read_json(folder / "meta.json", {})
     if not isinstance(meta, dict):

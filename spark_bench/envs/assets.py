@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from spark_bench.asset.joint_type import ROTATIONAL_TYPES, JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.data.case import BenchmarkCase
 from spark_bench.errors import InputError
@@ -48,7 +49,7 @@ def _synth_generator():
 def has_kinds(asset: ArticulatedAsset) -> bool:
     """Whether the asset has both a prismatic and a revolute joint (a cabinet for both environments)."""
     types = {j.type for j in asset.movable_joints()}
-    return "prismatic" in types and bool(types & {"revolute", "continuous"})
+    return JointType.PRISMATIC in types and bool(types & ROTATIONAL_TYPES)
 
 
 def default_asset_path() -> Path | None:

@@ -12,10 +12,12 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.envs import observation as OBS
 from spark_bench.envs.assets import AssetLike, asset_key, load_asset
 from spark_bench.envs.observation import FRAME_OBS_SIZE, OBS_SIZE
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.opening.planning.end_effector import EndEffector
 from spark_bench.opening.planning.gripper import MAX_STEP, finger_target, grip_command
 from spark_bench.opening.planning.scene import N_SUBSTEPS, TIMESTEP, Scene
 from spark_bench.opening.planning.task import build_scene
@@ -34,7 +36,7 @@ REWARD_WEIGHTS = (1.0, 1.0, 2.0, 1.0)
 #: Observation layouts (:mod:`spark_bench.envs.observation`; the environments' docstrings): ``basic``, and
 #: ``frame`` (``basic`` followed by the grasp frame and the joint, what a policy needs to act on any asset).
 OBSERVATIONS = ("basic", "frame")
-JOINT_TYPES = ("prismatic", "revolute", "continuous")
+JOINT_TYPES = (JointType.PRISMATIC, JointType.REVOLUTE, JointType.CONTINUOUS)
 #: Every observation entry is clipped to [-OBS_BOUND, OBS_BOUND] (positions in m, velocities in m/s).
 OBS_BOUND = 10.0
 
@@ -104,7 +106,7 @@ class SparkArticulationEnv(gym.Env):
         self.scene = make_scene(asset, self.joint_kind, joint, visuals=render_mode is not None,
                                 end_effector=end_effector)
         self.end_effector = self.scene.end_effector
-        self._suction = self.end_effector == "suction"
+        self._suction = self.end_effector == EndEffector.SUCTION
         self.observation = observation
         self.target_fraction = float(target_fraction)
         self.reward_type = reward_type
@@ -233,7 +235,7 @@ class SparkArticulationEnv(gym.Env):
         out[OBS.OUTWARD] = rot @ self._outward_local
         out[OBS.CLOSING] = rot @ self._closing_local
         out[OBS.AXIS] = axis
-        if joint_type == "prismatic":
+        if joint_type == JointType.PRISMATIC:
             out[OBS.TO_AXIS] = 0.0
             out[OBS.REVOLUTE] = 0.0
         else:

@@ -17,7 +17,7 @@ WOOD = (0.62, 0.45, 0.3, 1.0)
 METAL = (0.75, 0.75, 0.78, 1.0)
 
 
-def _box_part(center, size, rgba) -> tuple[Visual, Collision]:
+def box_part(center, size, rgba) -> tuple[Visual, Collision]:
     """A box as a visual mesh and a matching box collision, both in the link frame."""
     origin = np.eye(4)
     origin[:3, 3] = center
@@ -26,7 +26,7 @@ def _box_part(center, size, rgba) -> tuple[Visual, Collision]:
 
 
 def _link(name: str, boxes: list[tuple], label: str, semantic: str) -> Link:
-    parts = [_box_part(c, s, rgba) for c, s, rgba in boxes]
+    parts = [box_part(c, s, rgba) for c, s, rgba in boxes]
     return Link(name=name, visuals=[p[0] for p in parts], collisions=[p[1] for p in parts], label=label,
                 semantic_joint=semantic)
 

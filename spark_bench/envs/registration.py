@@ -1,5 +1,16 @@
-"""Registers the environments with Gymnasium, by entry-point string (nothing heavy is imported here),
-and makes them (:func:`make_env`)."""
+"""Registers the environments with Gymnasium and makes them (:func:`make_env`).
+
+The way Gymnasium's third-party packages do it: the package's ``__init__`` calls :func:`register_envs`,
+which registers each id of :data:`ENVIRONMENTS` with ``gymnasium.register(id, entry_point="module:Class")``
+(a string, so nothing heavy is imported until an environment is made). So either of::
+
+    import spark_bench                         # registers; gymnasium.register_envs(spark_bench) says so
+    env = gymnasium.make("SparkDrawer-v0", asset=..., joint=...)
+
+    env = gymnasium.make("spark_bench:SparkDoor-v0", asset=..., joint=...)  # imports spark_bench first
+
+makes one; :func:`make_env` does the same with a clear error for an unknown id.
+"""
 
 from __future__ import annotations
 

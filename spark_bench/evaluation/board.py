@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
-from spark_bench import CONVENTION_VERSION
+from spark_bench.convention import CONVENTION_VERSION
 from spark_bench.evaluation.aggregate import RL_RATES, by_part_class
 from spark_bench.metrics.names import (
     ARTICULATION_KEYS,
@@ -137,6 +137,8 @@ class Leaderboard:
     :param left_out: rows of the benchmark not shown, by the (other) convention they were scored under
     :param versions_note: which entries are not ranked because their package versions differ
         (:func:`mark_version_mismatches`), None when all are comparable
+    :param kernels_note: which entries have rows made on other CPU kernels than the pinned ones
+        (:func:`unpinned_kernels_note`), None when none has
     """
 
     bench: str
@@ -145,6 +147,7 @@ class Leaderboard:
     convention: str = CONVENTION_VERSION
     left_out: dict[str, int] = field(default_factory=dict)
     versions_note: str | None = None
+    kernels_note: str | None = None
 
     def tables(self, entries: list[Entry] | None = None) -> list[Table]:
         entries = self.entries if entries is None else entries
@@ -185,6 +188,8 @@ class Leaderboard:
                          f"definitions ({scored}); re-run `spark-bench eval` to score them under {self.convention}.")
         if self.versions_note:
             notes.append(self.versions_note)
+        if self.kernels_note:
+            notes.append(self.kernels_note)
         return notes
 
 
@@ -223,6 +228,32 @@ def mark_version_mismatches(entries: list[Entry]) -> str | None:
         return None
     return ("Not ranked, made with other releases of the packages that can change a verdict than the rest "
             f"({board}): " + " | ".join(odd) + ". Re-run them with the same install to compare.")
+
+
+#: What a row's ``cpu kernels`` record starts with when its process ran other kernels than the pinned ones
+#: (:data:`spark_bench.kernels.NOT_PINNED`).
+NOT_PINNED = "not pinned"
+
+
+def unpinned_kernels_note(entries: list[Entry]) -> str | None:
+    """The note naming the entries with rows made on other CPU kernels than the pinned ones (a process whose
+    NumPy loaded before ``spark_bench``), and how many rows: their verdicts may differ on another machine.
+    None when every row was pinned (or recorded none).
+
+    :param entries: the board's entries
+    """
+    found = []
+    for entry in entries:
+        records = [((r.get("info") or {}).get("versions") or {}).get("cpu kernels", "") for r in entry.rows]
+        unpinned = sorted({k for k in records if k.startswith(NOT_PINNED)})
+        if unpinned:
+            count = sum(k.startswith(NOT_PINNED) for k in records)
+            found.append(f"{entry.name}: {count} of {len(records)} rows, {'; '.join(unpinned)}")
+    if not found:
+        return None
+    return ("WARNING: made on other CPU kernels than the pinned ones, so their verdicts may differ on another "
+            "machine: " + " | ".join(found) + ". Run them again with `spark-bench eval` (or import spark_bench "
+            "before NumPy).")
 
 
 def part_class_title(name: str) -> str:

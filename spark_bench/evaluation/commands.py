@@ -34,8 +34,10 @@ def add_commands(subparsers) -> None:
                    help="fine-tuning steps per policy kind with --rl (default: 1024; 0: zero-shot only)")
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes (0: in this process; default: one per usable core)")
-    p.add_argument("--executor", choices=("local", "ray"), default="local")
-    p.add_argument("--ray-address", help="Ray cluster address (default: a local Ray)")
+    p.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="local: a process pool; ray: Ray tasks (docs/cluster.md)")
+    p.add_argument("--ray-address", help="a Ray cluster's address (default: RAY_ADDRESS, else the cluster `ray start` "
+                   "runs on this machine, else a private local Ray)")
     p.add_argument("--n-samples", type=int, default=100_000, help="surface samples per shape")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--align", choices=("none", "icp"), default="none")

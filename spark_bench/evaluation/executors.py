@@ -4,10 +4,16 @@ A task is any picklable object; ``evaluate(task) -> list[dict]`` runs it and ``f
 list[dict]`` makes the rows of a task that could not run. A crash in native code takes a worker down
 with it: the executors find which task did it and fail that task alone, so a long run never dies for
 one bad case.
+
+Every worker runs the pinned CPU kernels (:mod:`spark_bench.kernels`): a pool's workers are forked from a
+pinned process, or, when this process runs other kernels (its NumPy loaded before ``spark_bench``),
+started afresh with the pins in their environment; Ray's workers get them in the job's runtime
+environment (:mod:`spark_bench.evaluation.ray_cluster`).
 """
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import sys
 from collections.abc import Callable, Iterable
@@ -15,7 +21,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
-from spark_bench.errors import SparkBenchError
+from spark_bench import kernels
 
 EXECUTORS = ("local", "ray")
 #: How often a task may take its worker process down (a crash in native code) before it is failed.
@@ -48,9 +54,28 @@ def limit_threads(threads: int) -> None:
         sys.modules["torch"].set_num_threads(threads)
 
 
+def pool_context():
+    """The way a pool starts its workers: forked from this process where it runs the pinned kernels (the
+    workers inherit them, and nothing is imported twice); started afresh (``spawn``) where it does not, so
+    that each worker loads NumPy and torch with the pins already in its environment."""
+    if kernels.kernels_hold():
+        return None
+    os.environ.update(kernels.pinned_env())
+    return multiprocessing.get_context("spawn")
+
+
+def unpinned_note() -> str | None:
+    """What the driver says when its own kernels are not the pinned ones (None when they are): its cases
+    run in pinned worker processes, never in it."""
+    if kernels.kernels_hold():
+        return None
+    return (f"spark-bench: this process's CPU kernels are {kernels.cpu_kernels()}; its cases run in worker "
+            "processes started with the pins (import spark_bench before NumPy to run them here)")
+
+
 def run_isolated(task: Any, evaluate: Evaluate, fail: Fail) -> list[dict]:
     """One task in a process of its own: a crash there is that task's."""
-    with ProcessPoolExecutor(max_workers=1) as pool:
+    with ProcessPoolExecutor(max_workers=1, mp_context=pool_context()) as pool:
         try:
             return pool.submit(evaluate, task).result()
         except BrokenProcessPool:
@@ -76,16 +101,19 @@ def run_local(tasks: list, evaluate: Evaluate, fail: Fail, workers: int, on_rows
     :param tasks: the tasks
     :param evaluate: runs one task in a worker
     :param fail: the rows of a task whose worker crashed
-    :param workers: worker processes (``0``: in this process)
+    :param workers: worker processes (``0``: in this process, if its kernels are the pinned ones; else in one
+        worker process started with them)
     :param on_rows: receives each task's rows, in this process
     """
-    if workers <= 0:
+    context = pool_context()
+    if workers <= 0 and context is None:
         for task in tasks:
             on_rows(evaluate(task))
         return
+    workers = max(1, workers)
     pending, crashes = list(tasks), 0
     while pending and crashes < MAX_CRASHES:
-        with ProcessPoolExecutor(max_workers=workers, initializer=limit_threads,
+        with ProcessPoolExecutor(max_workers=workers, initializer=limit_threads, mp_context=context,
                                  initargs=(max(1, usable_cores() // workers),)) as pool:
             futures = {pool.submit(evaluate, t): t for t in pending}
             pending = []
@@ -99,29 +127,3 @@ def run_local(tasks: list, evaluate: Evaluate, fail: Fail, workers: int, on_rows
         crashes += bool(pending)
     for task in pending:
         on_rows(run_isolated(task, evaluate, fail))
-
-
-def run_ray(tasks: list, evaluate: Evaluate, fail: Fail, workers: int, on_rows: OnRows,
-            address: str | None = None) -> None:
-    """Run tasks as Ray tasks (a cluster with ``address``, else a local Ray), results back here.
-
-    :param workers: CPUs of a local Ray (``0``: Ray's default)
-    :param address: a Ray cluster address
-    """
-    try:
-        import ray
-    except ImportError:
-        raise SparkBenchError("--executor ray needs Ray: pip install 'spark-bench[ray]'") from None
-    if not ray.is_initialized():
-        kwargs = {"address": address} if address else ({"num_cpus": workers} if workers > 0 else {})
-        ray.init(ignore_reinit_error=True, log_to_driver=False, **kwargs)
-    remote = ray.remote(max_retries=MAX_CRASHES - 1)(evaluate)
-    refs = {remote.remote(t): t for t in tasks}
-    while refs:
-        ready, _ = ray.wait(list(refs), num_returns=1)
-        for ref in ready:
-            task = refs.pop(ref)
-            try:
-                on_rows(ray.get(ref))
-            except Exception as exc:  # a task that died (node lost, worker crash) after its retries
-                on_rows(fail(task, f"ray task failed: {type(exc).__name__}: {exc}"))

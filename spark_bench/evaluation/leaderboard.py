@@ -26,7 +26,7 @@ import csv
 import io
 from pathlib import Path
 
-from spark_bench import CONVENTION_VERSION
+from spark_bench.convention import CONVENTION_VERSION
 from spark_bench.errors import SparkBenchError
 from spark_bench.evaluation.aggregate import summarize
 from spark_bench.evaluation.board import (
@@ -41,6 +41,7 @@ from spark_bench.evaluation.board import (
     fmt_value,
     is_number,
     mark_version_mismatches,
+    unpinned_kernels_note,
 )
 from spark_bench.evaluation.store import ResultsStore
 from spark_bench.metrics.names import HEADLINE_KEYS
@@ -130,7 +131,7 @@ def build_leaderboard(store: ResultsStore, bench: str | None = None, labels: lis
     entries = _entries(rows)
     note = mark_version_mismatches(entries)
     entries.sort(key=lambda e: (e.ranked, e.label, e.variant))
-    return Leaderboard(bench, entries, categories, CONVENTION_VERSION, left_out, note)
+    return Leaderboard(bench, entries, categories, CONVENTION_VERSION, left_out, note, unpinned_kernels_note(entries))
 
 
 # ----- text formats ---------------------------------------------------------------------------------

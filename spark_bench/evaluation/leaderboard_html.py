@@ -132,7 +132,7 @@ def _rl_of(row: dict) -> dict:
     return (row.get("checks") or {}).get("rl") or {}
 
 
-def _rl_video_cell(row: dict, stem: Path) -> str:
+def rl_video_cell(row: dict, stem: Path) -> str:
     """The case's RL episode (``eval --rl`` keeps one per case: the fine-tuned policy on the first
     ground-truth drawer or door it was run on), copied beside the page, with the joint's outcome."""
     rl = _rl_of(row)
@@ -193,7 +193,7 @@ def _gallery(board: Leaderboard, assets: Path, max_cases: int) -> str:
                 continue
             cells += _render_cells(row["prediction_dir"], camera, assets / f"{stem}_m{k}")
             if k in rl_entries:
-                cells.append(_rl_video_cell(row, assets / f"{stem}_m{k}_rl"))
+                cells.append(rl_video_cell(row, assets / f"{stem}_m{k}_rl"))
         if n == 0:
             lines.append("<tr>" + "".join(header) + "</tr>")
         lines.append("<tr>" + "".join(cells) + "</tr>")

@@ -25,7 +25,7 @@ import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
-from spark_bench import CONVENTION_VERSION
+from spark_bench.convention import CONVENTION_VERSION
 from spark_bench.errors import InputError
 from spark_bench.jsonio import plain
 from spark_bench.metrics.names import METRIC_COLUMNS

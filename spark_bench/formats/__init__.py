@@ -12,6 +12,8 @@ fact comes from.
 - :mod:`.urdf`: any method's URDF (URDFormer, Articulate-Anything, PhysX-Anything's ``basic.urdf``; FreeArt3D's
   ``output.urdf`` through its ``joint_info.json``);
 - :mod:`.mjcf`: any MJCF, read through MuJoCo (PhysX-Anything's ``basic.xml``, Particulate's export, Real2Code);
+- :mod:`.usd`: any USD file with a UsdPhysics articulation (Infinigen-Sim's export, URDF -> USD converters,
+  Isaac Sim asset sets), read with ``usd-core``;
 - :mod:`.spark`: SPARK's run folders (its layout, the reader, ``spark-bench import spark``);
 - :mod:`.commands`: the ``import`` command.
 
@@ -30,4 +32,9 @@ FORMATS: dict[str, str] = {
     "mjcf": "spark_bench.formats.mjcf:read_run",  # PhysX-Anything's basic.xml, Particulate, Real2Code
     # any method's URDF: URDFormer, Articulate-Anything, PhysX-Anything (FreeArt3D's output.urdf via joint_info.json)
     "urdf": "spark_bench.formats.urdf:read_run",
+    "usd": "spark_bench.formats.usd:read_run",  # UsdPhysics articulations: Infinigen-Sim, Isaac Sim assets
 }
+
+#: Format name -> the file suffixes a case's run may be besides a folder, ``DIR/<case id><suffix>`` (one model
+#: file per case); a format not listed reads folders only.
+RUN_FILE_SUFFIXES: dict[str, tuple[str, ...]] = {"usd": (".usd", ".usda", ".usdc", ".usdz")}

@@ -8,7 +8,7 @@ import json
 import sys
 from pathlib import Path
 
-from spark_bench.formats import FORMATS
+from spark_bench.formats import FORMATS, RUN_FILE_SUFFIXES
 
 
 def add_commands(subparsers) -> None:
@@ -31,8 +31,9 @@ def add_commands(subparsers) -> None:
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(func=run_import_spark)
     for name in sorted(FORMATS):
+        files = "".join(f" or DIR/<case id>{suffix}" for suffix in RUN_FILE_SUFFIXES.get(name, ()))
         f = isub.add_parser(name, help=f"{name} runs, DIR/<case id>/ -> PRED/<case id>/",
-                            description=f"Read DIR/<case id>/ (one case's output, as the method writes it) with "
+                            description=f"Read DIR/<case id>/{files} (one case's output, as the method writes it) with "
                                         f"the {name} reader into the benchmark frame and write PRED/<case id>/ "
                                         f"with its import.json. Exit 0 when at least one run was imported, 1 "
                                         f"when none could be, 2 on bad arguments.")

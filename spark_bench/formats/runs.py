@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from spark_bench.errors import InputError
-from spark_bench.formats import FORMATS
+from spark_bench.formats import FORMATS, RUN_FILE_SUFFIXES
 from spark_bench.formats.foreign import (
     ForeignObject,
     ImportOutcome,
@@ -46,6 +46,22 @@ def reader_of(name: str) -> Reader:
         raise InputError(None, f"unknown format {name!r}; known: {', '.join(sorted(FORMATS)) or 'none'}")
     module, _, function = FORMATS[name].partition(":")
     return getattr(importlib.import_module(module), function)
+
+
+def run_file_suffixes(name: str) -> tuple[str, ...]:
+    """The file suffixes a case's run of format ``name`` may also be, ``DIR/<case id><suffix>``
+    (:data:`spark_bench.formats.RUN_FILE_SUFFIXES`; none for a format whose run is always a folder)."""
+    return RUN_FILE_SUFFIXES.get(name, ())
+
+
+def run_of(runs_dir: Path, case_id: str, suffixes: tuple[str, ...]) -> Path:
+    """A case's run: ``DIR/<case id>/``, else the one file ``DIR/<case id><suffix>`` (the folder's path when
+    neither is there)."""
+    folder = runs_dir / case_id
+    if folder.is_dir():
+        return folder
+    files = [runs_dir / f"{case_id}{suffix}" for suffix in suffixes if (runs_dir / f"{case_id}{suffix}").is_file()]
+    return files[0] if len(files) == 1 else folder
 
 
 @dataclass
@@ -128,14 +144,19 @@ def import_runs(fmt: str, runs_dir: str | Path, bench: str | Path, out_dir: str 
         raise InputError(out_dir, "predictions folder is a file")
     out_dir.mkdir(parents=True, exist_ok=True)
     known = set(benchmark.case_ids())
+    suffixes = run_file_suffixes(fmt)
+
+    def case_of(p: Path) -> str:
+        return p.stem if p.is_file() and p.suffix.lower() in suffixes else p.name
+
     report = ImportReport(fmt, runs_dir, out_dir, Path(bench),
                           unknown=sorted(p.name for p in runs_dir.iterdir()
-                                         if not p.name.startswith(".") and p.name not in known))
+                                         if not p.name.startswith(".") and case_of(p) not in known))
     for case_id in case_ids:
         benchmark.case_dir(case_id)  # refuses an id that would leave the folder
         target = out_dir / case_id
-        run = runs_dir / case_id
-        if not run.is_dir():
+        run = run_of(runs_dir, case_id, suffixes)
+        if not run.exists():
             report.cases.append(CaseImport(case_id, None, False, f"no {fmt} run for this case ({run} is not a "
                                            "folder)", removed_stale=remove_stale_import(target)))
             continue

@@ -93,6 +93,11 @@ from spark_bench.errors import InputError
 from spark_bench.formats.foreign import ForeignObject
 
 FORMAT = "urdf"
+#: What a refused path outside the run folder says: an import reads its run folder only; a URDF the user names
+#: directly is read as it lies (:mod:`spark_bench.asset.mesh_paths`).
+OUTSIDE_HINT = ("(an import reads its run folder only: copy what the run names into it, or name the URDF file "
+                "itself: `spark-bench check|convert|metrics FILE.urdf` resolves ../ and package:// as ROS does, "
+                "with --package-path DIR)")
 URDFORMER = "WEIRDLabUW/urdformer"
 ARTICULATE_ANYTHING = "vlongle/articulate-anything"
 PHYSX_ANYTHING = "ziangcao0312/PhysX-Anything"
@@ -248,7 +253,7 @@ def resolve_mesh(written: str, urdf: Path, run_dir: Path) -> MeshPath:
         candidates += [here / package / rest, run_dir / package / rest, run_dir / rest, here / rest]
         found = _first_file(candidates, run_dir)
         if found is None and not _inside(here / package / rest, run_dir):
-            raise InputError(urdf, f"mesh path {written!r} leaves the run folder")
+            raise InputError(urdf, f"mesh path {written!r} leaves the run folder {OUTSIDE_HINT}")
         # none there: where the URDF reader looks (package name as a folder), for its "not found"
         return MeshPath(written, found or (here / package / rest).resolve(), "package")
     path = PurePath(name)
@@ -264,7 +269,7 @@ def resolve_mesh(written: str, urdf: Path, run_dir: Path) -> MeshPath:
         return MeshPath(written, found, "absolute-tail")
     resolved = (here / path).resolve()
     if not resolved.is_relative_to(run_dir):
-        raise InputError(urdf, f"mesh path {written!r} leaves the run folder")
+        raise InputError(urdf, f"mesh path {written!r} leaves the run folder {OUTSIDE_HINT}")
     return MeshPath(written, resolved, "relative")
 
 

@@ -15,6 +15,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.data.case import BenchmarkCase
 from spark_bench.errors import SparkBenchError
 
@@ -171,7 +172,7 @@ class CaseInput:
         self._need("part_meshes")
         gt = self.case.load_gt()
         parents = {j.child: j.parent for j in gt.joints.values()}
-        root_fixed = [j for j in gt.joints.values() if j.parent == gt.root and j.type == "fixed"]
+        root_fixed = [j for j in gt.joints.values() if j.parent == gt.root and j.type == JointType.FIXED]
         rotation = root_fixed[0].origin[:3, :3].copy() if root_fixed else np.eye(3)
         return PartMeshes(
             meshes=gt.link_meshes(), parents=parents,

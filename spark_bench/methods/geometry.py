@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from spark_bench.asset.joint_type import JointType, is_rotational
 from spark_bench.asset.mesh import merge_meshes, sample_triangles
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
 from spark_bench.methods.base import CaseInput, Generation, PartMeshes
@@ -315,7 +316,7 @@ def estimate_joints(parts: PartMeshes, options: GeometryOptions | None = None) -
     for link, estimate in out.items():
         own = _mesh_of(parts, moving_part(parts, link))
         below = [c for c, p in parts.parents.items() if p == link and parts.movable[c]]
-        if len(own.faces) == 0 and below and estimate.type in ("revolute", "continuous"):
+        if len(own.faces) == 0 and below and is_rotational(estimate.type):
             extent = float(np.ptp(_mesh_of(parts, parts.subtree(link)).vertices @ estimate.axis))
             out[link] = JointEstimate(link, "prismatic", estimate.axis.copy(), estimate.pivot.copy(),
                                       0.2 * extent, "screw", {**estimate.evidence, "helper": True})
@@ -341,7 +342,7 @@ def build_asset(parts: PartMeshes, estimates: dict[str, JointEstimate], name: st
             estimate = estimates.get(link)
             pose = np.eye(4)
             pose[:3, :3] = rotation
-            pose[:3, 3] = estimate.pivot if estimate is not None and estimate.type != "fixed" else parent_pose[:3, 3]
+            pose[:3, 3] = estimate.pivot if estimate is not None and estimate.type != JointType.FIXED else parent_pose[:3, 3]
             poses[link] = pose
             joint_type = estimate.type if estimate is not None else "fixed"
             axis = rotation.T @ estimate.axis if estimate is not None else np.array([1.0, 0.0, 0.0])
@@ -349,7 +350,7 @@ def build_asset(parts: PartMeshes, estimates: dict[str, JointEstimate], name: st
             joints[parts.joint_names[link]] = Joint(
                 parts.joint_names[link], joint_type, parts.parents[link], link,
                 origin=np.linalg.inv(parent_pose) @ pose, axis=axis / np.linalg.norm(axis), lower=0.0,
-                upper=2 * np.pi if joint_type == "continuous" else upper, has_limits=joint_type != "continuous")
+                upper=2 * np.pi if joint_type == JointType.CONTINUOUS else upper, has_limits=joint_type != JointType.CONTINUOUS)
         visuals = []
         if link in parts.meshes and len(parts.meshes[link].faces):
             world = parts.meshes[link]

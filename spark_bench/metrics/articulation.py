@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from spark_bench.asset.joint_type import is_rotational
+
 #: Below this value of ``|a x b|`` (unit directions: the sine of the angle between the axes), the
 #: axes count as parallel and PivotErr is the point-to-line distance. The skew-line formula is well
 #: conditioned far below it; the guard only keeps the normal of the two axes from being noise.
@@ -51,7 +53,7 @@ class JointAxis:
 
     @property
     def is_rotational(self) -> bool:
-        return self.type in ("revolute", "continuous")
+        return is_rotational(self.type)
 
 
 def unit(vector) -> np.ndarray:

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from spark_bench import CONVENTION_VERSION
+from spark_bench.convention import CONVENTION_VERSION
 from spark_bench.metrics.align import similarity_scale, similarity_yaw_deg
 from spark_bench.metrics.names import ARTICULATION_FAMILIES, JOINT_MEAN, SCALAR_PREFIXES, UNITS
 from spark_bench.metrics.shape import ShapeScores

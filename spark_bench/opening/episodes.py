@@ -10,8 +10,10 @@ from dataclasses import dataclass
 import gymnasium as gym
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.opening.door_geometry import door_edge, turns_in_place
 from spark_bench.opening.opener import PULL_STEP, ScriptedOpener
+from spark_bench.opening.planning.end_effector import EndEffector
 from spark_bench.opening.planning.gripper import grip_command
 from spark_bench.opening.planning.scene import part_points
 from spark_bench.opening.suction_opener import SuctionOpener
@@ -51,14 +53,14 @@ def opener_for(env: gym.Env, axis, pivot, joint_type: str, pull_step: float = PU
     with the suction cup."""
     scene = env.unwrapped.scene
     grasp = scene.grasp
-    if scene.end_effector == "suction":
+    if scene.end_effector == EndEffector.SUCTION:
         return SuctionOpener(axis, pivot, joint_type, grasp.outward, pull_step)
     approach_grip = lateral_tolerance = None
     if grasp.opening is not None and not grasp.inside_grip:
         approach_grip = grip_command(scene.gripper.config, grasp.opening)
         lateral_tolerance = 0.5 * grasp.clearance
     edge, in_place = None, False
-    if joint_type != "prismatic":
+    if joint_type != JointType.PRISMATIC:
         points = part_points(scene.asset, scene.joint.name)
         in_place = turns_in_place(points, grasp.point, axis, pivot)
         edge = None if in_place else door_edge(points, grasp.point, grasp.outward, axis, pivot)

@@ -63,6 +63,7 @@ from spark_bench.opening.pairing import (
     one_line,
     opening_joints,
 )
+from spark_bench.opening.planning.end_effector import EndEffector
 from spark_bench.opening.planning.suction import cup_mm
 
 #: Step limit of a scripted episode in the scores (the ground-truth reference episode included).
@@ -150,7 +151,7 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     except InputError as exc:  # no geometry, no outward direction: nothing to grasp
         return JudgedJoint(joint.name, joint.type, one_line(exc), kind="planner")
     effector = choose_end_effector(end_effector, grasp.declined)
-    if grasp.reason is not None and effector == "gripper":
+    if grasp.reason is not None and effector == EndEffector.GRIPPER:
         return JudgedJoint(joint.name, joint.type, grasp.reason, kind="planner")
     try:
         # the rule as asked (``auto``: the scene may still take the cup, for a pinch too weak for the part)
@@ -167,7 +168,7 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     except BaseException:
         env.close()
         raise
-    if end_effector == "auto" and effector == "gripper" and reference is not None and not reference.success:
+    if end_effector == EndEffector.AUTO and effector == EndEffector.GRIPPER and reference is not None and not reference.success:
         # the gripper fails with the part's own joint (a safe door's low ring beside its dial, where the pads
         # land on the dial): the cup scores the part where it opens it with that joint
         cup = _cup_reference(gt_metres, joint, seed, max_steps)

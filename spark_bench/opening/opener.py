@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from spark_bench.asset.joint_type import MOVABLE_TYPES, JointType
 from spark_bench.asset.transforms import unit
 from spark_bench.envs import observation as OBS
 from spark_bench.envs.base import MAX_STEP
@@ -208,11 +209,11 @@ class ScriptedOpener:
     def __init__(self, axis, pivot, joint_type: str, outward, pull_step: float = PULL_STEP,
                  inside_grip: bool = False, press=None, approach_grip: float | None = None,
                  lateral_tolerance: float | None = None, edge: DoorEdge | None = None, in_place: bool = False):
-        if joint_type not in ("prismatic", "revolute", "continuous"):
+        if joint_type not in MOVABLE_TYPES:
             raise ValueError(f"cannot open a {joint_type!r} joint")
         self.axis = unit(axis)
         self.pivot = np.asarray(pivot, float)
-        self.rotational = joint_type != "prismatic"
+        self.rotational = joint_type != JointType.PRISMATIC
         self.outward = unit(outward)
         self.pull_step = float(pull_step)
         self.inside_grip = bool(inside_grip)

@@ -19,12 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.transforms import unit
 from spark_bench.envs.registration import ENV_OF_JOINT_TYPE
 from spark_bench.errors import InputError
 
 #: The ground-truth joint types that are opening tasks: drawers (prismatic) and doors (revolute).
-OPENING_TYPES = ("prismatic", "revolute")
+OPENING_TYPES = (JointType.PRISMATIC, JointType.REVOLUTE)
 #: A result's ``acts_on`` when the policies act on the case's source object (:func:`object_acted_on`);
 #: otherwise it names what they act on and why.
 ACTS_ON_SOURCE = "source"
@@ -88,7 +89,7 @@ def source_mismatch(source, gt_metres) -> str | None:
         other = source_joints[name]
         (gt_point, gt_axis), (point, axis) = gt_frames[name], source_frames[name]
         angle = float(np.arccos(np.clip(np.dot(unit(gt_axis), unit(axis)), -1.0, 1.0)))
-        range_tol = length_tol if joint.type == "prismatic" else SOURCE_ANGLE_TOL
+        range_tol = length_tol if joint.type == JointType.PRISMATIC else SOURCE_ANGLE_TOL
         if other.type != joint.type:
             return f"joint {name} is {other.type}, the ground truth's {joint.type}"
         if angle > SOURCE_ANGLE_TOL or np.linalg.norm(np.asarray(point) - gt_point) > length_tol:

@@ -72,5 +72,6 @@ class SuctionOpener(ScriptedOpener):
             return Move(r.grasp + PREGRASP_OFFSET * self._turned(self.outward, r.grasp), r.travel, "pregrasp")
         return Move(self._open_target(r.tcp, np.zeros(3)), r.hold)
 
-    #: The method of each phase.
-    PHASES = {"pregrasp": ScriptedOpener._pregrasp, "approach": _cup_approach, "attach": _attach, "open": _pull}
+    #: The method of each phase: the gripper's pre-grasp (its phase table's), then the cup's own.
+    PHASES = {"pregrasp": ScriptedOpener.PHASES["pregrasp"], "approach": _cup_approach, "attach": _attach,
+              "open": _pull}

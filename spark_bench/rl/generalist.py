@@ -75,6 +75,7 @@ from spark_bench.envs import observation as OBS
 from spark_bench.envs.observation import FRAME_OBS_SIZE
 from spark_bench.envs.registration import ENV_OF_JOINT_TYPE, make_env
 from spark_bench.errors import InputError
+from spark_bench.opening.planning.end_effector import EndEffector
 
 #: Bumped whenever :func:`features` or the action's meaning changes (shipped weights name the version
 #: they were trained for).
@@ -190,7 +191,7 @@ def end_effector_flag(env: gym.Env) -> float:
 
     :param env: an opening environment
     """
-    return 1.0 if getattr(env.unwrapped, "end_effector", "gripper") == "suction" else 0.0
+    return 1.0 if getattr(env.unwrapped, "end_effector", "gripper") == EndEffector.SUCTION else 0.0
 
 
 def features(obs: np.ndarray, memory: np.ndarray | None = None, suction: float = 0.0) -> np.ndarray:

@@ -96,9 +96,12 @@ class ScriptedPolicy:
 
 
 class ModelPolicy:
-    """A stable-baselines3 model, or one saved by :func:`spark_bench.rl.train.train`.
+    """A stable-baselines3 model, or one saved by :func:`spark_bench.rl.train.train`: the one wrapper of
+    anything with SB3's ``predict(obs, deterministic) -> (action, state)`` (the generalist's task scores use
+    it too, :func:`spark_bench.rl.tasks.evaluate`).
 
-    :param model: the model, its ``.zip`` file, or a training output folder holding ``model.zip``
+    :param model: the model (anything with ``predict``), its ``.zip`` file, or a training output folder
+        holding ``model.zip``
     :param deterministic: act with the policy's mean action
     """
 

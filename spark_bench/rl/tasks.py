@@ -17,6 +17,7 @@ import numpy as np
 import spark_bench.rl.rollout as rollout
 from spark_bench.errors import InputError
 from spark_bench.opening.pairing import OPENING_TYPES, opening_joints
+from spark_bench.opening.planning.end_effector import EndEffector
 from spark_bench.rl.generalist import EPISODE_STEPS, KIND_OF_TYPE, GraspFrameWrapper, make_task_env
 
 #: The policy kind of each joint type that is an opening task (:data:`spark_bench.opening.pairing.OPENING_TYPES`;
@@ -46,7 +47,7 @@ class Task:
 
     @property
     def name(self) -> str:
-        forced = "" if self.end_effector == "auto" else f" ({self.end_effector})"
+        forced = "" if self.end_effector == EndEffector.AUTO else f" ({self.end_effector})"
         return f"{Path(self.folder).name}/{self.joint}{forced}"
 
 
@@ -173,27 +174,15 @@ def run_episodes(env: gym.Env, policy, episodes: int, seed: int) -> rollout.Roll
     return rollout.run_episodes(env, policy, episodes, seed, max_steps=EPISODE_STEPS, stop_on_success=True)
 
 
-class ModelActor:
-    """A model trained on :func:`~spark_bench.rl.generalist.features`, acting in a wrapped task
-    environment (:class:`GraspFrameWrapper`), deterministic."""
-
-    def __init__(self, model):
-        self.model = model
-
-    def reset(self, env) -> None:
-        pass
-
-    def __call__(self, obs):
-        return self.model.predict(obs, deterministic=True)[0]
-
-
 def evaluate(model, built: list[BuiltTask], episodes: int = 1, seed: int = 0, progress: bool = False) -> list[dict]:
     """The model's episodes on every task (seeds ``seed + k``), one row per task.
 
     :returns: rows ``{"task", "kind", "category", "part", "grasp", "reason", "end_effector", "asset",
         "success_rate", "max_fraction"}``
     """
-    return _score(built, lambda bt: (bt.env, ModelActor(model)), episodes, seed, progress, "policy")
+    from spark_bench.rl.policies import ModelPolicy
+
+    return _score(built, lambda bt: (bt.env, ModelPolicy(model)), episodes, seed, progress, "policy")
 
 
 def evaluate_teacher(built: list[BuiltTask], episodes: int = 1, seed: int = 0, progress: bool = False) -> list[dict]:

@@ -252,7 +252,6 @@ def run_checks(src, options: ConvertOptions | None = None, render: Path | None =
     :raises InputError: when ``src`` cannot be read at all
     """
     from spark_bench.sim.mjcf import build_spec, prepare
-    from spark_bench.sim.pybullet_io import load_in_pybullet, write_pybullet_urdf
 
     if not isinstance(src, ArticulatedAsset) and Path(src).suffix.lower() == ".xml":
         return run_model_checks(Path(src), render)
@@ -274,34 +273,10 @@ def run_checks(src, options: ConvertOptions | None = None, render: Path | None =
     seconds.update(prepared.report.seconds)
     seconds["coacd_cpu"] = prepared.report.coacd.coacd_cpu_s
     joints = swept_joints(asset)
-    try:
-        spec = build_spec(asset, prepared=prepared)
-        start = time.perf_counter()
-        model = spec.compile()
-        compile_s = time.perf_counter() - start
-    except Exception as exc:  # MuJoCo reports compiler errors as ValueError; any failure is the verdict
-        report.checks["mjcf_compiles"] = CheckResult(False, float("nan"), {"reason": " ".join(str(exc).split())})
-        spec = model = None
-    else:
-        report.checks["mjcf_compiles"] = CheckResult(True, compile_s, {
-            "bodies": int(model.nbody - 1), "geoms": int(model.ngeom), "hulls": prepared.report.hulls,
-            "hull_methods": prepared.report.methods, "coacd_calls": prepared.report.coacd.calls,
-            "coacd_cache_hits": prepared.report.coacd.cache_hits, "coacd_turned": prepared.report.coacd.turned,
-            "convert_seconds": round(convert_s, 3),
-            "relief": summarize_relief(prepared.relief), "excluded": sorted(f"{a}|{b}" for a, b in prepared.excluded),
-            "phantom_blocks": [b.to_dict() for b in prepared.phantom],
-            "coacd_failures": prepared.report.coacd_failures})
+    spec, model, report.checks["mjcf_compiles"] = _compile_check(asset, prepared, convert_s)
     seconds["compile"] = time.perf_counter() - prepared_at  # building the spec (visuals included) and compiling
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="spark_pybullet_") as tmp:
-        loaded = load_in_pybullet(write_pybullet_urdf(prepared, Path(tmp), visuals=False))
-    expected = {name: len(s) for name, s in prepared.shapes.items()}
-    same = loaded.loaded and loaded.n_joints == len(asset.joints) and all(
-        loaded.collision_shapes.get(name, 0) == n for name, n in expected.items() if n)
-    details = {"collision_shapes": loaded.collision_shapes}
-    if not same:
-        details["reason"] = loaded.error or "PyBullet built other joints or hulls than the MJCF"
-    report.checks["pybullet_loads"] = CheckResult(same, float(loaded.n_joints), details)
+    report.checks["pybullet_loads"] = _pybullet_check(asset, prepared)
     seconds["pybullet"] = time.perf_counter() - start
     if model is None:
         for name in ("mass_inertia", "rest_stability", "rest_penetration", "joint_sweep"):
@@ -327,6 +302,52 @@ def run_checks(src, options: ConvertOptions | None = None, render: Path | None =
         seconds["render"] = time.perf_counter() - start
     seconds["total"] = time.perf_counter() - clock
     return report
+
+
+def _compile_check(asset: ArticulatedAsset, prepared, convert_s: float) -> tuple[object, object, CheckResult]:
+    """Build the object's MJCF spec and compile it: ``(spec, model, the mjcf_compiles check)``, spec and model
+    None where it does not compile.
+
+    :param asset: the object
+    :param prepared: its prepared collision shapes (:func:`spark_bench.sim.mjcf.prepare`)
+    :param convert_s: the seconds the preparation took (the check's details say them)
+    """
+    from spark_bench.sim.mjcf import build_spec
+
+    try:
+        spec = build_spec(asset, prepared=prepared)
+        start = time.perf_counter()
+        model = spec.compile()
+        compile_s = time.perf_counter() - start
+    except Exception as exc:  # MuJoCo reports compiler errors as ValueError; any failure is the verdict
+        return None, None, CheckResult(False, float("nan"), {"reason": " ".join(str(exc).split())})
+    return spec, model, CheckResult(True, compile_s, {
+        "bodies": int(model.nbody - 1), "geoms": int(model.ngeom), "hulls": prepared.report.hulls,
+        "hull_methods": prepared.report.methods, "coacd_calls": prepared.report.coacd.calls,
+        "coacd_cache_hits": prepared.report.coacd.cache_hits, "coacd_turned": prepared.report.coacd.turned,
+        "convert_seconds": round(convert_s, 3),
+        "relief": summarize_relief(prepared.relief), "excluded": sorted(f"{a}|{b}" for a, b in prepared.excluded),
+        "phantom_blocks": [b.to_dict() for b in prepared.phantom],
+        "coacd_failures": prepared.report.coacd_failures})
+
+
+def _pybullet_check(asset: ArticulatedAsset, prepared) -> CheckResult:
+    """The pybullet_loads check: PyBullet loads the object's collision URDF with the MJCF's joints and hulls.
+
+    :param asset: the object
+    :param prepared: its prepared collision shapes
+    """
+    from spark_bench.sim.pybullet_io import load_in_pybullet, write_pybullet_urdf
+
+    with tempfile.TemporaryDirectory(prefix="spark_pybullet_") as tmp:
+        loaded = load_in_pybullet(write_pybullet_urdf(prepared, Path(tmp), visuals=False))
+    expected = {name: len(s) for name, s in prepared.shapes.items()}
+    same = loaded.loaded and loaded.n_joints == len(asset.joints) and all(
+        loaded.collision_shapes.get(name, 0) == n for name, n in expected.items() if n)
+    details = {"collision_shapes": loaded.collision_shapes}
+    if not same:
+        details["reason"] = loaded.error or "PyBullet built other joints or hulls than the MJCF"
+    return CheckResult(same, float(loaded.n_joints), details)
 
 
 def _explain_sweep(sweep: CheckResult, prepared, model) -> None:

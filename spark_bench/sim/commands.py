@@ -11,15 +11,23 @@ import json
 import sys
 from pathlib import Path
 
+#: What ``convert --to`` and ``check --export`` write (:mod:`spark_bench.sim.export`).
+EXPORT_FORMATS = ("mjcf", "urdf", "usd")
+
 
 def add_commands(subparsers) -> None:
     """Register ``convert`` and ``check`` on the top-level ``spark-bench`` parser."""
     convert = subparsers.add_parser(
-        "convert", help="object folder or URDF -> MJCF + PyBullet URDF with convex collision hulls",
+        "convert", help="object folder, URDF, MJCF or USD -> a sim-ready MJCF, URDF or USD with convex hulls",
         description="Write DIR/model.xml (MuJoCo), DIR/model.urdf (PyBullet), DIR/meshes/ and "
-                    "DIR/conversion.json. CoACD results are cached under $SPARK_BENCH_HOME/coacd.")
-    convert.add_argument("src", type=Path, help="object folder (mobility.urdf inside) or URDF file")
+                    "DIR/conversion.json; --to urdf adds DIR/object.urdf (fixed base, loads in PyBullet and "
+                    "MuJoCo), --to usd DIR/object.usda (UsdPhysics articulation for Isaac Sim). CoACD results "
+                    "are cached under $SPARK_BENCH_HOME/coacd.")
+    convert.add_argument("src", type=Path, help="object folder (mobility.urdf inside), or a URDF, MJCF (.xml) "
+                                                "or USD (.usd/.usda/.usdc) file, read as it lies")
     convert.add_argument("--out", type=Path, required=True, help="output folder")
+    convert.add_argument("--to", choices=EXPORT_FORMATS, default="mjcf",
+                         help="the simulator format to write (default mjcf)")
     _add_options(convert)
     convert.add_argument("--json", action="store_true", help="print conversion.json instead of a summary")
     convert.set_defaults(func=run_convert)
@@ -28,7 +36,10 @@ def add_commands(subparsers) -> None:
         "check", help="sim-readiness checks (compile, PyBullet, mass, rest, penetration, joint sweep)",
         description="Convert SRC and run every check; exit 0 when all pass, 1 when any fails, 2 when SRC "
                     "cannot be read.")
-    check.add_argument("src", type=Path, help="object folder or URDF file")
+    check.add_argument("src", type=Path, help="object folder, or a URDF, MJCF (.xml) or USD file, read as it lies")
+    check.add_argument("--export", type=Path, default=None, metavar="DIR",
+                       help="after a passing check, write the sim-ready asset into DIR (see --to)")
+    check.add_argument("--to", choices=EXPORT_FORMATS, default="mjcf", help="the format --export writes")
     check.add_argument("--json", action="store_true",
                        help='print {"passed": bool, "checks": {name: {"passed", "value", ...}}}')
     check.add_argument("--render", nargs="?", type=Path, const=Path(""), default=None, metavar="PNG",
@@ -39,6 +50,9 @@ def add_commands(subparsers) -> None:
 
 
 def _add_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--package-path", type=Path, action="append", default=[], metavar="DIR",
+                        help="a folder holding ROS packages, for a URDF's package://NAME/ mesh paths "
+                             "(repeatable; then $ROS_PACKAGE_PATH)")
     parser.add_argument("--density", type=float, default=None,
                         help="kg/m^3 for every link (default: by the object's category material)")
     parser.add_argument("--threshold", type=float, default=None, help="CoACD concavity threshold")
@@ -57,11 +71,28 @@ def options_from_args(args):
     return options
 
 
+def source_of(args):
+    """What ``check`` and ``convert`` read: an object folder as a path (its URDF confined to it, as before);
+    a file named directly read as it lies (:func:`spark_bench.data.readers.load_object`: a URDF's mesh paths
+    as ROS resolves them, ``--package-path``; MJCF with its own collision geoms; USD). A ``model.xml`` that
+    ``convert`` wrote (``conversion.json`` beside it) stays a path: ``check`` checks it as converted."""
+    from spark_bench.data.readers import load_object
+    from spark_bench.sim.converter import MODEL_XML, REPORT_JSON
+
+    src = Path(args.src)
+    converted = src.name == MODEL_XML and (src.parent / REPORT_JSON).is_file()
+    if not src.is_file() or converted:
+        return src
+    return load_object(src, package_paths=args.package_path)
+
+
 def run_convert(args) -> int:
     from spark_bench.data.readers import read_json
-    from spark_bench.sim.converter import REPORT_JSON, convert
+    from spark_bench.sim.converter import REPORT_JSON
+    from spark_bench.sim.export import export
 
-    path = convert(args.src, args.out, options_from_args(args), progress=not args.no_progress)
+    written = export(source_of(args), args.out, args.to, options_from_args(args), progress=not args.no_progress)
+    path = written.model
     report = read_json(path.parent / REPORT_JSON)
     if args.json:
         print(json.dumps(report, indent=1, sort_keys=True))
@@ -71,13 +102,22 @@ def run_convert(args) -> int:
     return 0
 
 
+def _export_after_check(args, src) -> None:
+    """``check --export DIR``: write the checked asset as ``--to`` says (:mod:`spark_bench.sim.export`)."""
+    from spark_bench.sim.export import export
+
+    written = export(src, args.export, args.to, options_from_args(args), progress=False)
+    print(f"exported {written.model}", file=sys.stderr)
+
+
 def run_check(args) -> int:
     from spark_bench.sim.checks import run_checks
 
     render = None
     if args.render is not None:
         render = args.render if str(args.render) not in ("", ".") else Path(f"check_{Path(args.src).resolve().name}.png")
-    report = run_checks(args.src, options_from_args(args), render=render, progress=not args.no_progress)
+    src = source_of(args)
+    report = run_checks(src, options_from_args(args), render=render, progress=not args.no_progress)
     if args.json:
         print(json.dumps(report.to_dict(), indent=1))
     else:
@@ -89,4 +129,9 @@ def run_check(args) -> int:
         print(f"{report.name}: {'passed' if report.passed else 'failed'}")
         if render is not None:
             print(f"wrote {render}", file=sys.stderr)
+    if args.export is not None:
+        if report.passed:
+            _export_after_check(args, src)
+        else:
+            print(f"not exported to {args.export}: the check failed", file=sys.stderr)
     return 0 if report.passed else 1

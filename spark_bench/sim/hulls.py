@@ -136,7 +136,7 @@ class _Pending:
     mesh: trimesh.Trimesh
 
 
-def _weld(mesh: trimesh.Trimesh, tolerance: float) -> trimesh.Trimesh:
+def weld(mesh: trimesh.Trimesh, tolerance: float) -> trimesh.Trimesh:
     """``mesh`` with vertices on the same ``tolerance`` grid cell merged (a grid in units of the
     tolerance, so that a scaled mesh welds the same) and degenerate faces dropped."""
     tolerance = max(tolerance, 1e-12)
@@ -286,7 +286,7 @@ def object_collision_shapes(asset: ArticulatedAsset, options: ConvertOptions | N
             tolerance, thickness, max(tolerance / 3.0, 1e-4 * size), options.max_hull_vertices,
             0.5 * (points.min(0) + points.max(0)), link_diag)
         for mesh in meshes:
-            welded = simplify(_weld(mesh, 1e-7 * size), options.max_part_faces)
+            welded = simplify(weld(mesh, 1e-7 * size), options.max_part_faces)
             if len(welded.faces) == 0:
                 continue
             hulls, rest = _sort_element(welded, geo)

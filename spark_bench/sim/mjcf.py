@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.errors import InputError
 from spark_bench.mujoco_gl import mujoco_module
@@ -178,7 +179,7 @@ def gravity_pull(prepared: PreparedObject, joint_name: str, props: MassPropertie
     weight = rotation.T @ np.array([0.0, 0.0, -GRAVITY * props.mass])  # in the joint frame
     axis = np.asarray(joint.axis, float) / np.linalg.norm(joint.axis)
     pull = float(axis @ np.cross(props.com, weight)) if joint.is_rotational else float(axis @ weight)
-    if joint.type == "continuous":
+    if joint.type == JointType.CONTINUOUS:
         return abs(pull)
     rest = joint.rest_value
     if rest <= joint.lower + 1e-9:
@@ -335,7 +336,7 @@ def assemble_spec(prepared: PreparedObject, mesh_dir: Path | None = None, visual
             # MuJoCo's default friction impedance (0.9) lets 10% of the load through, so a latched part
             # creeps; 0.999 makes dry friction hold, which is what it is for
             mj_joint.solimp_friction = list(FRICTION_SOLIMP)
-            if joint.type == "continuous":
+            if joint.type == JointType.CONTINUOUS:
                 mj_joint.limited = mujoco.mjtLimited.mjLIMITED_FALSE
             else:
                 mj_joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE

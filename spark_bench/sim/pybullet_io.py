@@ -13,6 +13,7 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.mesh import drop_degenerate_faces
 from spark_bench.asset.transforms import matrix_to_rpy
 from spark_bench.sim.mjcf import write_obj_file
@@ -98,7 +99,7 @@ def write_pybullet_urdf(prepared: PreparedObject, folder: Path, filename: str = 
             ET.SubElement(element, "axis", xyz=" ".join(f"{v:.9g}" for v in joint.axis))
             dyn = prepared.dynamics[joint.name]
             ET.SubElement(element, "dynamics", damping=f"{dyn.damping:.6g}", friction=f"{dyn.frictionloss:.6g}")
-        if joint.type in ("revolute", "prismatic"):
+        if joint.type in (JointType.REVOLUTE, JointType.PRISMATIC):
             ET.SubElement(element, "limit", lower=f"{joint.lower:.9g}", upper=f"{joint.upper:.9g}",
                           effort="1000", velocity="10")
     ET.indent(robot)

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.shapes import CollisionShape
 
@@ -101,7 +102,7 @@ def find_cuts(model, data, asset, gap: float) -> list[tuple]:
             continue
         jid = model.joint(joint.name).id
         moving = joint_bodies(model, jid)
-        span = joint.upper - joint.lower if joint.type != "continuous" else 2 * np.pi
+        span = joint.upper - joint.lower if joint.type != JointType.CONTINUOUS else 2 * np.pi
         samples = max(8, int(abs(span) * SAMPLES_PER_RADIAN))
         # (moving body, other body) pairs in contact along the axis at rest and at every sample since
         held: set[tuple[int, int]] = set()

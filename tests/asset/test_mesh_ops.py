@@ -7,27 +7,27 @@ import pytest
 import trimesh
 
 from spark_bench.asset.mesh import (
-    _cleanup,
-    _edge_structure,
-    _face_components,
-    _min_height,
-    _shell_cleanup,
-    _twin_pairs,
-    _vertex_spacing,
     cleanup,
+    cleanup_with_watertight,
     drop_degenerate_faces,
+    edge_structure,
+    face_components,
     make_watertight,
     merge_meshes,
+    min_face_height,
     sample_surface,
+    shell_cleanup,
     signed_volume,
+    twin_pairs,
+    vertex_spacing,
 )
 from spark_bench.asset.voxel import (
-    _Grid,
-    _sample_grids,
-    _walk_rows,
+    VoxelGrid,
     fill_holes,
+    sample_grids,
     voxel_pitch,
     voxelize_surface,
+    walk_rows,
 )
 
 
@@ -172,9 +172,9 @@ def test_row_walk_marks_the_voxels_of_every_lattice_point(family):
     shape = np.ceil((triangles.reshape(-1, 3).max(0) + 0.5 * pitch - origin) / pitch).astype(int) + 1
     edges = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).max(1)
     steps = np.maximum(1, np.ceil(edges / (0.5 * pitch))).astype(int)
-    full, walked = _Grid(origin, pitch, shape), _Grid(origin, pitch, shape)
-    _sample_grids(full, triangles, steps)
-    _walk_rows(walked, triangles, steps, np.full(len(triangles), family))
+    full, walked = VoxelGrid(origin, pitch, shape), VoxelGrid(origin, pitch, shape)
+    sample_grids(full, triangles, steps)
+    walk_rows(walked, triangles, steps, np.full(len(triangles), family))
     assert full.occupancy.sum() > 1000
     np.testing.assert_array_equal(walked.occupancy, full.occupancy)
 
@@ -213,7 +213,7 @@ def test_edge_structure_follows_trimesh_split_and_watertight():
     open_box = trimesh.Trimesh(box.vertices, box.faces[1:], process=False)
     cases = ((box, True), (merge_meshes([box, far]), False), (fan, False), (pinch, False), (open_box, True))
     for mesh, one in cases:
-        one_piece, watertight = _edge_structure(mesh.faces)
+        one_piece, watertight = edge_structure(mesh.faces)
         assert one_piece == one == (len(mesh.split(only_watertight=False)) == 1)
         assert watertight == mesh.is_watertight
 
@@ -248,7 +248,7 @@ def test_cleanup_shortcuts_change_nothing():
     speck.apply_scale(0.1)
     speck.apply_translation((3, 0, 0))
     shell, _ = make_watertight(trimesh.Trimesh(box.vertices, box.faces[1:], process=False), resolution=30)
-    assert _min_height(flat) == 0.0 and _min_height(box) > 0.1
+    assert min_face_height(flat) == 0.0 and min_face_height(box) > 0.1
     for mesh in (box, repeated, flat, merge_meshes([box, speck]), shell):
         got, want = cleanup(mesh, fix_normals=False), _cleanup_reference(mesh)
         np.testing.assert_array_equal(got.faces, want.faces)
@@ -282,7 +282,7 @@ def _marching_cubes_shell(occupancy: np.ndarray) -> tuple[trimesh.Trimesh, np.nd
 
 
 def test_shell_cleanup_is_cleanup_on_marching_cubes_shells():
-    """The shortcut path of make_watertight gives _cleanup's bytes: one piece, several pieces (the largest
+    """The shortcut path of make_watertight gives cleanup_with_watertight's bytes: one piece, several pieces (the largest
     kept), two equal largest pieces (the first kept), and a grid whose shell has cube-interior vertices."""
     one = np.zeros((12, 12, 12), dtype=bool)
     one[2:9, 3:10, 2:7] = True
@@ -294,11 +294,11 @@ def test_shell_cleanup_is_cleanup_on_marching_cubes_shells():
     taken = 0
     for occupancy in (one, pieces, twins, noisy):
         shell, grid_verts = _marching_cubes_shell(occupancy)
-        spacing = _vertex_spacing(grid_verts)
+        spacing = vertex_spacing(grid_verts)
         assert 0 < spacing <= 0.5
-        got = _shell_cleanup(shell, spacing * 0.01)
-        want, _ = _cleanup(shell, fix_normals=False)
-        if got is None:  # a proof failed (e.g. a piece of two faces): the caller runs _cleanup
+        got = shell_cleanup(shell, spacing * 0.01)
+        want, _ = cleanup_with_watertight(shell, fix_normals=False)
+        if got is None:  # a proof failed (e.g. a piece of two faces): the caller runs cleanup_with_watertight
             continue
         taken += 1
         np.testing.assert_array_equal(got[0].vertices, want.vertices)
@@ -308,11 +308,11 @@ def test_shell_cleanup_is_cleanup_on_marching_cubes_shells():
     shell, grid_verts = _marching_cubes_shell(noisy)
     frac = grid_verts - np.floor(grid_verts)
     assert (frac == 0.5).all(1).any()  # cube centres: half a voxel from every edge midpoint
-    assert _vertex_spacing(grid_verts) == 0.5
-    assert _vertex_spacing(np.array([[0.5, 0, 0], [0.5, 0.5, 0.5], [0.5, 0.6, 0.5]])) == pytest.approx(0.1)
-    assert _vertex_spacing(np.array([[0.3, 0.3, 0.3], [0.3, 0.3, 0.3], [0.5, 0, 0]])) == 0.0
+    assert vertex_spacing(grid_verts) == 0.5
+    assert vertex_spacing(np.array([[0.5, 0, 0], [0.5, 0.5, 0.5], [0.5, 0.6, 0.5]])) == pytest.approx(0.1)
+    assert vertex_spacing(np.array([[0.3, 0.3, 0.3], [0.3, 0.3, 0.3], [0.5, 0, 0]])) == 0.0
     # welding would merge vertices closer than its radius: then the shortcut declines
-    assert _shell_cleanup(_marching_cubes_shell(one)[0], 1e-6) is None
+    assert shell_cleanup(_marching_cubes_shell(one)[0], 1e-6) is None
 
 
 def test_face_components_twin_path_matches_edge_sort():
@@ -322,13 +322,13 @@ def test_face_components_twin_path_matches_edge_sort():
     far = box.copy()
     far.apply_translation((3, 0, 0))
     two = merge_meshes([box, far])
-    assert _twin_pairs(np.asarray(two.faces)) is not None
-    count, labels, watertight = _face_components(two.faces)
+    assert twin_pairs(np.asarray(two.faces)) is not None
+    count, labels, watertight = face_components(two.faces)
     assert count == 2 and watertight and labels.tolist() == [0] * 12 + [1] * 12
     flipped = np.asarray(box.faces).copy()
     flipped[0] = flipped[0, ::-1]
-    assert _twin_pairs(flipped) is None
-    count, labels, watertight = _face_components(flipped)
+    assert twin_pairs(flipped) is None
+    count, labels, watertight = face_components(flipped)
     assert count == 1 and watertight == trimesh.Trimesh(box.vertices, flipped, process=False).is_watertight
 
 
@@ -340,7 +340,7 @@ def test_mark_points_marks_what_mark_of_coordinates_marks():
     weights = rng.dirichlet((1, 1, 1), size=40)
     w0, w1, w2 = (weights[None, :, k] for k in range(3))
     corners = triangles[:, None, :, :]
-    reference, reused = _Grid(origin, pitch, shape), _Grid(origin, pitch, shape)
+    reference, reused = VoxelGrid(origin, pitch, shape), VoxelGrid(origin, pitch, shape)
     reference.mark(reference.coordinates(w0, w1, w2, corners[:, :, 0], corners[:, :, 1], corners[:, :, 2]))
     for block in (slice(0, 30), slice(30, 50)):  # the buffers are reused for a smaller block
         c = corners[block]
@@ -350,7 +350,7 @@ def test_mark_points_marks_what_mark_of_coordinates_marks():
 
 
 def test_make_watertight_gives_the_same_mesh_when_the_shell_shortcut_declines(monkeypatch):
-    """make_watertight's fallback (``_cleanup`` where ``_shell_cleanup`` declines) gives the shortcut's
+    """make_watertight's fallback (``cleanup_with_watertight`` where ``shell_cleanup`` declines) gives the shortcut's
     mesh: a torn box with a floating speck (two pieces, the largest kept)."""
     import spark_bench.asset.mesh as mesh_module
 
@@ -359,11 +359,11 @@ def test_make_watertight_gives_the_same_mesh_when_the_shell_shortcut_declines(mo
     speck.apply_translation((1.5, 0, 0))
     torn = merge_meshes([trimesh.Trimesh(a.vertices, a.faces[1:]), speck])
     taken = []
-    shortcut = mesh_module._shell_cleanup
-    monkeypatch.setattr(mesh_module, "_shell_cleanup", lambda *args: taken.append(shortcut(*args)) or taken[-1])
+    shortcut = mesh_module.shell_cleanup
+    monkeypatch.setattr(mesh_module, "shell_cleanup", lambda *args: taken.append(shortcut(*args)) or taken[-1])
     fast, _ = make_watertight(torn, resolution=40)
     assert taken and taken[0] is not None  # the shortcut ran and was used
-    monkeypatch.setattr(mesh_module, "_shell_cleanup", lambda *args: None)
+    monkeypatch.setattr(mesh_module, "shell_cleanup", lambda *args: None)
     slow, report = make_watertight(torn, resolution=40)
     assert report.method == "voxel" and slow.is_watertight
     np.testing.assert_array_equal(fast.vertices, slow.vertices)

@@ -308,7 +308,7 @@ def test_named_benchmark_builds_once(isolated_home, monkeypatch):
     good = (folder / benchmarks.BUILT_MARKER).read_text()
     for damaged in ("{", "[1, 2]"):
         (folder / benchmarks.BUILT_MARKER).write_text(damaged)
-        assert not benchmarks.is_built(folder, spec) and benchmarks._is_stale(spec, folder)
+        assert not benchmarks.is_built(folder, spec) and benchmarks.is_stale(spec, folder)
     (folder / benchmarks.BUILT_MARKER).write_text(good)
     with pytest.raises(SparkBenchError, match="unknown benchmark"):
         benchmarks.ensure_benchmark("nope")

@@ -267,12 +267,12 @@ NOTCH_WIDTH, NOTCH_DEPTH = 0.10, 0.028
 def notched_cabinet(seed: int = 0):
     """The procedural cabinet with its handles replaced by finger-pull notches cut through the fronts:
     one at the middle of the drawer front's top edge, one at the door's free edge."""
-    from spark_bench.envs.cabinet import WOOD, _box_part
+    from spark_bench.envs.cabinet import WOOD, box_part
 
     asset = procedural_cabinet(seed)
 
     def cut(link, panel, boxes):
-        parts = [_box_part(c, s, rgba) for c, s, rgba in boxes]
+        parts = [box_part(c, s, rgba) for c, s, rgba in boxes]
         link.visuals = [p[0] for p in parts] + link.visuals[1:panel]
         link.collisions = [p[1] for p in parts] + link.collisions[1:panel]
 

@@ -324,7 +324,7 @@ def test_approach_blocked_finds_what_stands_in_the_way_in():
     plate beyond the clear distance are in nobody's way (the rays' bounding box must not drop a hit)."""
     from types import SimpleNamespace
 
-    from spark_bench.opening.planning.grasp import GraspTarget
+    from spark_bench.opening.planning.grasp_target import GraspTarget
     from spark_bench.opening.planning.gripper import GripperConfig
     from spark_bench.opening.planning.pads import approach_blocked
 
@@ -510,10 +510,11 @@ def test_a_wheel_is_held_by_a_spoke_clear_of_its_hub():
     pieces of the wheel are tried: the grasp is where a spoke leaves the hub, its open pads clear."""
     from spark_bench.envs import make_env
     from spark_bench.opening.episodes import open_with_ground_truth
-    from spark_bench.opening.planning.grasp import _front_of, _pinch_on
+    from spark_bench.opening.planning.grasp import part_front
     from spark_bench.opening.planning.gripper import GripperConfig
     from spark_bench.opening.planning.handle_search import handle_searches, on_handle
     from spark_bench.opening.planning.handles import candidates
+    from spark_bench.opening.planning.pinch import pinch_on
     from spark_bench.opening.planning.rest_meshes import RestMeshes
 
     asset, center = _door_with_wheel()
@@ -525,11 +526,11 @@ def test_a_wheel_is_held_by_a_spoke_clear_of_its_hub():
     assert 0.03 < radial < 0.13  # off the hub's middle (90 mm: no pinch there), where a spoke leaves it
     # the wheel's first piece (the nearest its axis) is the landing one the alternates get around
     rest, gripper = RestMeshes(asset), GripperConfig()
-    front = _front_of(rest, "joint_1", 0)
+    front = part_front(rest, "joint_1", 0)
     source, pts, groups = list(handle_searches(rest, "joint_1", front, 0))[-1]
     fitting, _ = candidates(pts, groups, front, gripper, lambda p: on_handle(p, front.basis, front.origin, front.axis))
     first = [c for c in fitting if not c.alternate]
-    assert first and all(_pinch_on(rest, "joint_1", front, c, source, gripper).landing for c in first)
+    assert first and all(pinch_on(rest, "joint_1", front, c, source, gripper).landing for c in first)
     assert any(c.alternate for c in fitting)
     # and the scripted opener opens the door by that spoke (the wheel held at rest on its hinge)
     env = make_env("SparkDoor-v0", asset=asset, joint="joint_1", max_episode_steps=100)
@@ -590,35 +591,35 @@ def test_an_edge_pinch_needs_sides_the_pads_hold():
     """The crown of a rounded chest lid (0.12 m radius) is a strip narrower than the open fingers at its
     face level, so the edge pinch found it; its sides slope away and the pads slid off (partnet_dev box
     100247 at its real size). A narrow front with square edges keeps its edge pinch."""
-    from spark_bench.opening.planning.grasp import _edge_sides_hold
+    from spark_bench.opening.planning.grasp import edge_sides_hold
     from spark_bench.opening.planning.gripper import GripperConfig
     from spark_bench.opening.planning.handles import edge_pinch
 
     gripper = GripperConfig()
     square = _front_of_mesh(trimesh.creation.box(extents=(0.04, 0.2, 0.04)))
     edge = edge_pinch(square, None, gripper)
-    assert edge is not None and _edge_sides_hold(square, edge, gripper)
+    assert edge is not None and edge_sides_hold(square, edge, gripper)
     crown = trimesh.creation.cylinder(radius=0.12, height=0.3, sections=128,
                                       transform=trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
     rounded = _front_of_mesh(crown)
     edge = edge_pinch(rounded, None, gripper)
-    assert edge is not None and not _edge_sides_hold(rounded, edge, gripper)
+    assert edge is not None and not edge_sides_hold(rounded, edge, gripper)
 
 
 def test_a_feature_beside_an_elongated_handles_end_is_not_under_the_pads():
     """A safe's lever (60 x 10 mm, 12 mm proud) with a keypad standing 11 mm out 10 mm past its tip
     (partnet_dev 102278 at its real size): the pads, pinching across the lever, come down beside it on the
     door (level 0), not on the keypad; a round knob of the same height still sees the surface all around."""
-    from spark_bench.opening.planning.handle_search import _base
+    from spark_bench.opening.planning.handle_search import feature_base
 
     rng = np.random.default_rng(0)
     lever = np.column_stack([rng.uniform(0, 0.06, 400), rng.uniform(-0.005, 0.005, 400), np.full(400, 0.012)])
     door = np.column_stack([rng.uniform(-0.05, 0.2, 4000), rng.uniform(-0.05, 0.05, 4000), np.zeros(4000)])
     keypad = np.column_stack([rng.uniform(0.07, 0.12, 400), rng.uniform(-0.03, 0.03, 400), np.full(400, 0.011)])
     front = _front_of_mesh(trimesh.creation.box(extents=(0.2, 0.2, 0.02)))
-    assert _base(np.vstack([door, keypad]), lever, front) == pytest.approx(0.0, abs=1e-9)
+    assert feature_base(np.vstack([door, keypad]), lever, front) == pytest.approx(0.0, abs=1e-9)
     knob = lever[np.abs(lever[:, 0] - 0.055) < 0.005]  # a 10 mm knob at the lever's tip: the keypad is beside it
-    assert _base(np.vstack([door, keypad]), knob, front) == pytest.approx(0.011, abs=1e-9)
+    assert feature_base(np.vstack([door, keypad]), knob, front) == pytest.approx(0.011, abs=1e-9)
 
 
 def test_the_pads_slide_to_a_wheels_hub_not_its_spoke_roots():
@@ -626,8 +627,9 @@ def test_the_pads_slide_to_a_wheels_hub_not_its_spoke_roots():
     along the handle to where the piece is narrowest (partnet_dev 102309 at its real size)."""
     from types import SimpleNamespace
 
-    from spark_bench.opening.planning.grasp import GraspTarget, _clear_sweep
+    from spark_bench.opening.planning.grasp_target import GraspTarget
     from spark_bench.opening.planning.gripper import GripperConfig
+    from spark_bench.opening.planning.pinch import clear_sweep
 
     gripper = GripperConfig()
     rng = np.random.default_rng(0)
@@ -639,9 +641,9 @@ def test_the_pads_slide_to_a_wheels_hub_not_its_spoke_roots():
     piece = SimpleNamespace(points=np.vstack([hub, spokes]))
     grasp = GraspTarget(point=np.zeros(3), outward=np.array([0.0, 0.0, 1.0]), long_axis=np.array([0.0, 1.0, 0.0]),
                         has_handle=True, source="geometry")  # closing along -x: across the handle
-    shift = _clear_sweep(piece, grasp, gripper)
+    shift = clear_sweep(piece, grasp, gripper)
     assert shift < -0.004  # away from the spokes, towards the hub's free side
     assert abs(shift) <= 0.5 * gripper.pad_height
     # a plain bar, as wide everywhere: the pads stay where planned
     bar = SimpleNamespace(points=hub * [1, 3, 1])
-    assert _clear_sweep(bar, grasp, gripper) == 0.0
+    assert clear_sweep(bar, grasp, gripper) == 0.0

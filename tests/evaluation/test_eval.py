@@ -396,18 +396,21 @@ def test_the_open_and_rl_scores_share_one_pairing(tmp_path, isolated_home, monke
     """``eval`` with the opening score and ``--rl``: the prediction and the object the scores act on (a real
     object's source takes seconds to read) are loaded once per case, for both scores."""
     import spark_bench.opening.judge as scoring
+    import spark_bench.opening.pairing as pairing
     import spark_bench.rl.transfer as transfer
     from spark_bench.evaluation.runner import EvalOptions
 
     calls: list[str] = []
-    real = scoring.load_pairing
+    real = pairing.load_pairing
 
     def counting(pred_folder, gt_folder, metrics, gt_bench=None):
         calls.append(str(pred_folder))
         return real(pred_folder, gt_folder, metrics, gt_bench)
 
-    monkeypatch.setattr(scoring, "load_pairing", counting)
-    monkeypatch.setattr(transfer, "load_pairing", counting)  # the name the RL score imported
+    # every name the pairing goes by: its module's (the runner's), and those the two scores imported
+    for module in (pairing, scoring, transfer):
+        if hasattr(module, "load_pairing"):
+            monkeypatch.setattr(module, "load_pairing", counting)
     bench = make_tiny_bench(tmp_path, n=1)
     summary = run_eval(MethodSpec.create("oracle"), str(bench), EvalOptions(sim=True, rl=True, n_samples=2000,
                        rl_finetune_steps=0), db=tmp_path / "r.sqlite", workers=0, runs_root=tmp_path / "runs",

@@ -287,14 +287,14 @@ def test_rl_scores_beside_the_scripted_opener_and_one_episode_video_per_case(tmp
 
 
 def test_rl_cell_says_why_every_joint_was_left_out(tmp_path):
-    from spark_bench.evaluation.leaderboard_html import _rl_video_cell
+    from spark_bench.evaluation.leaderboard_html import rl_video_cell
 
     none = {"checks": {"rl": {"success_rate": None, "joints": {}, "left_out": {}}}}
-    assert "no drawer or door" in _rl_video_cell(none, tmp_path / "case")
+    assert "no drawer or door" in rl_video_cell(none, tmp_path / "case")
     reason = "the scripted opener fails with the ground-truth joint too (max fraction 0.46)"
     left = {"checks": {"rl": {"success_rate": None, "joints": {"joint_0": {"success": None, "reason": reason}},
                               "left_out": {"joint_0": reason}}}}
-    cell = _rl_video_cell(left, tmp_path / "case")
+    cell = rl_video_cell(left, tmp_path / "case")
     assert "left out: joint_0" in cell and "max fraction 0.46" in cell and "no drawer or door" not in cell
 
 
@@ -359,6 +359,25 @@ def test_rows_made_with_other_package_versions_are_listed_but_not_ranked(tmp_pat
     best = {shape.entries[i].name for (i, metric), rank in ranks.items() if metric == "cd" and rank == 1}
     assert best == {"B"}  # C's lower CD is not comparable
     assert any("Not ranked" in n and "C: " in n and "mujoco 4.0.0" in n for n in board.notes())
+
+
+def test_rows_made_on_unpinned_cpu_kernels_are_named_on_the_board(tmp_path):
+    """A run whose process ran NumPy's AVX-512 kernels (NumPy loaded before spark_bench) is never silent: the
+    board's notes name it, how many of its rows and which kernels, in every format; a pinned board says nothing."""
+    pinned = {"mujoco": "3.2.0", "cpu kernels": "NPY_DISABLE_CPU_FEATURES=X86_V4 AVX512_ICL AVX512_SPR"}
+    unpinned = {**pinned, "cpu kernels": "not pinned (numpy runs X86_V4 AVX512_ICL: loaded before spark_bench "
+                                         "set the pins)"}
+    with ResultsStore(tmp_path / "r.sqlite") as s:
+        s.put([_row("A", c, cd=0.3, info={"versions": pinned}) for c in ("c1", "c2")])
+        board = build_leaderboard(s)
+        assert board.kernels_note is None and not any("CPU kernels" in n for n in board.notes())
+        s.put([_row("B", "c1", cd=0.2, info={"versions": pinned}),
+               _row("B", "c2", cd=0.2, info={"versions": unpinned})])
+        board = build_leaderboard(s)
+    assert board.kernels_note and "B: 1 of 2 rows, not pinned (numpy runs X86_V4 AVX512_ICL" in board.kernels_note
+    assert "A:" not in board.kernels_note
+    for fmt in ("md", "latex"):
+        assert "other CPU kernels than the pinned ones" in render(board, fmt)
 
 
 def test_every_results_row_records_the_verdict_package_versions(tmp_path):

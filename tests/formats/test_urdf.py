@@ -400,7 +400,11 @@ def test_a_truncated_glb_is_refused(gt, tmp_path):
 def test_a_mesh_path_leaving_the_run_folder_is_refused(gt, physx, tmp_path):
     run = write_urdformer_run(tmp_path / "urdformer", gt)
     (run / "output" / "label13.urdf").rename(run / "label13.urdf")  # ../meshes now leads out of the run
-    _refused(run, "label13.urdf", "mesh path '../meshes/cabinet.obj' leaves the run folder")
+    # the message names the way out: the URDF named directly is read as ROS reads it
+    _refused(run, "label13.urdf", "mesh path '../meshes/cabinet.obj' leaves the run folder", "name the URDF file",
+             "--package-path")
+    as_shipped = write_urdformer_run(tmp_path / "as_shipped", gt)
+    assert set(load_object(as_shipped / "output" / "label13.urdf").links) == set(read_run(as_shipped).asset.links)
     _edit(physx / "basic.urdf", "./objs/1/1.obj", "../../outside/1.obj")
     _refused(physx, "basic.urdf", "'../../outside/1.obj' leaves the run folder")
 

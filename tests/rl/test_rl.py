@@ -210,14 +210,14 @@ def test_a_washers_door_whose_rim_tab_the_body_blocks_is_opened_from_its_front(t
     grasps (nothing to pinch there: ``no_handle``, not ``blocked``), and ``auto`` opens the door with the cup
     on its front, with the true hinge, and not with the hinge turned in the door's plane."""
     from spark_bench.data.synth import generate_object
-    from spark_bench.opening.planning.grasp import _find, find_grasp
+    from spark_bench.opening.planning.grasp import find_grasp, find_grasp_unchecked
     from spark_bench.opening.planning.gripper import GripperConfig
     from spark_bench.opening.planning.rest_meshes import RestMeshes
 
     folder = str(generate_object("WashingMachine", 5001, tmp_path, "WashingMachine_5001"))
     env = gym.make("SparkDoor-v0", asset=folder, joint="joint_3", end_effector="auto", max_episode_steps=200)
     asset = env.unwrapped.scene.asset
-    assert _find(RestMeshes(asset), "joint_3", 0, GripperConfig()).source == "tab"  # what it looks at first
+    assert find_grasp_unchecked(RestMeshes(asset), "joint_3", 0, GripperConfig()).source == "tab"  # what it looks at first
     grasp = find_grasp(asset, "joint_3")
     assert grasp.source == "face" and grasp.declined == "no_handle"
     scene = env.unwrapped.scene

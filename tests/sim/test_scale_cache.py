@@ -15,7 +15,7 @@ from helpers_assets import tiny_cabinet  # noqa: E402
 
 from spark_bench.asset.ops import scale_asset  # noqa: E402
 from spark_bench.sim.decompose import DecomposeStats, decompose_many  # noqa: E402
-from spark_bench.sim.hulls import _weld, simplify  # noqa: E402
+from spark_bench.sim.hulls import simplify, weld  # noqa: E402
 from spark_bench.sim.mjcf import prepare  # noqa: E402
 from spark_bench.sim.options import CoacdParams  # noqa: E402
 
@@ -61,7 +61,7 @@ def test_a_scaled_copy_simplifies_and_welds_the_same(factor):
                             np.concatenate([sphere.faces, [[len(sphere.vertices) + k, 1, 2] for k in range(10)]]),
                             process=False)
     for scale in (1.0, factor):
-        welded = _weld(trimesh.Trimesh(split.vertices * scale, split.faces, process=False), 1e-7 * scale)
+        welded = weld(trimesh.Trimesh(split.vertices * scale, split.faces, process=False), 1e-7 * scale)
         assert len(welded.vertices) == len(sphere.vertices)
 
 

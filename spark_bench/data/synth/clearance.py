@@ -16,6 +16,7 @@ from functools import lru_cache
 import numpy as np
 import trimesh
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.data.synth.primitives import box_corners, prism_points
 
 
@@ -214,7 +215,7 @@ def asset_pieces(asset) -> list[Piece]:
     """
     group = {name: name for name in asset.links}
     for joint in asset.topological_joints():
-        if joint.type == "fixed":
+        if joint.type == JointType.FIXED:
             group[joint.child] = group[joint.parent]
     out = []
     for name, link in asset.links.items():

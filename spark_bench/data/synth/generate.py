@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.data.synth.clearance import find_overlaps, first_overlap, spec_pieces
 from spark_bench.data.synth.spec import ObjectSpec
 from spark_bench.data.synth.writer import GENERATOR_NAME, clean_json, write_object
@@ -78,7 +79,7 @@ def settle_limits(spec: ObjectSpec, tolerance: float = GENERATOR_TOLERANCE, samp
         swept = name.split("=", 1)[0] if "=" in name else None
         movers = [m for link in (hit.link_a, hit.link_b) for m in _movable_chain(spec, link)]
         displaced = [m for m in dict.fromkeys(movers)
-                     if movable[m].joint.type != "continuous" and config[m] > movable[m].joint.lower + 1e-9]
+                     if movable[m].joint.type != JointType.CONTINUOUS and config[m] > movable[m].joint.lower + 1e-9]
         displaced.sort(key=lambda m: m == swept)  # joints held open first
         for m in displaced:
             joint = movable[m].joint

@@ -11,9 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType, is_movable, is_rotational
 from spark_bench.data.synth.primitives import Solid, rotation_about, translation
-
-MOVABLE = ("revolute", "continuous", "prismatic")
 
 
 @dataclass
@@ -42,18 +41,18 @@ class JointSpec:
 
     @property
     def movable(self) -> bool:
-        return self.type in MOVABLE
+        return is_movable(self.type)
 
     @property
     def open_value(self) -> float:
         """Upper limit; pi/2 for continuous joints (the asset model's open angle)."""
-        return float(np.pi / 2) if self.type == "continuous" else float(self.upper)
+        return float(np.pi / 2) if self.type == JointType.CONTINUOUS else float(self.upper)
 
     def motion(self, value: float) -> np.ndarray:
         """4x4 motion of the child, in object coordinates of the parent at rest, for joint value ``value``."""
-        if self.type in ("revolute", "continuous"):
+        if is_rotational(self.type):
             return rotation_about(self.axis, value, self.pivot)
-        if self.type == "prismatic":
+        if self.type == JointType.PRISMATIC:
             return translation(self.axis * value)
         return np.eye(4)
 
@@ -86,9 +85,9 @@ class Part:
     def semantic_word(self) -> str:
         if self.semantic:
             return self.semantic
-        if self.joint is None or self.joint.type == "fixed":
+        if self.joint is None or self.joint.type == JointType.FIXED:
             return "static"
-        return "slider" if self.joint.type == "prismatic" else "hinge"
+        return "slider" if self.joint.type == JointType.PRISMATIC else "hinge"
 
 
 @dataclass
@@ -147,7 +146,7 @@ class ObjectSpec:
         """Each part's rigid group: the nearest ancestor-or-self reached through movable joints only."""
         group: dict[str, str] = {}
         for part in self.parts:
-            if part.joint is not None and part.joint.type == "fixed":
+            if part.joint is not None and part.joint.type == JointType.FIXED:
                 group[part.name] = group[part.parent]
             else:
                 group[part.name] = part.name

@@ -15,6 +15,7 @@ from pathlib import Path
 import manifold3d
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.transforms import matrix_to_rpy
 from spark_bench.data.synth.primitives import Solid
 from spark_bench.data.synth.spec import ObjectSpec, Part
@@ -167,10 +168,10 @@ def _joint_xml(part: Part, spec: ObjectSpec, names: dict[str, str]) -> list[str]
     parent = spec.part(part.parent)
     out = [f'\t<joint name="joint_{link.split("_", 1)[1]}" type="{joint.type}">',
            f'\t\t<origin xyz="{fmt_vec(part.frame - parent.frame)}"/>']
-    if joint.type != "fixed":
+    if joint.type != JointType.FIXED:
         out.append(f'\t\t<axis xyz="{fmt_vec(joint.axis)}"/>')
     out += [f'\t\t<child link="{link}"/>', f'\t\t<parent link="{names[part.parent]}"/>']
-    if joint.type in ("revolute", "prismatic"):
+    if joint.type in (JointType.REVOLUTE, JointType.PRISMATIC):
         out.append(f'\t\t<limit lower="{fmt(joint.lower)}" upper="{fmt(joint.upper)}" effort="100" velocity="1"/>')
     out.append("\t</joint>")
     return out

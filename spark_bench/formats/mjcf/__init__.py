@@ -42,7 +42,8 @@ mesh geom, and per part a body ``link_<k>`` under it with a mesh geom and a ``jo
 ``refquat="0.5 -0.5 0.5 0.5"`` (``data_utils/xml_utils.py`` ``get_offset_xml``), which MuJoCo applies.
 Such a file is read as one ``*.xml`` of the run folder (the layout is not the method's: not verified).
 
-**Read through MuJoCo** (:mod:`.build`): ``MjSpec.from_file`` then ``compile`` apply ``compiler
+**Read through MuJoCo** (:mod:`spark_bench.asset.mjcf_model`, which :func:`spark_bench.data.load_object` uses
+too): ``MjSpec.from_file`` then ``compile`` apply ``compiler
 angle`` (degrees turned into radians), ``eulerseq``, ``meshdir``/``assetdir``, default classes, mesh
 ``scale``/``refquat``; ``mj_forward`` at ``qpos0`` gives the world-frame body poses, joint anchors
 (``xanchor``) and axes (``xaxis``). Ranges are radians for hinges, metres (the model's units) for slides,
@@ -64,9 +65,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from spark_bench.asset.mjcf_model import build_asset, compile_model, visual_geometry
 from spark_bench.errors import InputError
 from spark_bench.formats.foreign import ForeignObject
-from spark_bench.formats.mjcf.build import build_asset, compile_model, visual_geometry
 from spark_bench.formats.mjcf.files import ModelFiles, check_files, find_model
 
 FORMAT = "mjcf"

@@ -73,6 +73,13 @@ def find_model(run_dir: Path) -> tuple[Path, str, list[str]]:
                               f"{', '.join(p.name for p in candidates[:5])}")
 
 
+def outside_hint(example: str) -> str:
+    """What a refusal of a path outside the run folder says: an import reads its run folder only; a model file
+    named directly (``check``, ``convert``, ``metrics``) is read as MuJoCo reads it."""
+    return (f"(an import reads its run folder only: copy what the run names into it, or name the file itself: "
+            f"`spark-bench check|convert|metrics {example}` reads it as MuJoCo does)")
+
+
 def inside(run_dir: Path, path: Path, named_in: Path, what: str) -> Path:
     """``path`` resolved (links followed), checked to stay inside ``run_dir``.
 
@@ -82,7 +89,7 @@ def inside(run_dir: Path, path: Path, named_in: Path, what: str) -> Path:
     """
     resolved = path.resolve()
     if not resolved.is_relative_to(run_dir.resolve()):
-        raise InputError(named_in, f"{what} leads out of the run folder (to {resolved})")
+        raise InputError(named_in, f"{what} leads out of the run folder (to {resolved}) {outside_hint('model.xml')}")
     return resolved
 
 

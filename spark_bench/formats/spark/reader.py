@@ -254,9 +254,8 @@ def read_spark_run(run_dir: str | Path, tag: str | None = None, alignment: str =
     :param name: the object's name (default: the run folder's image name)
     :raises InputError: for a bad run folder, URDF or mesh, naming the file
     """
-    from spark_bench.asset.model import Visual
     from spark_bench.asset.ops import similarity_asset
-    from spark_bench.asset.urdf import load_mesh_file, load_urdf
+    from spark_bench.asset.urdf import load_urdf
     from spark_bench.data.case import to_benchmark_frame
 
     run_dir = Path(run_dir).resolve()
@@ -266,29 +265,9 @@ def read_spark_run(run_dir: str | Path, tag: str | None = None, alignment: str =
         raise InputError(run_dir, "SPARK run folder not found")
     urdf, kind = choose_urdf(run_dir)
     asset = load_urdf(urdf, folder=run_dir, load_meshes=False)
-    meshes = []
-    for link_name, visuals in _visuals(urdf).items():
-        link = asset.links[link_name]
-        for filename, origin, scale in visuals:
-            choice = resolve_mesh(run_dir, urdf, filename, tag)
-            mesh, rgba = load_mesh_file(choice.path)
-            mesh.vertices = mesh.vertices * scale
-            mesh.apply_transform(origin)
-            source = str(choice.path.relative_to(run_dir))
-            link.visuals.append(Visual(mesh=mesh, rgba=rgba or (0.7, 0.7, 0.7, 1.0), source=source))
-            meshes.append({"link": link_name, "urdf_filename": filename, "file": source, "variant": choice.variant,
-                           "passed_over": choice.passed_over})
-    if not any(link.has_geometry for link in asset.links.values()):
-        raise InputError(urdf, "no link has a mesh visual")
-
+    meshes = _attach_visuals(asset, urdf, run_dir, tag)
     metadata = layout.read_metadata(run_dir) or {}
-    names = {}
-    for i, part in enumerate(metadata.get("parts") or []):
-        if isinstance(part, dict):
-            names[str(part.get("label", f"link{i}"))] = str(part.get("name", "") or "")
-    for link_name, label in names.items():
-        if link_name in asset.links and label:
-            asset.links[link_name].label = label
+    _label_links(asset, metadata)
     parsed = layout.parse_run_name(run_dir.name)
     asset.name = name or (parsed[0] if parsed else run_dir.name)
     asset.category = str(metadata.get("object_name", "") or "")
@@ -334,8 +313,51 @@ def read_spark_run(run_dir: str | Path, tag: str | None = None, alignment: str =
     }
     driver = run_dir / layout.DRIVER_RECORD
     if driver.is_file():
-        try:
-            record["driver"] = json.loads(driver.read_text())
-        except (OSError, ValueError):
-            record["driver"] = None
+        record["driver"] = _driver_record(driver)
     return SparkImport(normalized, record)
+
+
+def _attach_visuals(asset, urdf: Path, run_dir: Path, tag: str | None) -> list[dict]:
+    """Load the meshes the URDF's visuals name (the variant :func:`resolve_mesh` chooses) onto ``asset``'s
+    links; what was read, one record per visual.
+
+    :raises InputError: a mesh that does not load, or no link with a mesh visual
+    """
+    from spark_bench.asset.model import Visual
+    from spark_bench.asset.urdf import load_mesh_file
+
+    meshes = []
+    for link_name, visuals in _visuals(urdf).items():
+        link = asset.links[link_name]
+        for filename, origin, scale in visuals:
+            choice = resolve_mesh(run_dir, urdf, filename, tag)
+            mesh, rgba = load_mesh_file(choice.path)
+            mesh.vertices = mesh.vertices * scale
+            mesh.apply_transform(origin)
+            source = str(choice.path.relative_to(run_dir))
+            link.visuals.append(Visual(mesh=mesh, rgba=rgba or (0.7, 0.7, 0.7, 1.0), source=source))
+            meshes.append({"link": link_name, "urdf_filename": filename, "file": source, "variant": choice.variant,
+                           "passed_over": choice.passed_over})
+    if not any(link.has_geometry for link in asset.links.values()):
+        raise InputError(urdf, "no link has a mesh visual")
+    return meshes
+
+
+def _label_links(asset, metadata: dict) -> None:
+    """Give the links the part names of the run's metadata (``parts``: ``label`` the link, ``name`` its
+    label), where there is one."""
+    names = {}
+    for i, part in enumerate(metadata.get("parts") or []):
+        if isinstance(part, dict):
+            names[str(part.get("label", f"link{i}"))] = str(part.get("name", "") or "")
+    for link_name, label in names.items():
+        if link_name in asset.links and label:
+            asset.links[link_name].label = label
+
+
+def _driver_record(driver: Path) -> dict | None:
+    """What the driver wrote of the run (its JSON), or None where it does not read."""
+    try:
+        return json.loads(driver.read_text())
+    except (OSError, ValueError):
+        return None

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.mesh import merge_meshes
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
 from spark_bench.asset.transforms import invert_transform, make_transform, transform_points
@@ -208,12 +209,12 @@ def structure_cost(joint: PriorJoint, mesh, part_type: str, part_axis, axis_fram
         return np.inf
     kind = {"continuous": "revolute"}
     cost = 0.0 if kind.get(joint.type, joint.type) == kind.get(part_type, part_type) else 1.0
-    if joint.type == "fixed":
+    if joint.type == JointType.FIXED:
         return cost + 0.5
     axis = OBJECT_TO_WORLD @ object_axis(joint.axis, axis_frame)
     direction = np.asarray(part_axis, dtype=float)
     cost += 1.0 - abs(float(np.dot(axis, direction / np.linalg.norm(direction))))
-    if joint.type == "revolute":
+    if joint.type == JointType.REVOLUTE:
         origin = OBJECT_TO_WORLD @ np.asarray(joint.origin, dtype=float)
         lo, hi = mesh.bounds
         cost += min(1.0, float(np.linalg.norm(origin - np.clip(origin, lo, hi))))
@@ -273,7 +274,7 @@ def set_joint(asset: ArticulatedAsset, joint_name: str, joint_type: str, axis, u
     joint.type = joint_type
     joint.axis = axis / np.linalg.norm(axis)
     joint.lower = 0.0
-    joint.upper = float(upper) if joint_type != "fixed" else 0.0
+    joint.upper = float(upper) if joint_type != JointType.FIXED else 0.0
     asset.links[joint.child].semantic_joint = SEMANTIC_WORD[joint_type]
 
 

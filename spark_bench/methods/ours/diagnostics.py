@@ -17,6 +17,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.metrics.articulation import axis_error, line_distance, type_class
 
 
@@ -29,13 +30,13 @@ def joint_errors(predicted: Sequence[dict], truth: Sequence[dict]) -> dict:
     by_child = {j["child"]: j for j in predicted}
     rows = []
     for gt in truth:
-        if type_class(gt["type"]) == "fixed":
+        if type_class(gt["type"]) == JointType.FIXED:
             continue
         pred = by_child.get(gt["child"])
         if pred is None:
             rows.append({"joint": gt["name"], "axis_err": None, "pivot_err": None, "type_err": 1.0})
             continue
-        rotational = type_class(gt["type"]) == "revolute"
+        rotational = type_class(gt["type"]) == JointType.REVOLUTE
         rows.append({
             "joint": gt["name"],
             "axis_err": axis_error(pred["axis"], gt["axis"]),

@@ -19,15 +19,17 @@ within each stage.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 import torch
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.asset.torch_fk import joint_transform_torch, link_poses_torch
-from spark_bench.methods.ours import exact
+from spark_bench.methods.ours.adam import Adam
 from spark_bench.methods.ours.camera import Camera
+from spark_bench.methods.ours.hypothesis import FitResult, Hypothesis, LossWeights, Stage
 from spark_bench.methods.ours.loss import halo_target, silhouette_loss
 from spark_bench.methods.ours.render import (
     SoftSilhouetteRenderer,
@@ -36,55 +38,6 @@ from spark_bench.methods.ours.render import (
 )
 from spark_bench.methods.ours.scoring import JointScorer, gaussian_blur, mismatch
 from spark_bench.methods.ours.simplify import render_mesh
-
-
-@dataclass
-class Hypothesis:
-    """One joint's current guess, in the asset's own frames.
-
-    :param type: ``revolute``, ``prismatic`` or ``fixed``
-    :param axis: (3,) axis in the joint frame
-    :param pivot_offset: (3,) shift of the axis line in the parent frame (0 = the asset's origin)
-    :param value: the open value (rad or benchmark units)
-    :param tag: a name for reports (``revolute/up/edge2``...)
-    """
-
-    type: str
-    axis: np.ndarray
-    pivot_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    value: float = 0.0
-    tag: str = ""
-
-
-@dataclass
-class Stage:
-    """One resolution level: image ``size`` px, edge softness ``tau`` px, ``steps`` Adam steps."""
-
-    size: int
-    tau: float
-    steps: int
-
-
-@dataclass
-class LossWeights:
-    """Weights of the objective: ``w_edge``, ``lambda_t`` (pivot), ``lambda_theta`` (open value), and
-    ``w_part``, the weight of the per-part coverage term (used when the open state has part masks).
-    Their defaults are the ``optimize`` section's (:class:`~spark_bench.methods.ours.config.OptimizeConfig`)."""
-
-    w_edge: float
-    lambda_t: float
-    lambda_theta: float
-    w_part: float
-
-
-@dataclass
-class FitResult:
-    """What a fit returns: final hypotheses, final loss (at the last stage) and the loss curve."""
-
-    hypotheses: dict[str, Hypothesis]
-    loss: float
-    curve: list[float]
-
 
 #: The fewest faces a link's rendered mesh is decimated to (see :class:`OpenStateScene`'s ``max_faces``).
 MIN_FACES = 100
@@ -228,7 +181,7 @@ class OpenStateScene:
             else:
                 pivot, value = params.get(joint.name, (None, None))
                 local = joint_transform_torch(
-                    joint, value if value is not None else (float(hyp.value) if hyp.type != "fixed" else 0.0),
+                    joint, value if value is not None else (float(hyp.value) if hyp.type != JointType.FIXED else 0.0),
                     axis=torch.as_tensor(hyp.axis, dtype=torch.float64),
                     pivot_offset=pivot if pivot is not None else torch.as_tensor(hyp.pivot_offset, dtype=torch.float64),
                     joint_type=hyp.type)
@@ -243,7 +196,7 @@ class OpenStateScene:
             types[name] = hyp.type
             axes[name] = torch.as_tensor(hyp.axis, dtype=torch.float64)
             pivots[name] = pivot if pivot is not None else torch.as_tensor(hyp.pivot_offset, dtype=torch.float64)
-            q[name] = value if value is not None else float(hyp.value) if hyp.type != "fixed" else 0.0
+            q[name] = value if value is not None else float(hyp.value) if hyp.type != JointType.FIXED else 0.0
         return link_poses_torch(self.asset, q=q, pivot_offsets=pivots, axes=axes, types=types)
 
     def world_vertices_from(self, poses: dict[str, torch.Tensor], links: list[int] | None = None) -> torch.Tensor:
@@ -450,13 +403,13 @@ def fit(scene: OpenStateScene, hypotheses: dict[str, Hypothesis], active: list[s
     params, start, tensors, lrs = {}, {}, [], []
     for name in active:
         hyp = hypotheses[name]
-        if hyp.type == "fixed":
+        if hyp.type == JointType.FIXED:
             continue
         value = torch.tensor(float(hyp.value), dtype=torch.float64, requires_grad=True)
         tensors.append(value)
         lrs.append(lr_value)
         pivot = None
-        if hyp.type == "revolute":
+        if hyp.type == JointType.REVOLUTE:
             pivot = torch.tensor(hyp.pivot_offset, dtype=torch.float64, requires_grad=True)
             tensors.append(pivot)
             lrs.append(lr_pivot)
@@ -490,38 +443,6 @@ def fit(scene: OpenStateScene, hypotheses: dict[str, Hypothesis], active: list[s
     return FitResult(_with_params(hypotheses, params), loss_value, curve)
 
 
-class Adam:
-    """Adam (Kingma and Ba), the update of ``torch.optim.Adam`` with its default betas and eps, on a few
-    tensors with a learning rate each (the optimizer's first use imports ``torch._dynamo``: seconds).
-
-    :param tensors: leaf tensors with ``requires_grad``
-    :param lrs: base learning rate of each
-    """
-
-    def __init__(self, tensors: list[torch.Tensor], lrs: list[float], betas=(0.9, 0.999), eps: float = 1e-8):
-        self.tensors, self.lrs, self.betas, self.eps = tensors, lrs, betas, eps
-        self.moments = [(torch.zeros_like(t), torch.zeros_like(t)) for t in tensors]
-        self.steps = 0
-
-    def zero_grad(self) -> None:
-        for tensor in self.tensors:
-            tensor.grad = None
-
-    def step(self, scale: float = 1.0) -> None:
-        """One update with every learning rate multiplied by ``scale``."""
-        beta1, beta2 = self.betas
-        self.steps += 1
-        correction1, correction2 = 1 - beta1 ** self.steps, 1 - beta2 ** self.steps
-        with torch.no_grad():
-            for tensor, lr, (mean, square) in zip(self.tensors, self.lrs, self.moments):
-                if tensor.grad is None:
-                    continue
-                mean.mul_(beta1).add_(tensor.grad, alpha=1 - beta1)
-                square.mul_(beta2).addcmul_(tensor.grad, tensor.grad, value=1 - beta2)
-                denom = (exact.sqrt(square) / np.sqrt(correction2)).add_(self.eps)
-                tensor.addcdiv_(mean, denom, value=-lr * scale / correction1)
-
-
 def _with_params(hypotheses: dict[str, Hypothesis], params: dict) -> dict[str, Hypothesis]:
     out = dict(hypotheses)
     for name, (pivot, value) in params.items():
@@ -529,22 +450,3 @@ def _with_params(hypotheses: dict[str, Hypothesis], params: dict) -> dict[str, H
                             pivot_offset=pivot.detach().numpy().copy() if pivot is not None
                             else hypotheses[name].pivot_offset)
     return out
-
-
-def child_box(asset: ArticulatedAsset, joint: str) -> tuple[np.ndarray, np.ndarray] | None:
-    """The rest bounding box of the joint's part (its child and the links fixed to it) in the child's
-    link frame, or None when the part has no geometry."""
-    meshes = asset.link_meshes(links=asset.part_of_joint(joint))
-    if not meshes:
-        return None
-    world = np.concatenate([m.vertices for m in meshes.values()])
-    pose = asset.link_poses()[asset.joints[joint].child]
-    local = (world - pose[:3, 3]) @ pose[:3, :3]
-    return local.min(axis=0), local.max(axis=0)
-
-
-def canonical_sign(hyp: Hypothesis) -> Hypothesis:
-    """``(axis, value)`` and ``(-axis, -value)`` are the same motion; keep the one with ``value >= 0``."""
-    if hyp.type != "fixed" and hyp.value < 0:
-        return replace(hyp, axis=-np.asarray(hyp.axis, float), value=-hyp.value)
-    return hyp

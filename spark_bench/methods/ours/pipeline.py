@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 # the optimizers' modules (torch) load with the pipeline, so that no stage's time includes loading them
 import spark_bench.methods.ours.refine  # noqa: F401
 import spark_bench.methods.ours.spark_fit  # noqa: F401
+from spark_bench.asset.joint_type import JointType
 from spark_bench.errors import InputError
 from spark_bench.jsonio import to_json_text
 from spark_bench.methods.ours.assemble import joint_summary
@@ -81,7 +82,7 @@ def run_ours(case: CaseInput, out_dir: Path, config: SparkConfig | None = None) 
             geometry = geometry_stage.run(run, prior_json)
 
     prior_asset = assemble_prior(prior, geometry, axis_frame, name=case.case_id, category=case.category)
-    movable = [j.name for j in prior.joints if j.type != "fixed"]
+    movable = [j.name for j in prior.joints if j.type != JointType.FIXED]
     report = {
         "case": case.case_id, "label": config.label(), "config": config.to_dict(),
         "backends": {"prior": config.prior.backend, "geometry": config.geometry.backend,

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.data.readers import read_json
 from spark_bench.methods.ours.assemble import assemble_asset
@@ -120,8 +121,8 @@ def ground_truth_structure(gt: ArticulatedAsset, upper_table: dict | None = None
     for part in parts[1:]:
         joint = gt.joints[part.joint]
         point, direction = frames[joint.name]
-        jtype = "prismatic" if joint.type == "prismatic" else "revolute"
-        big = joint.type == "continuous" or joint.upper - joint.lower >= LARGE_RANGE_FROM[jtype]
+        jtype = "prismatic" if joint.type == JointType.PRISMATIC else "revolute"
+        big = joint.type == JointType.CONTINUOUS or joint.upper - joint.lower >= LARGE_RANGE_FROM[jtype]
         motion_range = "large" if big else "small"
         joints.append(PriorJoint(
             name=joint.name, type=jtype, parent=part_of_link[joint.parent], child=part.name,
@@ -142,9 +143,9 @@ def perturb_structure(structure: PriorStructure, noise: NoiseModel, case_id: str
         draws = rng.random(4)
         offset = rng.normal(0.0, noise.sigma_origin, 3)
         pick = int(rng.integers(4))
-        if pj.type != "fixed":
+        if pj.type != JointType.FIXED:
             if draws[0] < noise.p_type:
-                pj.type = "prismatic" if pj.type == "revolute" else "revolute"
+                pj.type = "prismatic" if pj.type == JointType.REVOLUTE else "revolute"
             if draws[1] < noise.p_axis:
                 true = axis_vector(pj.axis)
                 perpendicular = [n for n in CANONICAL_AXES if abs(float(axis_vector(n) @ true)) < 0.5]

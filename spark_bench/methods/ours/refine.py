@@ -38,20 +38,20 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.methods.ours.assemble import apply_pivot_offset, set_joint
-from spark_bench.methods.ours.config import OptimizeConfig
-from spark_bench.methods.ours.optimize import (
+from spark_bench.methods.ours.hypothesis import (
     FitResult,
     Hypothesis,
     LossWeights,
-    OpenStateScene,
     Stage,
     canonical_sign,
     child_box,
-    fit,
 )
-from spark_bench.methods.ours.stages.joint_opt import REFINEMENTS
+from spark_bench.methods.ours.optimize import OpenStateScene, fit
+from spark_bench.methods.ours.sections import OptimizeConfig
+from spark_bench.methods.ours.stages.refinements import REFINEMENTS
 from spark_bench.methods.ours.structure import CANONICAL_AXES, OBJECT_TO_WORLD
 from spark_bench.timing import StageTimer
 
@@ -174,7 +174,7 @@ def prior_hypotheses(asset: ArticulatedAsset, include_fixed: bool = False) -> di
         if joint.parent == asset.root:
             continue
         if joint.is_movable or include_fixed:
-            jtype = "revolute" if joint.type == "continuous" else joint.type
+            jtype = "revolute" if joint.type == JointType.CONTINUOUS else joint.type
             out[joint.name] = Hypothesis(jtype, np.asarray(joint.axis, float), np.zeros(3),
                                          float(joint.open_value), tag=f"prior/{jtype}")
     return out
@@ -239,7 +239,7 @@ def candidate_hypotheses(asset: ArticulatedAsset, joint_name: str, prior: Hypoth
                 if small_part and k < 4:
                     continue
                 offset = parent_rot.T @ (point - pivot_world)
-                value = prior.value if prior.type == "revolute" and prior.value > 0 else values["revolute"]
+                value = prior.value if prior.type == JointType.REVOLUTE and prior.value > 0 else values["revolute"]
                 where = f"edge{k}" if k < 4 else "centre"
                 out.append(Hypothesis("revolute", axis_joint, offset, value, tag=f"revolute/{name}/{where}"))
     if include_fixed:
@@ -326,7 +326,7 @@ def refine(asset: ArticulatedAsset, scene: OpenStateScene, settings: RefineSetti
     refined = asset.copy()
     for name, hyp in final.items():
         set_joint(refined, name, hyp.type, hyp.axis, hyp.value)
-        if hyp.type == "revolute":
+        if hyp.type == JointType.REVOLUTE:
             apply_pivot_offset(refined, name, hyp.pivot_offset)
     return RefineResult(refined, final, result.curve, candidates_report, timer.as_dict(), loss_prior,
                         result.loss)
@@ -371,7 +371,7 @@ def _pivot_in_part(asset: ArticulatedAsset, name: str, hyp: Hypothesis) -> Hypot
     """``hyp`` with its axis line moved to pass through its part's rest bounding box (child frame), where
     a hinge is (SPARK's optimizer keeps its pivot in that box too): the line's point nearest the box's
     centre, clamped into the box (a line through the box is kept); prismatic joints have no pivot."""
-    if hyp.type != "revolute":
+    if hyp.type != JointType.REVOLUTE:
         return hyp
     box = child_box(asset, name)
     if box is None:
@@ -419,7 +419,7 @@ def _screen(asset, scene, current, name, prior_hyp, settings) -> tuple[list, lis
     for frac in settings.screen_local:
         trials = []
         for (_, cand), (_, value) in zip(pool, best):
-            step = frac if cand.type == "revolute" else frac * max(cand.value, 0.1)
+            step = frac if cand.type == JointType.REVOLUTE else frac * max(cand.value, 0.1)
             trials += [(cand, value - step), (cand, value + step)]
         losses = scorer.scores([replace(cand, value=v) for cand, v in trials]).tolist()
         for k in range(len(pool)):

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.methods.ours.geometry import PartGeometry, predicted_parts
 from spark_bench.methods.ours.prior import ground_truth_structure
 from spark_bench.methods.ours.structure import DEFAULT_UPPER, OBJECT_TO_WORLD, PriorStructure
@@ -100,7 +101,7 @@ def retrieval_prior(found: Retrieval) -> tuple[PriorStructure, np.ndarray]:
     for pj in structure.joints:
         joint = asset.joints[pj.name]
         span = float(joint.upper) - float(joint.lower)
-        if joint.type == "continuous" or not np.isfinite(span) or span <= 0.0:
+        if joint.type == JointType.CONTINUOUS or not np.isfinite(span) or span <= 0.0:
             span = float(DEFAULT_UPPER[pj.type]["large"])
         pj.upper = span
     structure.source = RETRIEVAL_SOURCE

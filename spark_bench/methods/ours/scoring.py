@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 import torch
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.transforms import axis_angle_matrix
 from spark_bench.methods.ours.render import compose_labels, rasterize_labels_depth_batch
 
@@ -98,11 +99,11 @@ def rigid_motions(hypotheses: Sequence, parent_pose: np.ndarray, origin: np.ndar
     rotations = np.tile(np.eye(3), (len(hypotheses), 1, 1))
     translations = np.zeros((len(hypotheses), 3))
     for k, hyp in enumerate(hypotheses):
-        if hyp.type == "fixed":
+        if hyp.type == JointType.FIXED:
             continue
         direction = frame @ np.asarray(hyp.axis, float)
         direction = direction / np.linalg.norm(direction)
-        if hyp.type == "prismatic":
+        if hyp.type == JointType.PRISMATIC:
             translations[k] = hyp.value * direction
             continue
         centre = parent_pose[:3, :3] @ (origin[:3, 3] + np.asarray(hyp.pivot_offset, float)) + parent_pose[:3, 3]

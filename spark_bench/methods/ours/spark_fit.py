@@ -57,12 +57,15 @@ import torch
 import torch.nn.functional as F
 from PIL import Image
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.data.images import GENERATED_TOLERANCE, mask_from_image
 from spark_bench.methods.ours import exact
+from spark_bench.methods.ours.adam import Adam
 from spark_bench.methods.ours.assemble import apply_pivot_offset, set_joint
+from spark_bench.methods.ours.hypothesis import Hypothesis, Stage, child_box
 from spark_bench.methods.ours.loss import halo_target
-from spark_bench.methods.ours.optimize import Adam, Hypothesis, OpenStateScene, Stage, child_box
+from spark_bench.methods.ours.optimize import OpenStateScene
 from spark_bench.methods.ours.refine import prior_hypotheses
 from spark_bench.timing import StageTimer
 
@@ -187,7 +190,7 @@ def spark_fit(asset: ArticulatedAsset, scene: OpenStateScene, closed_mask: np.nd
     target = (target, edge_map(target))
     low, high = (math.radians(b) for b in settings.angle_bounds)
     rows, curve = [], []
-    revolute = [n for n, h in hypotheses.items() if h.type == "revolute"]
+    revolute = [n for n, h in hypotheses.items() if h.type == JointType.REVOLUTE]
     for index, name in enumerate(revolute):
         with timer("fit"):
             hyp, row, losses = _fit_joint(asset, scene, hypotheses, name, index, stage, target,

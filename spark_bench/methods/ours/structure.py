@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.transforms import rpy_to_matrix
 from spark_bench.errors import InputError
 
@@ -32,7 +33,7 @@ CANONICAL_AXES: dict[str, tuple[float, float, float]] = {
     "right": (1.0, 0.0, 0.0),
     "left": (-1.0, 0.0, 0.0),
 }
-PRIOR_JOINT_TYPES = ("fixed", "revolute", "prismatic")
+PRIOR_JOINT_TYPES = (JointType.FIXED, JointType.REVOLUTE, JointType.PRISMATIC)
 RANGES = ("large", "small")
 #: Predefined upper limits (rad for revolute, benchmark units for prismatic) by motion range.
 DEFAULT_UPPER: dict[str, dict[str, float]] = {
@@ -182,7 +183,7 @@ def _parse_joint(k, item, source, names: set, table, origin_bound) -> PriorJoint
         _fail(source, f"{where} is not an object")
     name = item.get("name") or f"joint_{k}"
     jtype = item.get("type")
-    if jtype == "continuous":
+    if jtype == JointType.CONTINUOUS:
         jtype = "revolute"
     if jtype not in PRIOR_JOINT_TYPES:
         _fail(source, f"{where}: type {jtype!r} is not one of {list(PRIOR_JOINT_TYPES)}")

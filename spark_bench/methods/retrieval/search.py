@@ -116,7 +116,7 @@ def _yaw_matrix(yaw_deg: float) -> np.ndarray:
     return out
 
 
-class _ObjectCache:
+class ObjectCache:
     """The last few gallery objects read: ``(asset as read, renderer of its render-ready copy)``."""
 
     def __init__(self, size: int = 16):
@@ -144,7 +144,7 @@ class _ObjectCache:
         return self.items[key]
 
 
-_OBJECTS = _ObjectCache()
+_OBJECTS = ObjectCache()
 
 
 def _score(iou, edge, size_ratio, yaw_deg, options: SearchOptions):

@@ -13,6 +13,7 @@ import numpy as np
 
 from spark_bench.asset.transforms import unit
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.opening.planning.end_effector import EndEffector
 from spark_bench.opening.planning.grasp import outward_direction, part_name
 from spark_bench.opening.planning.gripper import largest_pull, pinch_hold
 from spark_bench.opening.planning.scene import N_SUBSTEPS, Scene
@@ -42,7 +43,7 @@ def hand_pull(scene: Scene) -> float:
     finger's servo holds over that share of the pull (:func:`~spark_bench.opening.planning.gripper.pinch_hold`): there
     the pads' friction holds nothing."""
     config = scene.gripper.config
-    if scene.end_effector == "suction":
+    if scene.end_effector == EndEffector.SUCTION:
         return largest_hold(config)
     pull = largest_pull(config)
     if scene.grasp.inside_grip:  # the fingers open against a notch's sides: the pull runs across them
@@ -58,7 +59,7 @@ def hand_pull(scene: Scene) -> float:
 
 def pinch_limited(scene: Scene) -> bool:
     """Whether one finger's servo, not the arm, limits the gripper's pull on ``scene``'s part (:func:`hand_pull`)."""
-    return scene.end_effector == "gripper" and hand_pull(scene) < largest_pull(scene.gripper.config)
+    return scene.end_effector == EndEffector.GRIPPER and hand_pull(scene) < largest_pull(scene.gripper.config)
 
 
 def stuck_reason(scene: Scene) -> str | None:
@@ -69,7 +70,7 @@ def stuck_reason(scene: Scene) -> str | None:
     friction; or caught on a collision shape that the harder pull forces through) or not (its collision
     shapes hold it: jammed). With the suction cup the force is the cup's largest hold and there is no second
     drive: a harder pull tears the cup off. Sets ``scene.free_fraction``."""
-    cup = scene.end_effector == "suction"
+    cup = scene.end_effector == EndEffector.SUCTION
     pull = hand_pull(scene)
     reached = scene.free_fraction = free_motion(scene, pull)
     if reached >= JAM_FRACTION:

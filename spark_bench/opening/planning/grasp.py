@@ -35,16 +35,18 @@ has nothing to pinch or no way in is looked at from its broad face
 (:func:`~spark_bench.opening.planning.plate_front.plate_face`).
 
 Where the handle candidates are looked for is :mod:`spark_bench.opening.planning.handle_search`; which of them a
-parallel gripper can pinch, and where, :mod:`spark_bench.opening.planning.handles`.
+parallel gripper can pinch, and where, :mod:`spark_bench.opening.planning.handles`; the pinch on the best of them,
+its pads placed, :mod:`spark_bench.opening.planning.pinch`; what the planner answers,
+:class:`~spark_bench.opening.planning.grasp_target.GraspTarget`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.mesh import sample_surface
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.asset.transforms import unit
@@ -60,24 +62,17 @@ from spark_bench.opening.planning.features import (
     perpendicular_basis,
     rasterise_front,
 )
+from spark_bench.opening.planning.grasp_target import GraspTarget
 from spark_bench.opening.planning.gripper import GripperConfig
 from spark_bench.opening.planning.handle_search import (
     HANDLE_MIN_PROUD,
     N_HANDLE_SAMPLES,
     N_SAMPLES,
     carried_links,
-    handle_searches,
-    on_handle,
 )
-from spark_bench.opening.planning.handles import (
-    PINCH_MARGIN,
-    candidates,
-    edge_pinch,
-    pad_center,
-    reach_depth,
-    sides_hold,
-)
-from spark_bench.opening.planning.pads import approach_blocked, pad_landing, plan_pads
+from spark_bench.opening.planning.handles import edge_pinch, sides_hold
+from spark_bench.opening.planning.pads import approach_blocked
+from spark_bench.opening.planning.pinch import pinch_grasp, place_pads
 from spark_bench.opening.planning.plate_front import plate_face
 from spark_bench.opening.planning.rest_meshes import RestMeshes
 
@@ -91,81 +86,12 @@ APPROACH_CLEAR = 0.5
 TAB_MAX_FRACTION = 0.5
 #: How far (m) behind the front face the TCP goes in a notch: the fingertips reach 12 mm further.
 NOTCH_DEPTH = 0.004
-#: A handle standing out of its base by this much (m) is held firmly; a lower one (a keyhole plate, an
-#: escutcheon) is taken only when nothing stands out further.
-FIRM_PROUD = 0.02
 #: A prismatic joint travelling at most this far (m) is a push button (a microwave's door release)...
 BUTTON_TRAVEL = 0.01
 #: ... when its part is at most this fraction of the object's size (bounding-box diagonals at rest): the 64
 #: buttons of partnet_dev and real_objects are at most 0.11 of it; a coffee machine's drip-tray grate
 #: (102145, lifted 10 mm) is 0.29.
 BUTTON_SIZE = 0.2
-
-
-@dataclass
-class GraspTarget:
-    """A grasp on the moving part of one joint, world frame at the rest configuration.
-
-    :param point: the grasp point (where the TCP should go)
-    :param outward: unit direction out of the part's front (the gripper approaches along ``-outward``)
-    :param long_axis: the handle's long direction (perpendicular to ``outward``); fingers close across it
-    :param has_handle: whether a handle was found (label or geometry)
-    :param source: ``label``, ``geometry``, ``notch`` (a finger-pull notch), ``tab`` (a lid's tab past its
-        free edge), ``edge`` (the whole front pinched by its edges) or ``face`` (no handle)
-    :param grip: ``pinch`` (fingers close across the handle) or ``inside`` (a notch: the closed fingers
-        enter it, the hand presses towards its inner wall, the fingers open against its sides)
-    :param press: for an ``inside`` grip, the unit direction (in the front plane) from the notch's open
-        edge to its inner wall, which the hand presses against while it opens the part
-    :param notch_size: for a notch, its extent across the fingers' closing direction and along it, m
-    :param opening: finger opening per side (m) to approach with, when a neighbouring feature is in the
-        open fingers' sweep (None: approach fully open)
-    :param pad_thickness: pad thickness (m) the pads must not exceed to fit beside the handle (None: any)
-    :param clearance: room (m) left on each side of a pad placed in a gap beside the handle
-    :param reason: why a parallel gripper cannot pull this part open (one line), or None when it can
-    :param landing: an open pad comes down on the object (kept only when no other candidate is clear)
-    :param declined: why the planner declined the part, as a word (None when it did not): ``no_handle``
-        (nothing stands out of the front to pinch), ``too_wide`` (a handle wider than the open fingers),
-        ``blocked`` (the object stands in the hand's way in), ``button`` (a push button), ``unholdable``
-        (handle candidates, but none the pads can hold: their sides slope too gently, as a low rounded rib's,
-        or the simulated collision shape has no side to hold); a part declined
-        for ``no_handle``, ``too_wide`` or ``unholdable`` has nothing to pinch, and the environments'
-        ``end_effector="auto"`` opens it with the suction cup
-        (:func:`~spark_bench.opening.planning.suction.choose_end_effector`). The scene's drive check adds ``weak_pinch``
-        (a pinch whose part starts to move along the fingers' closing, too heavy for one finger's servo:
-        :func:`~spark_bench.opening.planning.drive_check.stuck_reason`), where ``auto`` takes the cup when the cup opens it
-    :param cup_radius: for the suction cup, the radius (m) of the cup planned (one of
-        :func:`~spark_bench.opening.planning.suction.cup_sizes`; None: the gripper)
-    :param broad_face: the grasp is on a sliding plate's broad face, not on its front (``outward`` is that
-        face's; :func:`~spark_bench.opening.planning.plate_front.plate_face`)
-    """
-
-    point: np.ndarray
-    outward: np.ndarray
-    long_axis: np.ndarray
-    has_handle: bool
-    source: str
-    grip: str = "pinch"
-    press: np.ndarray | None = None
-    notch_size: tuple[float, float] | None = None
-    opening: float | None = None
-    pad_thickness: float | None = None
-    clearance: float | None = None
-    reason: str | None = None
-    landing: bool = False
-    declined: str | None = None
-    cup_radius: float | None = None
-    broad_face: bool = False
-
-    @property
-    def inside_grip(self) -> bool:
-        """Whether the grasp is from inside a notch (the fingers grip by opening)."""
-        return self.grip == "inside"
-
-    @property
-    def closing(self) -> np.ndarray:
-        """The direction the fingers close along: across the handle, in the front plane."""
-        c = np.cross(self.outward, self.long_axis)
-        return c / np.linalg.norm(c)
 
 
 def outward_direction(joint_type: str, origin: np.ndarray, axis: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -176,7 +102,7 @@ def outward_direction(joint_type: str, origin: np.ndarray, axis: np.ndarray, poi
     :param axis: unit joint axis (world), opening = increasing joint value
     :param points: the part's surface points at rest (world)
     """
-    if joint_type == "prismatic":
+    if joint_type == JointType.PRISMATIC:
         return unit(axis)
     r = points.mean(0) - origin
     r = r - np.dot(r, axis) * axis
@@ -236,9 +162,16 @@ def find_tab(part, points: np.ndarray, origin: np.ndarray, axis: np.ndarray,
                            source="tab"), best, edge)
 
 
-def _front_of(asset: ArticulatedAsset, joint: str, seed: int, outward: np.ndarray | None = None) -> Front:
-    """The part's front: along its outward direction (:func:`outward_direction`), or along ``outward`` when
-    given (a sliding plate's broad face)."""
+def part_front(asset: ArticulatedAsset, joint: str, seed: int, outward: np.ndarray | None = None) -> Front:
+    """The front of the part ``joint`` moves: along its outward direction (:func:`outward_direction`), or along
+    ``outward`` when given (a sliding plate's broad face).
+
+    :param asset: the object
+    :param joint: a movable joint's name
+    :param seed: seed of the surface sampling
+    :param outward: the front's direction, or None for the part's own
+    :raises ValueError: the part has no geometry
+    """
     spec = asset.joints[joint]
     part = asset.mesh(links=asset.part_of_joint(joint))
     if len(part.faces) == 0:
@@ -246,169 +179,13 @@ def _front_of(asset: ArticulatedAsset, joint: str, seed: int, outward: np.ndarra
     origin, axis = asset.joint_frames()[joint]
     points = sample_surface(part, N_SAMPLES, seed=seed)
     n = outward_direction(spec.type, origin, axis, points)
-    rotational = spec.type != "prismatic"
+    rotational = spec.type != JointType.PRISMATIC
     if outward is not None:  # a plate's broad face (plate_front.plate_face)
         n = unit(outward)
     elif rotational:
         n = face_normal(part, n)
     return Front(part=part, points=points, outward=n, basis=perpendicular_basis(n), face=front_level(points @ n),
                   origin=origin, axis=axis, rotational=rotational)
-
-
-def _pinch(asset: ArticulatedAsset, joint: str, front: Front, gripper: GripperConfig, seed: int,
-           collision=None) -> tuple[GraspTarget | None, str | None, str | None]:
-    """The pinch grasp on the best handle candidate, or ``(None, why none fits, the declined word)``.
-
-    A candidate the pads cannot hold is passed over: one where the part's surface, from the fingertips up
-    (below the handle search's proud cut too), has sides too shallow for the pads at every level (a low
-    rounded rib), or, given ``collision`` (the part's simulated collision shapes, world frame at rest), one
-    whose simulated shape's sides give the pads no hold
-    (:func:`~spark_bench.opening.planning.handles.sides_hold`)."""
-    n, basis = front.outward, front.basis
-    widest = None
-    unheld: list[str] = []
-    span = 2 * gripper.max_opening - 2 * PINCH_MARGIN
-
-    def grasped(points: np.ndarray) -> np.ndarray:
-        return on_handle(points, basis, front.origin if front.rotational else None, front.axis)
-
-    for source, pts, groups in handle_searches(asset, joint, front, seed):
-        fitting, wide = candidates(pts, groups, front, gripper, grasped)
-        if wide is not None:
-            widest = max(widest or 0.0, wide)
-        if not fitting:
-            continue
-        # a feature standing well out first (a knob, not a keyhole plate), then the best placed; one where an
-        # open pad would land on the object (a piece of a wide plate) only when no other is clear. A wide
-        # feature's further pieces (a stretch of a wheel's spoke beyond its hub) come after every first piece
-        # standing out as far
-        ranked = sorted(fitting, key=lambda c: (c.base is not None and float(np.max(c.points @ n)) - c.base < FIRM_PROUD,
-                                                c.alternate, front.lateral_score(c.points)))
-        first = None
-        for candidate in ranked:
-            grasp = _pinch_on(asset, joint, front, candidate, source, gripper)
-            tips = float(grasp.point @ n) - gripper.tip_beyond_tcp
-            if not sides_hold(front.part, grasp.point, n, grasp.closing, grasp.long_axis, tips, gripper):
-                unheld.append("its sides slope too gently for the pads to hold (a low rounded rib)")
-                continue
-            if collision is not None and not sides_hold(collision, grasp.point, n, grasp.closing,
-                                                                  grasp.long_axis, tips, gripper):
-                unheld.append("its simulated collision shape's sides slope too gently for the pads to hold")
-                continue
-            first = first or grasp
-            if not grasp.landing or len(ranked) == 1:
-                return grasp, None, None
-        if first is not None:
-            return first, None, None
-    if widest is not None:
-        return None, (f"its handle is {1000 * widest:.0f} mm across, wider than the open gripper "
-                      f"({1000 * span:.0f} mm)"), "too_wide"
-    if unheld:
-        return None, f"no handle the gripper can hold: {'; '.join(dict.fromkeys(unheld))}", "unholdable"
-    return None, None, None
-
-
-def _pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: str, gripper: GripperConfig
-              ) -> GraspTarget:
-    """The pinch grasp on handle candidate ``best``, its pads placed; ``landing`` set when an open pad would
-    come down on the object (:func:`~spark_bench.opening.planning.pads.pad_landing`)."""
-    n, basis = front.outward, front.basis
-    depth = best.points @ n
-    point = pad_center(best, front, gripper) @ basis + reach_depth(best.base, float(depth.max()),
-                                                                  float(depth.min()), gripper) * n
-    grasp = GraspTarget(point=point, outward=n, long_axis=best.long_axis(front), has_handle=True, source=source)
-    holding = _place_pads(asset, joint, grasp, best.points, front.face, gripper)
-    opening = gripper.max_opening if grasp.opening is None else grasp.opening
-    thickness = gripper.pad_thickness if grasp.pad_thickness is None else grasp.pad_thickness
-    if holding:  # a hinged part's piece (a wheel's hub): its other pieces may lie in the pads' closing sweep
-        grasp.point = grasp.point + _clear_sweep(best, grasp, gripper) * grasp.long_axis
-    grasp.landing = pad_landing(asset.mesh(), grasp.point, n, grasp.closing, grasp.long_axis, opening,
-                                thickness, gripper) > 0.0
-    return grasp
-
-
-def _place_pads(asset: ArticulatedAsset, joint: str, grasp: GraspTarget, held: np.ndarray, face: float,
-                gripper: GripperConfig) -> list[str]:
-    """Put ``grasp``'s pads in the gaps beside the feature it holds when something else of the object stands
-    in the open fingers' sweep (:func:`~spark_bench.opening.planning.pads.plan_pads`: ``opening``, ``pad_thickness``,
-    ``clearance`` set and the point shifted; unchanged when nothing is in the way or no pads fit).
-
-    :param held: surface points of the feature held (a handle candidate's, a tab's)
-    :param face: the level (m, along ``grasp.outward``) of the front the feature stands out of
-    :returns: the parts hinged to the part that the feature lies on
-    """
-    # the handle's side: the part, and a part hinged to it that the feature lies on (a safe's dial or lever,
-    # held at rest: :func:`~spark_bench.opening.planning.scene.hold_hinged_parts`); any other hinged part (a big dial
-    # beside a bar) stands in the pads' way like another part's feature
-    links = asset.part_of_joint(joint)
-    holding = [name for name in carried_links(asset, joint, links) if _holds(asset, name, held)]
-    own = [name for name in asset.links if name in links or name in holding]
-    others = [name for name in asset.links if name not in own]
-    pads = plan_pads(asset.mesh(links=own), asset.mesh(links=others) if others else None, grasp.point,
-                     grasp.outward, grasp.closing, grasp.long_axis, face, gripper)
-    if pads is not None:
-        grasp.point = grasp.point + pads["shift"] * grasp.closing
-        grasp.opening, grasp.pad_thickness = pads["opening"], pads["pad_thickness"]
-        grasp.clearance = pads["clearance"]
-    return holding
-
-
-#: The pads slide along the handle in steps of this (m), up to half their height, to close on the narrowest
-#: section of the piece planned (:func:`_clear_sweep`) when that is narrower by more than
-#: :data:`SWEEP_GAIN` (m) than where they were planned.
-SWEEP_STEP = 0.002
-SWEEP_GAIN = 2 * PINCH_MARGIN
-#: Points of the piece count in its section when they stand this far (m) above the fingertips' level (as
-#: :data:`~spark_bench.opening.planning.pads.LANDING_MARGIN`).
-SWEEP_PROUD = 0.004
-
-
-def _clear_sweep(best, grasp: GraspTarget, gripper: GripperConfig) -> float:
-    """How far (m) along the grasp's long axis to slide the pads so that, closing, they meet the narrowest
-    section of the piece ``best`` of a hinged part (a wheel's hub, not its spokes' roots beside the hub
-    within the pads' height, whose sloping edges the pads would squeeze first): the piece's width across,
-    over the pads' height, at each slide up to half a pad height with the pads still over the piece for half
-    their height; the smallest slide to the narrowest, when that is narrower by :data:`SWEEP_GAIN`; else 0."""
-    closing, along, n = grasp.closing, grasp.long_axis, grasp.outward
-    tips = float(grasp.point @ n) - gripper.tip_beyond_tcp
-    rel = best.points - grasp.point
-    raised = best.points @ n - tips > SWEEP_PROUD
-    x, a = rel[raised] @ closing, rel[raised] @ along
-    if len(x) == 0:
-        return 0.0
-    half = 0.5 * gripper.pad_height
-
-    def width(shift: float) -> float | None:
-        band = np.abs(a - shift) <= half
-        return float(np.ptp(x[band])) if band.any() else None
-
-    here = width(0.0)
-    shifts = [0.0] + [sign * k * SWEEP_STEP for k in range(1, int(half / SWEEP_STEP) + 1) for sign in (-1.0, 1.0)]
-    found = []
-    for shift in shifts:
-        overlap = min(shift + half, float(a.max())) - max(shift - half, float(a.min()))
-        w = width(shift)
-        if overlap >= half and w is not None:
-            found.append((w, shift))
-    if here is None or not found:
-        return 0.0
-    narrowest = min(w for w, _ in found)
-    if narrowest > here - SWEEP_GAIN:
-        return 0.0
-    return next(shift for w, shift in found if w <= narrowest + SWEEP_STEP)
-
-
-#: A link holds a handle candidate when every candidate point lies within this distance (m) of its box.
-HOLD_MARGIN = 0.001
-
-
-def _holds(asset: ArticulatedAsset, link: str, points: np.ndarray) -> bool:
-    """Whether ``points`` (a handle candidate's surface samples) lie on ``link`` (within its box)."""
-    mesh = asset.mesh(links=[link])
-    if len(mesh.vertices) == 0:
-        return False
-    low, high = np.asarray(mesh.vertices).min(0) - HOLD_MARGIN, np.asarray(mesh.vertices).max(0) + HOLD_MARGIN
-    return bool(np.all((points >= low) & (points <= high)))
 
 
 def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
@@ -437,18 +214,18 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
         return GraspTarget(point=np.asarray(part.vertices).mean(0), outward=-axis, long_axis=perpendicular_basis(axis)[0],
                            has_handle=False, source="face", declined="button",
                            reason=f"{joint}: a push button ({1000 * travel:.1f} mm of travel): pressed, not pulled open")
-    grasp = _find(asset, joint, seed, gripper, collision)
+    grasp = find_grasp_unchecked(asset, joint, seed, gripper, collision)
     blocked = _way_in(asset, joint, grasp, gripper)
     if blocked is not None and grasp.source == "tab":
         # a tab pinched from beyond the free edge with the object in the pads' way there (a front-loading
         # washer's door handle on its rim, the body's front close behind it): the front's own grasps instead
-        grasp = _find(asset, joint, seed, gripper, collision, tabs=False)
+        grasp = find_grasp_unchecked(asset, joint, seed, gripper, collision, tabs=False)
         blocked = _way_in(asset, joint, grasp, gripper)
     if blocked is not None or grasp.source == "face":
         # nothing to take at the front, or no way to it: a sliding plate (a sash) is taken by its broad face
         side = plate_face(asset, joint, APPROACH_CLEAR, seed)
         if side is not None:
-            beside = _find(asset, joint, seed, gripper, collision, outward=side)
+            beside = find_grasp_unchecked(asset, joint, seed, gripper, collision, outward=side)
             # nothing to pinch there either: the cup's business, which checks its own way in to its own place
             if beside.source == "face" or _way_in(asset, joint, beside, gripper) is None:
                 beside.broad_face = True
@@ -494,7 +271,7 @@ def is_push_button(asset: ArticulatedAsset, joint: str) -> bool:
     whose part is at most :data:`BUTTON_SIZE` of the object's size (a part without geometry counts by its
     travel alone)."""
     spec = asset.joints[joint]
-    if spec.type != "prismatic" or not 0.0 < spec.open_value - spec.rest_value <= BUTTON_TRAVEL:
+    if spec.type != JointType.PRISMATIC or not 0.0 < spec.open_value - spec.rest_value <= BUTTON_TRAVEL:
         return False
     part = asset.mesh(links=asset.part_of_joint(joint))
     whole = asset.mesh()
@@ -503,7 +280,7 @@ def is_push_button(asset: ArticulatedAsset, joint: str) -> bool:
     return _diagonal(part) <= BUTTON_SIZE * _diagonal(whole)
 
 
-def _edge_sides_hold(front: Front, edge: tuple, gripper: GripperConfig, collision=None) -> bool:
+def edge_sides_hold(front: Front, edge: tuple, gripper: GripperConfig, collision=None) -> bool:
     """Whether the pads hold an edge pinch's two edges (:func:`~spark_bench.opening.planning.handles.sides_hold`, on the
     part's surface and, given them, its collision shapes): the crown of a rounded lid is a strip narrower than
     the open fingers at its face level, but its sides slope away and the pads slide off them."""
@@ -518,12 +295,21 @@ def _diagonal(mesh) -> float:
     return float(np.linalg.norm(np.ptp(np.asarray(mesh.vertices), axis=0)))
 
 
-def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig, collision=None,
-          tabs: bool = True, outward: np.ndarray | None = None) -> GraspTarget:
-    """:func:`find_grasp` before the approach check (``tabs``: whether a lid's tab past its free edge is a
-    grasp; ``outward``: the front's direction, default the part's own, :func:`_front_of`)."""
-    front = _front_of(asset, joint, seed, outward)
-    grasp, no_pinch, why = _pinch(asset, joint, front, gripper, seed, collision)
+def find_grasp_unchecked(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig, collision=None,
+                         tabs: bool = True, outward: np.ndarray | None = None) -> GraspTarget:
+    """:func:`find_grasp` before the approach check: the pinch, notch, tab, edge or face grasp on the part's
+    front, whether or not the hand can come in to it (a measurement of the fronts reads this).
+
+    :param asset: the object (a :class:`RestMeshes` of it shares its meshes between calls)
+    :param joint: a movable joint's name
+    :param seed: seed of the surface sampling
+    :param gripper: the gripper's dimensions
+    :param collision: the part's simulated collision shapes (see :func:`find_grasp`), or None
+    :param tabs: whether a lid's tab past its free edge is a grasp
+    :param outward: the front's direction (default the part's own, :func:`part_front`)
+    """
+    front = part_front(asset, joint, seed, outward)
+    grasp, no_pinch, why = pinch_grasp(asset, joint, front, gripper, seed, collision)
     if grasp is not None:
         return grasp
     n, basis, face = front.outward, front.basis, front.face
@@ -545,13 +331,13 @@ def _find(asset: ArticulatedAsset, joint: str, seed: int, gripper: GripperConfig
         if tab is not None:
             # the object under a tab (a top-loading washer's deck below its lid's lip) stands in the open
             # fingers' sweep as a neighbour's feature does: the pads come in pre-closed beside the tab
-            _place_pads(asset, joint, tab.grasp, tab.points, tab.edge, gripper)
+            place_pads(asset, joint, tab.grasp, tab.points, tab.edge, gripper)
             return tab.grasp
 
     links = asset.part_of_joint(joint)
     others = [name for name in asset.links if name not in links]
     edge = edge_pinch(front, asset.mesh(links=others) if others else None, gripper)
-    if edge is not None and _edge_sides_hold(front, edge, gripper, collision):
+    if edge is not None and edge_sides_hold(front, edge, gripper, collision):
         # a front narrower than the open fingers, standing clear of its surround, with sides the pads hold
         return GraspTarget(point=edge[0], outward=n, long_axis=edge[1], has_handle=True, source="edge")
 

@@ -32,7 +32,7 @@ HANDLE_TIP_BAND = 0.02
 #: How far (m) around a handle, in the front plane, the surface it stands on is looked at (a pad's thickness
 #: and margin: what the pads would touch reaching down beside it).
 BASE_MARGIN = 0.016
-#: A feature is elongated (pinched across its width, :func:`_base`) when it is this many times longer than
+#: A feature is elongated (pinched across its width, :func:`feature_base`) when it is this many times longer than
 #: wide in the front plane.
 ELONGATED = 2.0
 #: The pads' extent along an elongated handle (m): :class:`GripperConfig`'s pad height.
@@ -94,7 +94,7 @@ def handle_searches(asset: ArticulatedAsset, joint: str, front: Front, seed: int
         surface = sample_surface(asset.mesh(links=rest), N_SAMPLES // 2, seed=seed) if rest else None
         # one link may hold several pieces (a wide drawer's two knobs): grasp one of them, not between
         groups = [g for g in clusters(pts) if len(g) >= MIN_CLUSTER] or [np.arange(len(pts))]
-        bases = [_base(surface, pts[g], front) for g in groups]
+        bases = [feature_base(surface, pts[g], front) for g in groups]
         # a labelled handle sunk into the part (a recessed grip) is no pinch: the notch search sees it
         yield "label", pts, [(g, None, base) for g, base in zip(groups, bases)
                              if base is None or float(np.max(pts[g] @ front.outward)) - base >= OBSTACLE_MIN_PROUD]
@@ -109,7 +109,7 @@ def handle_searches(asset: ArticulatedAsset, joint: str, front: Front, seed: int
         """The clusters of a hinged part's points standing out of the part around them, those points kept."""
         out = []
         for g in clusters(pts):
-            base = _base(front.points, pts[g], front)
+            base = feature_base(front.points, pts[g], front)
             if base is not None:
                 g = g[pts[g] @ front.outward > base]
             floor = base if base is not None else front.face
@@ -140,7 +140,7 @@ def _hinged_samples(mesh, seed: int) -> np.ndarray:
     return sample_surface(mesh, count, seed=seed)
 
 
-def _base(surface: np.ndarray | None, feature: np.ndarray, front: Front) -> float | None:
+def feature_base(surface: np.ndarray | None, feature: np.ndarray, front: Front) -> float | None:
     """The level the pads may reach down to beside ``feature``: the highest of the ``surface`` points under
     the feature or within a pad's thickness and margin of it (in the front plane; along an elongated
     feature, only as far as the pads reach past its ends); None when there are none (the feature stands

@@ -182,7 +182,7 @@ def approach_blocked(asset, grasp, gripper: GripperConfig, clear: float) -> tupl
     neighbouring feature (a dial beside a safe's lever) stands beside the grasp, in one pad's way.
 
     :param asset: the object (a :class:`~spark_bench.opening.planning.rest_meshes.RestMeshes`)
-    :param grasp: the planned :class:`~spark_bench.opening.planning.grasp.GraspTarget`
+    :param grasp: the planned :class:`~spark_bench.opening.planning.grasp_target.GraspTarget`
     :param clear: how far (m) in front of the grasp nothing may stand
     """
     opening = gripper.max_opening if grasp.opening is None else grasp.opening

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.mesh import sample_surface
 from spark_bench.asset.transforms import unit
 from spark_bench.opening.planning.features import LEVEL_BIN, face_normal, first_hit
@@ -114,7 +115,7 @@ def plate_face(asset, joint: str, clear: float, seed: int = 0) -> np.ndarray | N
     :param clear: how far (m) in front of a face the object must not stand (the hand's way in)
     :param seed: seed of the surface sampling
     """
-    if asset.joints[joint].type != "prismatic":
+    if asset.joints[joint].type != JointType.PRISMATIC:
         return None
     moving = asset.part_of_joint(joint)
     part = asset.mesh(links=moving)

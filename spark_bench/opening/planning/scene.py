@@ -16,10 +16,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.errors import InputError
 from spark_bench.mujoco_gl import mujoco_module
-from spark_bench.opening.planning.grasp import GraspTarget, find_grasp
+from spark_bench.opening.planning.grasp import find_grasp
+from spark_bench.opening.planning.grasp_target import GraspTarget
 from spark_bench.opening.planning.gripper import GripperConfig, GripperHandles
 from spark_bench.opening.planning.handle_search import N_SAMPLES
 from spark_bench.opening.planning.rest_meshes import RestMeshes
@@ -55,7 +57,7 @@ WORKSPACE_MARGIN = 0.35
 #: diagonal): a knob or a lever is a part too, but not the one a task means.
 DEFAULT_PART_FRACTION = 0.3
 
-KIND_TYPES = {"prismatic": ("prismatic",), "revolute": ("revolute", "continuous")}
+KIND_TYPES = {JointType.PRISMATIC: (JointType.PRISMATIC,), JointType.REVOLUTE: (JointType.REVOLUTE, JointType.CONTINUOUS)}
 
 
 @dataclass
@@ -138,7 +140,7 @@ def _default_rank(asset: ArticulatedAsset, joints: list[Joint]) -> list[tuple]:
         mesh = asset.mesh(links=asset.part_of_joint(j.name))
         sizes[j.name] = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0))) if len(mesh.vertices) else 0.0
     largest = max(sizes.values())
-    return [(j.type == "continuous" or j.open_value <= j.rest_value, sizes[j.name] < DEFAULT_PART_FRACTION * largest, k)
+    return [(j.type == JointType.CONTINUOUS or j.open_value <= j.rest_value, sizes[j.name] < DEFAULT_PART_FRACTION * largest, k)
             for k, j in enumerate(joints)]
 
 

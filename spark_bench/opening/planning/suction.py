@@ -33,6 +33,7 @@ import numpy as np
 from scipy import ndimage
 
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.opening.planning.end_effector import END_EFFECTORS, EndEffector
 from spark_bench.opening.planning.features import LEVEL_BIN, NOTCH_CELL, rasterise_front
 from spark_bench.opening.planning.gripper import (
     PREFIX,
@@ -46,10 +47,7 @@ from spark_bench.opening.planning.gripper import (
 
 mujoco = mujoco_module()
 
-#: The end-effectors of the environments' ``end_effector`` option; ``auto`` picks one per part
-#: (:func:`choose_end_effector`).
-END_EFFECTORS = ("gripper", "suction", "auto")
-#: Why the grasp planner declined a part (:attr:`~spark_bench.opening.planning.grasp.GraspTarget.declined`) that
+#: Why the grasp planner declined a part (:attr:`~spark_bench.opening.planning.grasp_target.GraspTarget.declined`) that
 #: ``auto`` opens with the cup instead: nothing to pinch (no handle, knob, notch or tab), a handle wider
 #: than the open fingers, or handle candidates none of which the pads can hold (``unholdable``). A part
 #: whose approach is blocked, or a push button, is not one.
@@ -143,7 +141,7 @@ def cup_mm(radius: float | None) -> float | None:
 
 
 def fitted_cup(grasp, config: SuctionConfig | None = None) -> SuctionConfig:
-    """The cup the planner chose for ``grasp`` (:attr:`~spark_bench.opening.planning.grasp.GraspTarget.cup_radius`) among
+    """The cup the planner chose for ``grasp`` (:attr:`~spark_bench.opening.planning.grasp_target.GraspTarget.cup_radius`) among
     :func:`cup_sizes` of ``config`` (default :class:`SuctionConfig`); ``config`` itself when it chose none.
 
     :raises ValueError: ``grasp`` names a cup that ``config`` does not offer
@@ -206,13 +204,13 @@ def choose_end_effector(end_effector: str, declined: str | None) -> str:
     gripper everywhere else (a handle, a notch, a tab; also a part declined for another reason, so that its
     reason stands).
 
-    :param end_effector: one of :data:`END_EFFECTORS`
-    :param declined: why the planner declined the part (:attr:`~spark_bench.opening.planning.grasp.GraspTarget.declined`)
+    :param end_effector: one of :data:`~spark_bench.opening.planning.end_effector.END_EFFECTORS`
+    :param declined: why the planner declined the part (:attr:`~spark_bench.opening.planning.grasp_target.GraspTarget.declined`)
     :raises ValueError: an unknown end-effector
     """
     if end_effector not in END_EFFECTORS:
         raise ValueError(f"end_effector must be one of {END_EFFECTORS}, got {end_effector!r}")
-    if end_effector == "auto":
+    if end_effector == EndEffector.AUTO:
         return "suction" if declined in SUCTION_DECLINES else "gripper"
     return end_effector
 
@@ -304,7 +302,7 @@ def approach_config(config: SuctionConfig) -> GripperConfig:
 def plan_suction(asset, joint: str, config: SuctionConfig | None = None, seed: int = 0,
                  outward: np.ndarray | None = None):
     """The cup's grasp on the part moved by ``joint``, world frame at rest: a
-    :class:`~spark_bench.opening.planning.grasp.GraspTarget` with ``source="suction"``, ``grip="suction"``, the point
+    :class:`~spark_bench.opening.planning.grasp_target.GraspTarget` with ``source="suction"``, ``grip="suction"``, the point
     :func:`suction_point` chose, the front's outward direction and the cup's radius (``cup_radius``: the
     largest of :func:`cup_sizes` with a place and a clear way in, the strongest hold; :func:`fitted_cup`); its
     ``reason`` says why no cup can hold the part (no flat patch for the smallest, or the object in the way in
@@ -318,13 +316,14 @@ def plan_suction(asset, joint: str, config: SuctionConfig | None = None, seed: i
         front (a plate's broad face, :func:`~spark_bench.opening.planning.plate_front.plate_face`); None: the front
     :raises ValueError: the part has no geometry, or its centroid lies on its hinge
     """
-    from spark_bench.opening.planning.grasp import APPROACH_CLEAR, GraspTarget, _front_of, part_name
+    from spark_bench.opening.planning.grasp import APPROACH_CLEAR, part_front, part_name
+    from spark_bench.opening.planning.grasp_target import GraspTarget
     from spark_bench.opening.planning.pads import approach_blocked
     from spark_bench.opening.planning.rest_meshes import RestMeshes
 
     cfg = config or SuctionConfig()
     rest = asset if isinstance(asset, RestMeshes) else RestMeshes(asset)
-    front = _front_of(rest, joint, seed, outward)
+    front = part_front(rest, joint, seed, outward)
     along = front.basis[0] if front.rotational else front.basis[1]
     first_blocked = None
     for cup in cup_sizes(cfg):

@@ -12,7 +12,8 @@ from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.errors import InputError
 from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.opening.planning.drive_check import pinch_limited, stuck_reason
-from spark_bench.opening.planning.grasp import GraspTarget
+from spark_bench.opening.planning.end_effector import EndEffector
+from spark_bench.opening.planning.grasp_target import GraspTarget
 from spark_bench.opening.planning.gripper import GripperConfig, add_gripper
 from spark_bench.opening.planning.scene import (
     IMPRATIO,
@@ -52,10 +53,10 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     chosen = choose_joint(asset, kind, joint)
     grasp = plan_grasp(asset, chosen.name, gripper)
     effector = choose_end_effector(end_effector, grasp.declined)
-    if effector == "suction":  # on the face the gripper's planner looked at (a plate's broad face)
+    if effector == EndEffector.SUCTION:  # on the face the gripper's planner looked at (a plate's broad face)
         grasp = plan_cup(asset, chosen.name, suction, outward=grasp.outward if grasp.broad_face else None)
     scene = compile_scene(asset, chosen, grasp, effector, gripper, suction, visuals)
-    if end_effector == "auto" and scene.grasp.declined == "weak_pinch":
+    if end_effector == EndEffector.AUTO and scene.grasp.declined == "weak_pinch":
         # a pinch too weak for the part (a heavy lid lifted by its lip: one finger's servo holds that pull): the
         # cup on the part's front, when it finds a place there and its drive check opens the part
         try:
@@ -85,7 +86,7 @@ def compile_scene(asset: ArticulatedAsset, chosen: Joint, grasp: GraspTarget, ef
     spec.worldbody.add_light(pos=[-2.0, -1.0, 3.0], dir=[0.5, 0.25, -0.8], diffuse=[0.5, 0.5, 0.5])
     held = hold_hinged_parts(spec, asset, chosen.name)
     wrist = asset.joint_frames()[chosen.name][1] if chosen.is_rotational else None
-    if effector == "suction":
+    if effector == EndEffector.SUCTION:
         handles = add_suction(spec, approach=-grasp.outward, closing=grasp.closing, wrist_axis=wrist,
                               workspace=workspace, config=fitted_cup(grasp, suction))
     else:

@@ -12,7 +12,8 @@ from spark_bench.data.images import RENDER_TOLERANCE
 from spark_bench.methods.ours.assemble import assemble_asset, joint_summary
 from spark_bench.methods.ours.config import SparkFitConfig
 from spark_bench.methods.ours.geometry import annotation_geometry
-from spark_bench.methods.ours.optimize import OpenStateScene, child_box
+from spark_bench.methods.ours.hypothesis import child_box
+from spark_bench.methods.ours.optimize import OpenStateScene
 from spark_bench.methods.ours.prior import ground_truth_structure
 from spark_bench.methods.ours.render import rasterize_mask
 from spark_bench.methods.ours.spark_fit import edge_map, frame_scales, spark_fit, spark_mask, spark_terms

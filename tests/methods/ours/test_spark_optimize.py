@@ -7,10 +7,12 @@ import pytest
 import torch
 from helpers_toy import toy_cabinet, toy_camera
 
+from spark_bench.methods.ours.adam import Adam
 from spark_bench.methods.ours.assemble import assemble_asset, joint_summary
 from spark_bench.methods.ours.config import OptimizeConfig
 from spark_bench.methods.ours.geometry import annotation_geometry
-from spark_bench.methods.ours.optimize import Adam, OpenStateScene, Stage
+from spark_bench.methods.ours.hypothesis import Stage
+from spark_bench.methods.ours.optimize import OpenStateScene
 from spark_bench.methods.ours.prior import ground_truth_structure
 from spark_bench.methods.ours.refine import RefineSettings, prior_hypotheses, refine
 from spark_bench.methods.ours.render import open_part_masks, rasterize_mask
@@ -264,7 +266,7 @@ def test_a_joint_the_open_image_says_nothing_about_keeps_the_prior_with_its_hing
     assert not any(c["candidate"].startswith("(none") for c in result.candidates["joint_1"])
     found = result.hypotheses["joint_0"]
     assert found.type == "revolute" and np.allclose(found.axis, prior_hypotheses(prior)["joint_0"].axis)
-    from spark_bench.methods.ours.optimize import child_box
+    from spark_bench.methods.ours.hypothesis import child_box
 
     lo, hi = child_box(prior, "joint_0")
     point = found.pivot_offset  # the door's frame is the object frame translated: no rotation

@@ -154,7 +154,7 @@ def test_ours_with_retrieval_reads_no_ground_truth(objects, tmp_path, isolated_h
     real_load, real_retrieve = readers.load_object, pipeline.retrieve_case
     monkeypatch.setattr(readers, "load_object", lambda folder, *a, **k: loaded.append(folder) or real_load(folder, *a, **k))
     # an empty in-process cache of gallery objects: earlier tests may have read these same cabinets
-    monkeypatch.setattr(search, "_OBJECTS", search._ObjectCache())
+    monkeypatch.setattr(search, "_OBJECTS", search.ObjectCache())
     monkeypatch.setattr(pipeline, "retrieve_case", lambda *a, **k: calls.append(a) or real_retrieve(*a, **k))
 
     config = SparkConfig.from_dict({**RETRIEVAL, "retrieval": {"gallery": str(gallery)}}).with_overrides(

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, ClassVar, Generic, TypeVar
+from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar
 
 from spark_bench.errors import InputError
 from spark_bench.timing import StageTimer
@@ -20,7 +20,14 @@ from spark_bench.timing import StageTimer
 if TYPE_CHECKING:
     from spark_bench.asset.model import ArticulatedAsset
     from spark_bench.methods.base import CaseInput
-    from spark_bench.methods.ours.config import SparkConfig
+    from spark_bench.methods.ours.sections import (
+        GeometryConfig,
+        OpenStateConfig,
+        OptimizeConfig,
+        PriorConfig,
+        RetrievalConfig,
+        VLMConfig,
+    )
     from spark_bench.methods.retrieval.search import Retrieval
 
 #: A section of the configuration whose settings change a backend's results: its dotted path
@@ -28,6 +35,27 @@ if TYPE_CHECKING:
 Section = tuple[str, tuple[str, ...]]
 #: The ``[vlm]`` settings that change results: not the endpoint, key, timeout or retries.
 VLM_SETTINGS: Section = ("vlm", ("base_url", "model", "api_key_env", "timeout_s", "max_retries", "backoff_s"))
+
+
+
+class PipelineConfig(Protocol):
+    """What a backend reads of the pipeline's configuration: its sections
+    (:mod:`spark_bench.methods.ours.sections`) and whether the joint optimization fits per-part masks.
+    :class:`~spark_bench.methods.ours.config.SparkConfig` is the one; it asks the stages' registries about
+    its names, so the stages name this interface, not it.
+    """
+
+    prior: PriorConfig
+    geometry: GeometryConfig
+    open_state: OpenStateConfig
+    optimize: OptimizeConfig
+    vlm: VLMConfig
+    retrieval: RetrievalConfig
+    write_prior: bool
+
+    def uses_part_masks(self) -> bool:
+        """Whether the joint optimization reads the open state's per-part masks."""
+        ...
 
 
 class StageBackend:
@@ -48,14 +76,14 @@ class StageBackend:
     uses_gt_object: ClassVar[bool] = False
     retrieves: ClassVar[bool] = False
 
-    def case_inputs(self, config: SparkConfig) -> frozenset[str]:
+    def case_inputs(self, config: PipelineConfig) -> frozenset[str]:
         """The case inputs it reads with ``config`` (default: :attr:`reads`).
 
         :param config: the whole configuration
         """
         return self.reads
 
-    def simulated_stage(self, config: SparkConfig) -> str | None:
+    def simulated_stage(self, config: PipelineConfig) -> str | None:
         """The regime's name of the stage when, with ``config``, it is simulated from the ground truth
         (the backend reads ``gt``), else None.
 
@@ -63,21 +91,21 @@ class StageBackend:
         """
         return self.simulated_as if "gt" in self.case_inputs(config) else None
 
-    def label(self, config: SparkConfig) -> str:
+    def label(self, config: PipelineConfig) -> str:
         """Its part of the configuration's label (default: its name).
 
         :param config: the whole configuration
         """
         return self.name
 
-    def settings(self, config: SparkConfig) -> list[Section]:
+    def settings(self, config: PipelineConfig) -> list[Section]:
         """The sections of ``config`` whose settings change its results (default: none).
 
         :param config: the whole configuration
         """
         return []
 
-    def validate(self, config: SparkConfig, source) -> None:
+    def validate(self, config: PipelineConfig, source) -> None:
         """Raise :class:`~spark_bench.errors.InputError` naming ``source`` when ``config`` lacks a setting
         it requires (default: it requires none).
 
@@ -147,7 +175,7 @@ class CaseRun:
     :param found: the case's retrieval, when a backend :attr:`~StageBackend.retrieves`
     """
 
-    config: SparkConfig
+    config: PipelineConfig
     case: CaseInput
     out_dir: Path
     timer: StageTimer = field(default_factory=StageTimer)

@@ -6,7 +6,7 @@ A new backend is one more class here, registered with ``@GEOMETRY_BACKENDS.regis
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
 from spark_bench.errors import InputError
 from spark_bench.methods.ours.geometry import (
@@ -17,10 +17,7 @@ from spark_bench.methods.ours.geometry import (
     spark_geometry,
 )
 from spark_bench.methods.ours.retrieved import retrieval_geometry
-from spark_bench.methods.ours.stages.base import CaseRun, Registry, Section, StageBackend
-
-if TYPE_CHECKING:
-    from spark_bench.methods.ours.config import SparkConfig
+from spark_bench.methods.ours.stages.base import CaseRun, PipelineConfig, Registry, Section, StageBackend
 
 
 class GeometryBackend(StageBackend):
@@ -36,7 +33,7 @@ class GeometryBackend(StageBackend):
     ground_truth_parts: ClassVar[bool] = False
     after_prior: ClassVar[bool] = False
 
-    def settings(self, config: SparkConfig) -> list[Section]:
+    def settings(self, config: PipelineConfig) -> list[Section]:
         """The whole ``[geometry]`` section but the backend's name and its time limit, whichever backend."""
         return [("geometry", ("backend", "timeout_s"))]
 
@@ -75,7 +72,7 @@ class PredictionsGeometry(GeometryBackend):
 
     name = "predictions"
 
-    def validate(self, config: SparkConfig, source) -> None:
+    def validate(self, config: PipelineConfig, source) -> None:
         if not config.geometry.predictions_dir:
             raise InputError(source, "geometry.backend = 'predictions' needs geometry.predictions_dir")
 
@@ -95,11 +92,11 @@ class SparkGeometry(GeometryBackend):
     after_prior = True
     reads = frozenset({"camera"})
 
-    def case_inputs(self, config: SparkConfig) -> frozenset[str]:
+    def case_inputs(self, config: PipelineConfig) -> frozenset[str]:
         return self.reads | ({"gt"} if self.gets_case_folder(config) else set())
 
     @staticmethod
-    def gets_case_folder(config: SparkConfig) -> bool:
+    def gets_case_folder(config: PipelineConfig) -> bool:
         """Whether the command is handed the whole case folder (``{case}``), which holds the ground truth.
 
         :param config: the whole configuration
@@ -107,7 +104,7 @@ class SparkGeometry(GeometryBackend):
         """
         return "case" in command_fields(config.geometry.spark_command)
 
-    def validate(self, config: SparkConfig, source) -> None:
+    def validate(self, config: PipelineConfig, source) -> None:
         if not config.geometry.spark_command:
             raise InputError(source, "geometry.backend = 'spark' needs geometry.spark_command")
 

@@ -1,9 +1,9 @@
-"""Stage 4, the joint optimization: its methods (``[optimize] method``) and the native method's type/axis
-refinements (``[optimize] refine``), one class each. ``[optimize] enabled = false`` runs none (``opt=none``).
+"""Stage 4, the joint optimization: its methods (``[optimize] method``), one class each (the ``native``
+method's type/axis refinements, ``[optimize] refine``, are :mod:`.refinements`'). ``[optimize] enabled =
+false`` runs none (``opt=none``).
 
-A new method is one more class here, registered with ``@OPTIMIZERS.register``; a new refinement of the
-native method one registered with ``@REFINEMENTS.register``. torch is imported when one runs, so that
-reading a configuration does not import it.
+A new method is one more class here, registered with ``@OPTIMIZERS.register``. torch is imported when one
+runs, so that reading a configuration does not import it.
 """
 
 from __future__ import annotations
@@ -11,24 +11,22 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, ClassVar, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from spark_bench.data.images import RENDER_TOLERANCE, image_rgb
 from spark_bench.errors import InputError
-from spark_bench.methods.ours.assemble import assemble_asset
-from spark_bench.methods.ours.stages.base import VLM_SETTINGS, CaseRun, Registry, Section, StageBackend
+from spark_bench.methods.ours.stages.base import CaseRun, PipelineConfig, Registry, Section, StageBackend
 from spark_bench.methods.ours.stages.geometry import GEOMETRY_BACKENDS
-from spark_bench.methods.ours.vlm import request_structure
+from spark_bench.methods.ours.stages.refinements import REFINEMENTS
 
 if TYPE_CHECKING:
     from spark_bench.asset.model import ArticulatedAsset
     from spark_bench.methods.ours.camera import Camera
-    from spark_bench.methods.ours.config import SparkConfig
     from spark_bench.methods.ours.geometry import PartGeometry
+    from spark_bench.methods.ours.hypothesis import Hypothesis
     from spark_bench.methods.ours.open_state import OpenState
-    from spark_bench.methods.ours.optimize import Hypothesis
     from spark_bench.methods.ours.structure import PriorStructure
 
 
@@ -51,7 +49,7 @@ class JointOptimizer(StageBackend):
 
     reads = frozenset({"camera"})
 
-    def fits_part_masks(self, config: SparkConfig) -> bool:
+    def fits_part_masks(self, config: PipelineConfig) -> bool:
         """Whether, with ``config``, it fits the open state's per-link masks where they are at hand
         (default: no, it fits the whole silhouette).
 
@@ -73,74 +71,8 @@ class JointOptimizer(StageBackend):
         raise NotImplementedError
 
 
-class Refinement(StageBackend):
-    """A type/axis refinement of the ``native`` method; its label is the ``opt=`` of the label.
-
-    :attr searches: the native fit runs its offline type/axis search
-        (:class:`~spark_bench.methods.ours.refine.RefineSettings` ``refine_discrete``)
-    """
-
-    searches: ClassVar[bool] = False
-
-    def start(self, run: CaseRun, prior: PriorStructure, prior_asset: ArticulatedAsset,
-              geometry: PartGeometry) -> ArticulatedAsset:
-        """The object the fit starts from (default: the prior's).
-
-        :param run: the case and the configuration
-        :param prior: the structure prior
-        :param prior_asset: the prior assembled with the part geometry
-        :param geometry: the part geometry
-        """
-        return prior_asset
-
-
 #: The joint-optimization methods by name.
 OPTIMIZERS: Registry[JointOptimizer] = Registry("optimize.method")
-#: The ``native`` method's refinements by name.
-REFINEMENTS: Registry[Refinement] = Registry("optimize.refine")
-
-
-@REFINEMENTS.register
-class RenderSearch(Refinement):
-    """The offline search: every candidate of the canonical dictionary rendered and scored
-    (:mod:`spark_bench.methods.ours.refine`), then the continuous fit."""
-
-    name = "render"
-    searches = True
-
-    def label(self, config: SparkConfig) -> str:
-        return "native"
-
-
-@REFINEMENTS.register
-class VLMRefinement(Refinement):
-    """The paper's second query: the VLM re-predicts type and axis given the coarse URDF, then the
-    continuous fit."""
-
-    name = "vlm"
-
-    def label(self, config: SparkConfig) -> str:
-        return "native+vlm"
-
-    def settings(self, config: SparkConfig) -> list[Section]:
-        return [VLM_SETTINGS]
-
-    def start(self, run: CaseRun, prior: PriorStructure, prior_asset: ArticulatedAsset,
-              geometry: PartGeometry) -> ArticulatedAsset:
-        with run.timer("vlm_refine"):
-            reprior, _ = request_structure(run.config.vlm, run.input_png(), geometry.names, geometry.labels,
-                                           refine_from=prior)
-            return assemble_asset(reprior, geometry, name=prior_asset.name, category=prior_asset.category)
-
-
-@REFINEMENTS.register
-class NoRefinement(Refinement):
-    """No type/axis search: the continuous fit of the prior's joints only."""
-
-    name = "none"
-
-    def label(self, config: SparkConfig) -> str:
-        return "fit-only"
 
 
 @OPTIMIZERS.register
@@ -150,10 +82,10 @@ class SparkRecipe(JointOptimizer):
 
     name = "spark"
 
-    def settings(self, config: SparkConfig) -> list[Section]:
+    def settings(self, config: PipelineConfig) -> list[Section]:
         return [("optimize.spark", ())]
 
-    def validate(self, config: SparkConfig, source) -> None:
+    def validate(self, config: PipelineConfig, source) -> None:
         if config.optimize.part_masks:
             raise InputError(source, "optimize.part_masks applies to method 'native' only (SPARK's recipe "
                                      "fits the whole silhouette)")
@@ -193,19 +125,19 @@ class NativeFit(JointOptimizer):
 
     name = "native"
 
-    def case_inputs(self, config: SparkConfig) -> frozenset[str]:
+    def case_inputs(self, config: PipelineConfig) -> frozenset[str]:
         return self.reads | REFINEMENTS[config.optimize.refine].case_inputs(config)
 
-    def label(self, config: SparkConfig) -> str:
+    def label(self, config: PipelineConfig) -> str:
         return REFINEMENTS[config.optimize.refine].label(config)
 
-    def fits_part_masks(self, config: SparkConfig) -> bool:
+    def fits_part_masks(self, config: PipelineConfig) -> bool:
         return config.optimize.part_masks
 
-    def validate(self, config: SparkConfig, source) -> None:
+    def validate(self, config: PipelineConfig, source) -> None:
         REFINEMENTS[config.optimize.refine].validate(config, source)
 
-    def settings(self, config: SparkConfig) -> list[Section]:
+    def settings(self, config: PipelineConfig) -> list[Section]:
         # the label names the method, the refinement and the part masks; threads change only the time
         return [("optimize", ("enabled", "method", "spark", "refine", "part_masks", "threads")),
                 *REFINEMENTS[config.optimize.refine].settings(config)]
@@ -254,7 +186,7 @@ def hypotheses_report(hypotheses: dict[str, Hypothesis]) -> dict:
             for n, h in hypotheses.items()}
 
 
-def fitted_part_masks(config: SparkConfig, open_state: OpenState, geometry: PartGeometry,
+def fitted_part_masks(config: PipelineConfig, open_state: OpenState, geometry: PartGeometry,
                       asset: ArticulatedAsset) -> dict | None:
     """The open state's per-link masks as masks of the asset's parts, where the parts are the case's own
     links (a part is a group of ground-truth links, its mask the union of theirs); None otherwise or when

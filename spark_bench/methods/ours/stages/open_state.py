@@ -6,14 +6,11 @@ A new backend is one more class here, registered with ``@OPEN_STATE_BACKENDS.reg
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
 from spark_bench.errors import InputError
 from spark_bench.methods.ours.open_state import OpenState, dataset_open_state, http_open_state
-from spark_bench.methods.ours.stages.base import CaseRun, Registry, StageBackend
-
-if TYPE_CHECKING:
-    from spark_bench.methods.ours.config import SparkConfig
+from spark_bench.methods.ours.stages.base import CaseRun, PipelineConfig, Registry, StageBackend
 
 
 class OpenStateBackend(StageBackend):
@@ -45,7 +42,7 @@ class DatasetOpenState(OpenStateBackend):
     name = "dataset"
     part_masks = True
 
-    def case_inputs(self, config: SparkConfig) -> frozenset[str]:
+    def case_inputs(self, config: PipelineConfig) -> frozenset[str]:
         return frozenset({"open_image", "open_masks"} if config.uses_part_masks() else {"open_image"})
 
     def run(self, run: CaseRun) -> OpenState:
@@ -59,10 +56,10 @@ class HttpOpenState(OpenStateBackend):
 
     name = "http"
 
-    def label(self, config: SparkConfig) -> str:
+    def label(self, config: PipelineConfig) -> str:
         return f"http:{config.open_state.model}" if config.open_state.model else self.name
 
-    def validate(self, config: SparkConfig, source) -> None:
+    def validate(self, config: PipelineConfig, source) -> None:
         if not config.open_state.url:
             raise InputError(source, "open_state.backend = 'http' needs open_state.url")
 

@@ -13,13 +13,19 @@ from spark_bench.errors import InputError
 from spark_bench.methods.ours.camera import load_camera_pose
 from spark_bench.methods.ours.prior import annotation_prior, camera_axis_frame, file_prior_with_frame
 from spark_bench.methods.ours.retrieved import retrieval_prior
-from spark_bench.methods.ours.stages.base import VLM_SETTINGS, CaseRun, Registry, Section, StageBackend
+from spark_bench.methods.ours.stages.base import (
+    VLM_SETTINGS,
+    CaseRun,
+    PipelineConfig,
+    Registry,
+    Section,
+    StageBackend,
+)
 from spark_bench.methods.ours.stages.geometry import GEOMETRY_BACKENDS
 from spark_bench.methods.ours.structure import PriorStructure
 from spark_bench.methods.ours.vlm import request_structure
 
 if TYPE_CHECKING:
-    from spark_bench.methods.ours.config import SparkConfig
     from spark_bench.methods.ours.geometry import PartGeometry
 
 
@@ -66,7 +72,7 @@ class AnnotationPrior(PriorBackend):
     simulated_as = "gt structure (simulated prior)"
     uses_gt_object = True
 
-    def settings(self, config: SparkConfig) -> list[Section]:
+    def settings(self, config: PipelineConfig) -> list[Section]:
         return [("prior.noise", ())]
 
     def run(self, run: CaseRun, geometry: PartGeometry | None) -> PriorAnswer:
@@ -82,10 +88,10 @@ class VLMPrior(PriorBackend):
 
     name = "vlm"
 
-    def label(self, config: SparkConfig) -> str:
+    def label(self, config: PipelineConfig) -> str:
         return f"vlm:{config.vlm.model}"
 
-    def settings(self, config: SparkConfig) -> list[Section]:
+    def settings(self, config: PipelineConfig) -> list[Section]:
         return [VLM_SETTINGS]
 
     def run(self, run: CaseRun, geometry: PartGeometry | None) -> PriorAnswer:
@@ -102,10 +108,10 @@ class FilePrior(PriorBackend):
 
     name = "file"
 
-    def settings(self, config: SparkConfig) -> list[Section]:
+    def settings(self, config: PipelineConfig) -> list[Section]:
         return [("prior", ("backend", "noise"))]
 
-    def validate(self, config: SparkConfig, source) -> None:
+    def validate(self, config: PipelineConfig, source) -> None:
         if not config.prior.file_dir:
             raise InputError(source, "prior.backend = 'file' needs prior.file_dir")
 
@@ -124,7 +130,7 @@ class RetrievalPrior(PriorBackend):
     reads = frozenset({"camera"})
     retrieves = True
 
-    def validate(self, config: SparkConfig, source) -> None:
+    def validate(self, config: PipelineConfig, source) -> None:
         if GEOMETRY_BACKENDS[config.geometry.backend].ground_truth_parts:
             names = GEOMETRY_BACKENDS.names()
             fitting = [n for n in names if GEOMETRY_BACKENDS[n].retrieves]

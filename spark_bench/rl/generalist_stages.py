@@ -1,11 +1,13 @@
-"""Training a generalist opening policy (``benchmarks/train_generalist.py`` runs it and ships the result).
+"""The stages that train one generalist opening policy (:mod:`spark_bench.rl.generalist_recipe` runs them for
+every kind and ships the result).
 
 One policy kind (``drawer`` or ``door``) at a time, in three stages, each scored on validation tasks
 (synth seeds of their own, never the test seeds) so that the learning curve covers the whole run:
 
 1. **demonstrations + behaviour cloning**: the scripted opener with the ground-truth joint on the training
-   tasks it solves, with noise on the executed motion (:func:`~imitation.collect_demos`);
-   the PPO policy's mean action is fitted to them (:func:`~imitation.clone`);
+   tasks it solves, with noise on the executed motion
+   (:func:`~spark_bench.rl.imitation.collect_demos`); the PPO policy's mean action is fitted to them
+   (:func:`~spark_bench.rl.imitation.clone`);
 2. **DAgger**: rounds in which the policy acts on a share of the steps and the teacher labels every state;
 3. **PPO** (stable-baselines3) on every training task of the kind (the teacher's failures included): the
    value network first learns alone (the policy frozen) for ``warmup_steps``, then both.
@@ -22,9 +24,8 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 
-from imitation import clone, collect_demos
-
 from spark_bench.rl.generalist import FRAME_NOISE, GraspFrameWrapper
+from spark_bench.rl.imitation import clone, collect_demos
 from spark_bench.rl.policies import fused_adam
 from spark_bench.rl.tasks import BuiltTask, evaluate, success_rate
 
@@ -91,6 +92,7 @@ class KindResult:
     demos: dict = field(default_factory=dict)
 
     def curve_dicts(self) -> list[dict]:
+        """The learning curve as plain dicts (the record's ``curve``)."""
         return [asdict(r) for r in self.curve]
 
 
@@ -124,6 +126,7 @@ def new_model(vec, seed: int = 0):
 
 
 def _actor_parameters(model):
+    """The parameters of ``model``'s policy network and action head (frozen while the value network warms up)."""
     return [p for name, p in model.policy.named_parameters()
             if name.startswith(("mlp_extractor.policy_net", "action_net", "log_std"))]
 
@@ -182,12 +185,19 @@ def train_kind(train: list[BuiltTask], teacher_solved: set[str], val: list[Built
 
 
 def _ppo(result: KindResult, settings: StageSettings, steps: dict, point: Callable, t0: float) -> None:
+    """Stage 3: PPO on ``result.model`` in place, the value network first alone, within the wall-time limit.
+
+    :param steps: the step counts so far (``ppo`` updated as it goes)
+    :param point: adds a point to the learning curve (validation success) given the stage's name
+    """
     from stable_baselines3.common.callbacks import BaseCallback
 
     model = result.model
     deadline = None if settings.ppo_max_wall_s is None else time.perf_counter() + settings.ppo_max_wall_s
 
     class Every(BaseCallback):
+        """A point of the curve every ``eval_every`` PPO steps; stops learning at the deadline."""
+
         def __init__(self, start: int):
             super().__init__()
             self.start, self.next = start, start + settings.eval_every

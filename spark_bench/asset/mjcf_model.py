@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
+from spark_bench.asset.model import ArticulatedAsset, Collision, Joint, Link, Visual
 from spark_bench.errors import InputError
 
 #: MuJoCo's viewer shows geom groups 0, 1 and 2 and hides 3 to 5 (``mjvOption.geomgroup``); robot
@@ -40,12 +40,15 @@ class Compiled:
     :param data: its ``MjData`` after ``mj_forward`` at ``qpos0``
     :param degree: whether the model declares its angles in degrees (``compiler angle``)
     :param eulerseq: ``compiler eulerseq``
+    :param collides: per geom, whether the file lets it collide (``contype`` or ``conaffinity`` non-zero:
+        MuJoCo simulates it), as written, before :func:`for_kinematics` turned every geom off
     """
 
     model: object
     data: object
     degree: bool
     eulerseq: str
+    collides: np.ndarray | None = None
 
 
 @dataclass
@@ -159,6 +162,7 @@ def compile_model(path: Path) -> Compiled:
     check_angle_unit(spec, path, mujoco)
     degree, eulerseq = bool(spec.compiler.degree), "".join(spec.compiler.eulerseq)
     files = mesh_files(spec)
+    written = [(geom, bool(geom.contype or geom.conaffinity)) for geom in spec.geoms]
     for_kinematics(spec, mujoco)
     try:
         model = spec.compile()
@@ -166,7 +170,10 @@ def compile_model(path: Path) -> Compiled:
         raise InputError(path, f"MuJoCo cannot compile it: {compile_error(exc, files)}") from None
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    compiled = Compiled(model, data, degree, eulerseq)
+    collides = np.zeros(model.ngeom, dtype=bool)
+    for geom, flag in written:
+        collides[geom.id] = flag
+    compiled = Compiled(model, data, degree, eulerseq, collides)
     check_finite(compiled, path)
     return compiled
 
@@ -253,6 +260,32 @@ def visual_geometry(compiled: Compiled, run_dir: Path) -> BodyGeometry:
     return out
 
 
+def collision_shapes(compiled: Compiled) -> dict[int, list[Collision]]:
+    """Every body's colliding geoms (:attr:`Compiled.collides`) in the world frame at rest, as MuJoCo simulates
+    them: a box, sphere or cylinder as that primitive, a mesh as its convex hull (MuJoCo collides with a
+    mesh's hull), a capsule or ellipsoid as a convex mesh; planes and height fields (a floor) left out."""
+    from spark_bench.mujoco_gl import mujoco_module
+
+    mujoco = mujoco_module()
+    model, data, out = compiled.model, compiled.data, {}
+    kinds = {int(mujoco.mjtGeom.mjGEOM_BOX): "box", int(mujoco.mjtGeom.mjGEOM_SPHERE): "sphere",
+             int(mujoco.mjtGeom.mjGEOM_CYLINDER): "cylinder"}
+    for g in np.flatnonzero(compiled.collides if compiled.collides is not None else []):
+        size = np.asarray(model.geom_size[g], dtype=float)
+        world = pose(np.asarray(data.geom_xmat[g], dtype=float).reshape(3, 3), np.asarray(data.geom_xpos[g]))
+        kind = kinds.get(int(model.geom_type[g]))
+        if kind is not None:
+            full = {"box": 2.0 * size, "sphere": size[:1], "cylinder": np.array([size[0], 2.0 * size[1]])}[kind]
+            shape = Collision(kind, origin=world, size=full)
+        else:
+            mesh, _ = geom_mesh(compiled, int(g), Path("."), mujoco)
+            if mesh is None or len(mesh.vertices) < 4:
+                continue
+            shape = Collision("mesh", mesh=mesh.convex_hull, source=name_of(model, "geom", int(g)))
+        out.setdefault(int(model.geom_bodyid[g]), []).append(shape)
+    return out
+
+
 def kept_bodies(model, geometry: BodyGeometry) -> list[int]:
     """The bodies with a visual geom in their subtree (MuJoCo orders parents before children), the world
     first: a body without one (a site holder, a flex's nodes) would be an empty part."""
@@ -323,13 +356,17 @@ def chain(compiled: Compiled, body: int, movable: list[int], parent: tuple[str, 
     return joints, helpers, frame
 
 
-def build_asset(compiled: Compiled, geometry: BodyGeometry, name: str) -> tuple[ArticulatedAsset, list[dict]]:
+def build_asset(compiled: Compiled, geometry: BodyGeometry, name: str,
+                collisions: dict[int, list[Collision]] | None = None) -> tuple[ArticulatedAsset, list[dict]]:
     """The object: link ``base`` for MuJoCo's world body, ``link_<k>`` per other kept body (in MuJoCo's
     order), its frame the body's at rest; a body with one hinge or slide hangs from its parent's link by
     a revolute (continuous when unlimited) or prismatic joint at the joint's anchor, one with several by a
     chain of them (:func:`chain`, MuJoCo applying a body's joints in order from its parent); a body with
     no joint, a free or a ball joint is fixed at its rest pose.
 
+    :param collisions: the bodies' collision shapes in the world frame (:func:`collision_shapes`), kept in
+        their links, and the joints' damping and friction loss where the file sets them (the model as
+        written, for the sim checks); None reads the visuals and the kinematics only (an import)
     :returns: the asset and one record per body (its MuJoCo name, link, joints, what was not kept)
     """
     from spark_bench.mujoco_gl import mujoco_module
@@ -362,6 +399,12 @@ def build_asset(compiled: Compiled, geometry: BodyGeometry, name: str) -> tuple[
                                           process=False), rgba=rgba, source=source)
                    for mesh, rgba, source in geometry.meshes.get(body, [])]
         links[link] = Link(link, visuals, label=name_of(model, "body", body))
+        if collisions is not None:
+            links[link].collisions = [_moved(shape, to_link) for shape in collisions.get(body, [])]
+            for j, ours in zip(movable, hung):
+                dof = int(model.jnt_dofadr[j])
+                ours.damping = float(model.dof_damping[dof]) or None
+                ours.friction = float(model.dof_frictionloss[dof]) or None
         records.append({"body": name_of(model, "body", body), "link": link, "fixed": held, "joints": [
             {"name": name_of(model, "jnt", j), "joint": ours.name, "type": ours.type, "lower": ours.lower,
              "upper": ours.upper} for j, ours in zip(movable, hung) if ours.type != "fixed"]})
@@ -369,3 +412,12 @@ def build_asset(compiled: Compiled, geometry: BodyGeometry, name: str) -> tuple[
     if dropped:
         records.append({"dropped_bodies": dropped, "why": "no visual geom in their subtree"})
     return ArticulatedAsset(name=name, links=links, joints=joints), records
+
+
+def _moved(shape: Collision, transform: np.ndarray) -> Collision:
+    """A world-frame collision shape in the frame ``transform`` maps the world to."""
+    if shape.kind == "mesh":
+        mesh = shape.mesh.copy()
+        mesh.apply_transform(transform)
+        return Collision("mesh", mesh=mesh, source=shape.source)
+    return Collision(shape.kind, origin=transform @ shape.origin, size=shape.size, source=shape.source)

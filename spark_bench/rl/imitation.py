@@ -1,4 +1,5 @@
-"""Imitation of the scripted opener, the generalist's starting point before PPO.
+"""Imitation of the scripted opener, the generalist's starting point before PPO (the first two stages of
+:mod:`spark_bench.rl.generalist_stages`).
 
 - :func:`collect_demos`: episodes of the scripted opener with the ground-truth joint (the teacher,
   :class:`~spark_bench.rl.policies.ScriptedPolicy`), recorded in the generalist's terms (features,

@@ -2,7 +2,7 @@
 ``info.json`` scales, the median that :data:`~spark_bench.data.real_size.CATEGORY_SCALE` holds, and each
 object's largest side as its files give it and at its real size.
 
-    python benchmarks/real_size.py --src ../shared/partnet_dev --src ../shared/real_objects \\
+    python -m benchmarks.measure_real_size --src ../shared/partnet_dev --src ../shared/real_objects \\
         --out benchmarks/results/real_size.md
 """
 
@@ -28,6 +28,7 @@ def largest_side(folder: Path) -> float:
 
 
 def main() -> None:
+    """Read every object of every ``--src`` and write the table (notes below it kept)."""
     from spark_bench.data.readers import read_json
     from spark_bench.data.real_size import CATEGORY_SCALE, source_scale
 
@@ -46,7 +47,7 @@ def main() -> None:
 
     lines = [
         "# The real size of PartNet-Mobility objects (issue 23, items 2 and 5)", "",
-        f"Written by `benchmarks/real_size.py` ({time.strftime('%Y-%m-%d %H:%M')}). Rule: "
+        f"Written by `benchmarks/measure_real_size.py` ({time.strftime('%Y-%m-%d %H:%M')}). Rule: "
         "`spark_bench.data.real_size` (an object's `info.json` scale, else its category's median of them, "
         "else as read). *Largest side*: of the object's box at rest, min-max over the category's objects.", "",
         "| set | category | objects | scale (rule) | median scale | table | largest side as read (units) "

@@ -2,12 +2,14 @@
 
 The objects are split per category (``meta.json``'s ``model_cat``), each category's ids ordered by the SHA-1
 of the id and dealt alternately (the turn carried across categories), so both halves hold every category with two or more objects and no one
-chooses which object lands where. ``python benchmarks/dev_split.py [ROOT]`` prints the halves and writes
-``benchmarks/results/partnet_dev_split.json``; the measuring scripts read that file (``--half tune|holdout``).
+chooses which object lands where. ``python -m benchmarks.partnet_dev_split [ROOT]`` prints the halves and
+writes ``benchmarks/results/partnet_dev_split.json``; the measuring scripts read that file
+(:func:`read_halves`, their ``--half tune|holdout``).
 """
 
 from __future__ import annotations
 
+import argparse
 import hashlib
 import json
 import sys
@@ -49,8 +51,11 @@ def read_halves(path: Path = SPLIT_FILE) -> dict[str, list[str]]:
     return {"tune": list(data["tune"]), "holdout": list(data["holdout"])}
 
 
-def main(argv: list[str]) -> int:
-    root = Path(argv[0]) if argv else DEFAULT_DEV
+def main(argv: list[str] | None = None) -> int:
+    """Split the objects of ``ROOT`` (default ``../shared/partnet_dev``) and write the split file."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("root", type=Path, nargs="?", default=DEFAULT_DEV, help="a folder of PartNet-Mobility objects")
+    root = parser.parse_args(argv).root
     folders = sorted(p for p in root.iterdir() if (p / "mobility.urdf").is_file())
     categories = {p.name: category_of(p) for p in folders}
     halves = split_halves(categories)
@@ -63,4 +68,4 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Parity benchmarks of the papers' metric protocols (:mod:`spark_bench.metrics.protocols`)."""
