@@ -34,7 +34,7 @@ WATERTIGHT_PARTS = {
     "voxelize surface": ("spark_bench/asset/voxel.py", ("voxelize_surface",)),
     "fill": ("spark_bench/asset/voxel.py", ("fill_holes",)),
     "marching cubes": ("skimage/measure", ("marching_cubes",)),
-    "cleanup (weld, dedupe, split)": ("spark_bench/asset/mesh.py", ("_shell_cleanup", "_cleanup", "_vertex_spacing")),
+    "cleanup (weld, dedupe, split)": ("spark_bench/asset/mesh.py", ("shell_cleanup", "cleanup_with_watertight", "vertex_spacing")),
     "orientation (signed volume)": ("spark_bench/asset/mesh.py", ("signed_volume",)),
 }
 

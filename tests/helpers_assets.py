@@ -2,18 +2,15 @@
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-import trimesh
+from helpers_boxes import box_mesh, box_visual
 
 from spark_bench.asset.model import ArticulatedAsset, Collision, Joint, Link, Visual
 from spark_bench.asset.transforms import make_transform
-
-
-def box_visual(extents, center=(0.0, 0.0, 0.0), rgba=(0.6, 0.5, 0.4, 1.0)) -> Visual:
-    mesh = trimesh.creation.box(extents=extents, transform=make_transform(translation=center))
-    return Visual(mesh=mesh, rgba=rgba)
 
 
 def tiny_cabinet() -> ArticulatedAsset:
@@ -36,6 +33,47 @@ def tiny_cabinet() -> ArticulatedAsset:
     }
     links = {link.name: link for link in (base, body, drawer, door)}
     return ArticulatedAsset("tiny_cabinet", links, joints, category="StorageFurniture")
+
+
+def box_cabinet(door_pivot: Sequence[float] = (-0.9, -0.5, 0.0), door_axis: Sequence[float] = (0.0, 0.0, 1.0),
+                door_type: str = "revolute", drawer_axis: Sequence[float] = (-1.0, 0.0, 0.0),
+                drawer_type: str = "prismatic", door_offset: float = 0.0, handle: bool = False,
+                with_drawer: bool = True, annotate: bool = False) -> ArticulatedAsset:
+    """A 2x2x2 box (so the benchmark frame is the world frame) with, inside it, a door plate in the plane
+    x = -0.9 hinged on a vertical axis at ``door_pivot`` and a drawer box sliding along -x (the metrics'
+    hand-worked cabinet). Links ``base``, ``door``, [``handle``], [``drawer``], in that order.
+
+    :param door_pivot: a point of the door's joint line
+    :param door_axis: the door's joint direction
+    :param door_type: the door's joint type
+    :param drawer_axis: the drawer's joint direction
+    :param drawer_type: the drawer's joint type
+    :param door_offset: the door plate's x offset from its link frame
+    :param handle: a handle link fixed to the door (joint ``handle_joint``)
+    :param with_drawer: the drawer and its joint are there
+    :param annotate: GAPartNet classes on the door, the handle and the drawer (the handle's never a joint's)
+    """
+    links = {"base": Link("base", [Visual(box_mesh((2.0, 2.0, 2.0)))]),
+             "door": Link("door", [Visual(box_mesh((0.0, 1.0, 1.6), (door_offset, 0.5, 0.0)))])}
+    joints = {"door_joint": Joint("door_joint", door_type, "base", "door",
+                                  make_transform(translation=door_pivot), np.asarray(door_axis, float), 0.0,
+                                  math.pi / 2)}
+    if handle:
+        links["handle"] = Link("handle", [Visual(box_mesh((0.05, 0.05, 0.3), (-0.05, 0.8, 0.0)))])
+        joints["handle_joint"] = Joint("handle_joint", "fixed", "door", "handle", np.eye(4),
+                                       np.array([1.0, 0.0, 0.0]), 0.0, 0.0)
+    if with_drawer:
+        links["drawer"] = Link("drawer", [Visual(box_mesh((0.6, 0.6, 0.3), (0.3, 0.0, 0.0)))])
+        joints["drawer_joint"] = Joint("drawer_joint", drawer_type, "base", "drawer",
+                                       make_transform(translation=(-0.5, 0.2, 0.5)),
+                                       np.asarray(drawer_axis, float), 0.0, 0.4)
+    if annotate:
+        links["door"].annotations = {"is_gapart": True, "category": "hinge_door"}
+        if handle:
+            links["handle"].annotations = {"is_gapart": True, "category": "line_fixed_handle"}
+        if with_drawer:
+            links["drawer"].annotations = {"is_gapart": True, "category": "slider_drawer"}
+    return ArticulatedAsset("cabinet", links, joints, source="cabinet")
 
 
 def object_with_door_meshes(folder: Path, files: dict[str, bytes | None], collisions: bool = False) -> Path:

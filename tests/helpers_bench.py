@@ -4,12 +4,14 @@ the eval options the tests run it with."""
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable
 from pathlib import Path
 
 from spark_bench.asset import normalize_asset, write_object_folder
 from spark_bench.data.case import Benchmark
 from spark_bench.envs.cabinet import procedural_cabinet
 from spark_bench.evaluation.runner import EvalOptions
+from spark_bench.methods.base import CaseInput
 
 #: Eval options of the tests: no sim stages, few samples (the numbers the tests check are exact or loose).
 FAST = EvalOptions(sim=False, n_samples=5000)
@@ -48,6 +50,16 @@ def make_tiny_bench(root: Path, n: int = 3, name: str = "tiny") -> Path:
     bench.write_manifest({"name": name, "convention": "spark-bench-conv-1", "cases": ids, "failed": {},
                           "created": 0})
     return bench.folder
+
+
+def case_input(bench: Path, inputs: Iterable[str], case_id: str = "cab0") -> CaseInput:
+    """What a method is given of one case of a benchmark: the case, with the inputs ``inputs`` allowed.
+
+    :param bench: the benchmark folder
+    :param inputs: the names of the inputs allowed (``image``, ``camera``, ``part_meshes`` ...)
+    :param case_id: the case
+    """
+    return CaseInput(Benchmark(bench).case(case_id), frozenset(inputs))
 
 
 def copy_object(source: Path, target: Path) -> Path:

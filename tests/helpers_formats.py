@@ -1,4 +1,5 @@
-"""What every foreign format's tests check of a refused run: one ``InputError``, one line, naming the file."""
+"""What every foreign format's tests share: runs written from a benchmark's ground truths; what they check of
+a refused run (one ``InputError``, one line, naming the file); the comparison with the ground truth."""
 
 from __future__ import annotations
 
@@ -10,7 +11,22 @@ import numpy as np
 import pytest
 
 from spark_bench.asset.transforms import axis_angle_matrix
+from spark_bench.data.case import Benchmark
 from spark_bench.errors import InputError
+
+
+def write_runs(bench: Path, runs: Path, write_run: Callable[[Path, object], object]) -> Benchmark:
+    """One run per case of the benchmark ``bench``, in ``runs/<case id>``, written by ``write_run`` from the
+    case's ground truth. Returns the benchmark.
+
+    :param bench: the benchmark folder
+    :param runs: the folder of the runs
+    :param write_run: the format's writer, called as ``write_run(run folder, ground truth)``
+    """
+    benchmark = Benchmark(bench)
+    for case in benchmark.cases():
+        write_run(runs / case.id, case.load_gt())
+    return benchmark
 
 
 def refused(read_run: Callable[[Path], object], run: Path, *words: str, file: str | None = None) -> InputError:

@@ -10,21 +10,13 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import trimesh
+from helpers_boxes import box_between
 
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.methods.ours.assemble import assemble_asset
 from spark_bench.methods.ours.camera import Camera, look_at_camera
 from spark_bench.methods.ours.geometry import PartGeometry
 from spark_bench.methods.ours.structure import OBJECT_TO_WORLD, PriorJoint, PriorLink, PriorStructure
-
-
-def _box(lo, hi) -> trimesh.Trimesh:
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    box = trimesh.creation.box(extents=hi - lo)
-    box.apply_translation((lo + hi) / 2)
-    box.apply_transform(np.block([[OBJECT_TO_WORLD, np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]]))
-    return box
 
 
 def toy_cabinet(door_angle: float = 1.2, drawer_travel: float = 0.45) -> ArticulatedAsset:
@@ -35,9 +27,9 @@ def toy_cabinet(door_angle: float = 1.2, drawer_travel: float = 0.45) -> Articul
     """
     geometry = PartGeometry(
         meshes={
-            "body": _box((-0.6, -1.0, -0.5), (0.6, 1.0, 0.4)),
-            "door": _box((-0.6, -0.1, 0.4), (0.6, 1.0, 0.47)),
-            "drawer": _box((-0.55, -0.95, -0.4), (0.55, -0.2, 0.47)),
+            "body": box_between((-0.6, -1.0, -0.5), (0.6, 1.0, 0.4), OBJECT_TO_WORLD),
+            "door": box_between((-0.6, -0.1, 0.4), (0.6, 1.0, 0.47), OBJECT_TO_WORLD),
+            "drawer": box_between((-0.55, -0.95, -0.4), (0.55, -0.2, 0.47), OBJECT_TO_WORLD),
         },
         labels={"body": "body", "door": "door", "drawer": "drawer"},
         source="toy",

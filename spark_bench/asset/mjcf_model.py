@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset, Collision, Joint, Link, Visual
 from spark_bench.errors import InputError
 
@@ -308,7 +309,7 @@ def joint_limits(compiled: Compiled, j: int, kind: str) -> tuple[float, float, b
     """``(lower, upper, has_limits)`` of joint ``j`` about its rest value ``qpos0`` (its ``ref``): radians
     for a hinge (MuJoCo converted degrees), metres for a slide; an unlimited hinge is continuous."""
     model = compiled.model
-    if kind == "continuous":
+    if kind == JointType.CONTINUOUS:
         return 0.0, 2.0 * math.pi, False
     if not model.jnt_limited[j]:
         return 0.0, 0.0, False
@@ -407,7 +408,7 @@ def build_asset(compiled: Compiled, geometry: BodyGeometry, name: str,
                 ours.friction = float(model.dof_frictionloss[dof]) or None
         records.append({"body": name_of(model, "body", body), "link": link, "fixed": held, "joints": [
             {"name": name_of(model, "jnt", j), "joint": ours.name, "type": ours.type, "lower": ours.lower,
-             "upper": ours.upper} for j, ours in zip(movable, hung) if ours.type != "fixed"]})
+             "upper": ours.upper} for j, ours in zip(movable, hung) if ours.type != JointType.FIXED]})
     dropped = [name_of(model, "body", b) for b in range(1, model.nbody) if b not in set(bodies)]
     if dropped:
         records.append({"dropped_bodies": dropped, "why": "no visual geom in their subtree"})

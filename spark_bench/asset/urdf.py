@@ -28,6 +28,7 @@ import trimesh
 import yourdfpy
 from lxml import etree
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.mesh_paths import MeshPathResolver, resolver_for
 from spark_bench.asset.model import (
     DEFAULT_REVOLUTE_UPPER,
@@ -278,21 +279,21 @@ def _read_joint(urdf_path: Path, yjoint, has_axis: bool = True) -> Joint:
         raise InputError(urdf_path, f"joint {yjoint.name!r} has a NaN or infinite origin")
     axis = np.asarray(yjoint.axis if yjoint.axis is not None else [1.0, 0.0, 0.0], dtype=float)
     norm = float(np.linalg.norm(axis)) if np.all(np.isfinite(axis)) else math.nan
-    if yjoint.type != "fixed" and (not math.isfinite(norm) or norm < 1e-9):
+    if yjoint.type != JointType.FIXED and (not math.isfinite(norm) or norm < 1e-9):
         raise InputError(urdf_path, f"joint {yjoint.name!r} has a zero or NaN axis {axis.tolist()}")
-    axis = axis / norm if yjoint.type != "fixed" else (axis / norm if norm > 1e-9 else np.array([1.0, 0, 0]))
+    axis = axis / norm if yjoint.type != JointType.FIXED else (axis / norm if norm > 1e-9 else np.array([1.0, 0, 0]))
     limit = yjoint.limit
     lower = upper = None
     if limit is not None:
         lower, upper = limit.lower, limit.upper
     has_limits = lower is not None and upper is not None
-    if yjoint.type == "continuous":
+    if yjoint.type == JointType.CONTINUOUS:
         lower, upper = 0.0, 2.0 * math.pi
-    elif yjoint.type == "revolute" and not has_limits:
+    elif yjoint.type == JointType.REVOLUTE and not has_limits:
         lower, upper = (lower or 0.0), (upper if upper is not None else DEFAULT_REVOLUTE_UPPER)
-    elif yjoint.type == "prismatic" and not has_limits:
+    elif yjoint.type == JointType.PRISMATIC and not has_limits:
         lower, upper = (lower or 0.0), (upper or 0.0)
-    elif yjoint.type == "fixed":
+    elif yjoint.type == JointType.FIXED:
         lower, upper = 0.0, 0.0
     lower = _number(lower, urdf_path, f"joint {yjoint.name!r} limit lower")
     upper = _number(upper, urdf_path, f"joint {yjoint.name!r} limit upper")
@@ -303,7 +304,7 @@ def _read_joint(urdf_path: Path, yjoint, has_axis: bool = True) -> Joint:
     dyn = yjoint.dynamics
     return Joint(
         name=yjoint.name, type=yjoint.type, parent=yjoint.parent, child=yjoint.child, origin=origin,
-        axis=axis, lower=lower, upper=upper, has_limits=has_limits or yjoint.type == "fixed", has_axis=has_axis,
+        axis=axis, lower=lower, upper=upper, has_limits=has_limits or yjoint.type == JointType.FIXED, has_axis=has_axis,
         # yourdfpy leaves <dynamics> and <limit effort/velocity> as the attribute strings
         damping=_optional_number(getattr(dyn, "damping", None), urdf_path, f"joint {yjoint.name!r} damping"),
         friction=_optional_number(getattr(dyn, "friction", None), urdf_path, f"joint {yjoint.name!r} friction"),
@@ -421,7 +422,7 @@ def asset_to_robot(asset: ArticulatedAsset, mesh_dir: str = "textured_objs", fol
     yjoints = []
     for joint in asset.joints.values():
         limit = None
-        if joint.type in ("revolute", "prismatic"):
+        if joint.type in (JointType.REVOLUTE, JointType.PRISMATIC):
             limit = yourdfpy.Limit(effort=joint.effort if joint.effort is not None else 100.0,
                                    velocity=joint.velocity if joint.velocity is not None else 1.0,
                                    lower=float(joint.lower), upper=float(joint.upper))

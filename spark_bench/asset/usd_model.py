@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset, Collision, Joint, Link, Visual
 from spark_bench.errors import InputError
 
@@ -247,9 +248,9 @@ def _limits(prim, kind: str, frame: StageFrame, path: Path) -> tuple[str, float,
     """``(type, lower, upper, has_limits)`` in radians or metres."""
     from pxr import UsdPhysics
 
-    if kind == "fixed":
+    if kind == JointType.FIXED:
         return kind, 0.0, 0.0, True
-    usd = UsdPhysics.RevoluteJoint(prim) if kind == "revolute" else UsdPhysics.PrismaticJoint(prim)
+    usd = UsdPhysics.RevoluteJoint(prim) if kind == JointType.REVOLUTE else UsdPhysics.PrismaticJoint(prim)
     lower, upper = usd.GetLowerLimitAttr().Get(), usd.GetUpperLimitAttr().Get()
     bounded = lower is not None and upper is not None and math.isfinite(lower) and math.isfinite(upper)
     if not bounded:
@@ -257,12 +258,12 @@ def _limits(prim, kind: str, frame: StageFrame, path: Path) -> tuple[str, float,
         if motor:
             raise InputError(path, f"joint {prim.GetPath()} has a drive ({motor}) but no limits: a driven "
                                    "joint without range is a motor, not a part's articulation")
-        if kind == "prismatic":
+        if kind == JointType.PRISMATIC:
             raise InputError(path, f"joint {prim.GetPath()}: a prismatic joint without limits")
         return "continuous", 0.0, 2.0 * math.pi, False
     if upper < lower:
         raise InputError(path, f"joint {prim.GetPath()}: upper limit {upper} below lower {lower}")
-    scale = math.pi / 180.0 if kind == "revolute" else frame.meters
+    scale = math.pi / 180.0 if kind == JointType.REVOLUTE else frame.meters
     return kind, float(lower) * scale, float(upper) * scale, True
 
 
@@ -327,7 +328,7 @@ def read_usd(path: str | Path) -> ArticulatedAsset:
             raise InputError(path, f"body {child.GetPath()} is body1 of two joints ({first}, {prim.GetPath()}): "
                                    "not a tree")
         hanging[child.GetPath()] = (prim, parent)
-    welded = [p for p, (prim, parent) in hanging.items() if parent is None and _kind(prim, path) == "fixed"]
+    welded = [p for p, (prim, parent) in hanging.items() if parent is None and _kind(prim, path) == JointType.FIXED]
     for p in welded:  # a fixed base: the body is the articulation's root
         del hanging[p]
     world_joints = [p for p, (_, parent) in hanging.items() if parent is None]
@@ -355,7 +356,7 @@ def _assemble(path: Path, stage, frame: StageFrame, bodies: dict, names: dict, h
         for child in ready:
             prim, _ = pending.pop(child)
             joint = UsdPhysics.Joint(prim)
-            if _kind(prim, path) == "fixed":
+            if _kind(prim, path) == JointType.FIXED:
                 link_frames[child] = frame.pose(bodies[child])
             else:
                 link_frames[child] = _joint_frame(joint, 1, bodies[child], frame)
@@ -372,14 +373,14 @@ def _assemble(path: Path, stage, frame: StageFrame, bodies: dict, names: dict, h
         prim, parent = hanging[p]
         kind, lower, upper, has_limits = _limits(prim, _kind(prim, path), frame, path)
         parent_frame = link_frames[parent.GetPath()]
-        if kind == "fixed":
+        if kind == JointType.FIXED:
             origin, axis = np.linalg.inv(parent_frame) @ link_frames[p], np.array([1.0, 0, 0])
         else:
             origin = np.linalg.inv(parent_frame) @ _joint_frame(UsdPhysics.Joint(prim), 0, parent, frame)
-            token = str((UsdPhysics.RevoluteJoint if kind != "prismatic" else UsdPhysics.PrismaticJoint)(prim)
+            token = str((UsdPhysics.RevoluteJoint if kind != JointType.PRISMATIC else UsdPhysics.PrismaticJoint)(prim)
                         .GetAxisAttr().Get())
             axis = AXES[token]
-        if kind != "fixed" and has_limits and lower < 0.0 and abs(upper) <= 1e-12:
+        if kind != JointType.FIXED and has_limits and lower < 0.0 and abs(upper) <= 1e-12:
             # a range ending at 0 (Infinigen-Sim negates the range of a joint about a negative axis): the same
             # motion about the opposite axis, so that its rest (the lower limit) is the pose as authored
             axis, lower, upper = -axis, -upper, -lower

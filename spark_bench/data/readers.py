@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.asset.ops import scale_asset
 from spark_bench.asset.urdf import load_urdf
@@ -185,7 +186,7 @@ def annotated_joint(entry: dict, joint_type: str) -> tuple[np.ndarray, float, fl
     if limit.get("noLimit") or not all(isinstance(limit.get(k), (int, float)) for k in ("a", "b")):
         return None
     a, b = float(limit["a"]), float(limit["b"])
-    if joint_type == "revolute":
+    if joint_type == JointType.REVOLUTE:
         a, b = np.radians(a), np.radians(b)
     direction = direction / np.linalg.norm(direction)
     return (direction, a, b) if a <= b else (-direction, -a, -b)
@@ -205,7 +206,7 @@ def fill_unwritten_joints(asset: ArticulatedAsset, urdf: Path, annotation: Path)
     unwritten = {joint.name: {tag for tag, given in (("axis", joint.has_axis), ("limit", joint.has_limits))
                               if not given}
                  for joint in asset.joints.values()
-                 if joint.type in ("revolute", "prismatic") and not (joint.has_axis and joint.has_limits)}
+                 if joint.type in (JointType.REVOLUTE, JointType.PRISMATIC) and not (joint.has_axis and joint.has_limits)}
     if not unwritten:
         return []
     entries = read_json(annotation, None) if annotation.is_file() else None

@@ -33,7 +33,7 @@ from pathlib import Path
 SIZE_ANNOTATION = "info.json"
 #: What marks a PartNet-Mobility folder: the dataset's own joint annotation.
 PARTNET_MOBILITY_MARK = "mobility_v2.json"
-#: Median of partnet_dev's ``info.json`` scales per category (all 75 objects; ``benchmarks/real_size.py``
+#: Median of partnet_dev's ``info.json`` scales per category (all 75 objects; ``benchmarks/measure_real_size.py``
 #: prints the table from a folder of annotated objects). Rule 2 of the module docstring.
 CATEGORY_SCALE: dict[str, float] = {
     "Box": 0.2, "Bucket": 0.18, "CoffeeMachine": 0.2, "Faucet": 0.2, "Microwave": 0.3, "Safe": 0.35,

@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 
 import gymnasium as gym
@@ -39,6 +40,19 @@ OBSERVATIONS = ("basic", "frame")
 JOINT_TYPES = (JointType.PRISMATIC, JointType.REVOLUTE, JointType.CONTINUOUS)
 #: Every observation entry is clipped to [-OBS_BOUND, OBS_BOUND] (positions in m, velocities in m/s).
 OBS_BOUND = 10.0
+#: The success rules an environment can report as ``is_success`` (both are in every ``info``): ``spark``,
+#: the joint past ``target_fraction`` of its range; ``maniskill``, ManiSkill3's: past it **and** the joint's
+#: link nearly still (:data:`MANISKILL_MAX_ANGULAR_SPEED`, :data:`MANISKILL_MAX_LINEAR_SPEED`).
+SUCCESS_RULES = ("spark", "maniskill")
+#: ManiSkill3's stillness limits, from ``OpenCabinetDrawerEnv.evaluate`` in
+#: ``mani_skill/envs/tasks/mobile_manipulation/open_cabinet_drawer.py`` (haosulab/ManiSkill @ 01ac4c4e; its
+#: ``OpenCabinetDoorEnv`` inherits the rule): ``link_is_static`` = ``norm(handle_link.angular_velocity) <= 1``
+#: and ``norm(handle_link.linear_velocity) <= 0.1``, the handle link being the link the target joint moves
+#: and its velocities SAPIEN's rigid-body ones (world frame, the link's centre of mass); ``open_enough`` =
+#: ``qpos >= qmin + (qmax - qmin) * min_open_frac`` with ``min_open_frac = 0.75`` (its docstring says 90 %,
+#: its code 0.75), this environment's default ``target_fraction``. rad/s and m/s.
+MANISKILL_MAX_ANGULAR_SPEED = 1.0
+MANISKILL_MAX_LINEAR_SPEED = 0.1
 
 
 @lru_cache(maxsize=16)
@@ -86,6 +100,10 @@ class SparkArticulationEnv(gym.Env):
         part's front face, :mod:`spark_bench.opening.planning.suction`) or ``auto`` (the cup where the grasp planner finds
         nothing to pinch, the gripper everywhere else); the one chosen is ``self.end_effector`` and every
         step's ``info["end_effector"]``
+    :param success_rule: what ``info["is_success"]``, the ``success`` reward term and the sparse reward follow
+        (:data:`SUCCESS_RULES`): ``spark`` (the default: the joint past ``target_fraction``) or ``maniskill``
+        (ManiSkill3's: past it and the joint's link nearly still, :meth:`evaluate`); every ``info`` carries
+        both as ``is_success_spark`` and ``is_success_maniskill``
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": int(round(1.0 / (N_SUBSTEPS * TIMESTEP)))}
@@ -94,7 +112,7 @@ class SparkArticulationEnv(gym.Env):
     def __init__(self, asset: AssetLike = None, joint: str | None = None, target_fraction: float = 0.75,
                  reward_type: str = "dense", render_mode: str | None = None, width: int = 480,
                  height: int = 360, seed: int | None = None, observation: str = "basic",
-                 joint_estimate: tuple | None = None, end_effector: str = "gripper"):
+                 joint_estimate: tuple | None = None, end_effector: str = "gripper", success_rule: str = "spark"):
         if not 0.0 < target_fraction <= 1.0:
             raise ValueError(f"target_fraction must be in (0, 1], got {target_fraction}")
         if reward_type not in ("dense", "sparse"):
@@ -103,6 +121,9 @@ class SparkArticulationEnv(gym.Env):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         if observation not in OBSERVATIONS:
             raise ValueError(f"observation must be one of {OBSERVATIONS}, got {observation!r}")
+        if success_rule not in SUCCESS_RULES:
+            raise ValueError(f"success_rule must be one of {SUCCESS_RULES}, got {success_rule!r}")
+        self.success_rule = success_rule
         self.scene = make_scene(asset, self.joint_kind, joint, visuals=render_mode is not None,
                                 end_effector=end_effector)
         self.end_effector = self.scene.end_effector
@@ -145,6 +166,7 @@ class SparkArticulationEnv(gym.Env):
             self._touch = np.array([m.sensor_adr[m.sensor(n).id] for n in g.touch_sensors])
         jid = m.joint(self.scene.joint.name).id
         self._joint_q, self._joint_v = m.jnt_qposadr[jid], m.jnt_dofadr[jid]
+        self._link = int(m.jnt_bodyid[jid])  # ManiSkill's "handle link": the body the joint moves
         self._rest, self._open = self.scene.joint_range
         self._span = self._open - self._rest
         self._body = m.body(self.scene.grasp_body).id
@@ -246,6 +268,30 @@ class SparkArticulationEnv(gym.Env):
         out[OBS.APPROACH_GRIP] = self._approach_grip
         out[OBS.PRESS] = rot @ self._press_local
 
+    def link_speeds(self) -> tuple[float, float]:
+        """``(angular, linear)``: the speeds (rad/s, m/s) of the body the joint moves, at its centre of mass in
+        the world frame (what ManiSkill3's stillness test reads from SAPIEN), from the last computed
+        kinematics (after a step, those of its last physics substep's start, 4 ms earlier)."""
+        velocity = np.empty(6)
+        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_BODY, self._link, velocity, 0)
+        return math.hypot(*velocity[:3]), math.hypot(*velocity[3:])  # hypot: np.linalg.norm costs 3 us
+
+    def evaluate(self) -> dict[str, bool | float]:
+        """Both success rules at the current state: ``is_success_spark`` (the joint past ``target_fraction``
+        of its range), ``is_success_maniskill`` (ManiSkill3's ``OpenCabinetDrawerEnv.evaluate``: past it and
+        the joint's link at most :data:`MANISKILL_MAX_ANGULAR_SPEED` rad/s and :data:`MANISKILL_MAX_LINEAR_SPEED`
+        m/s, :meth:`link_speeds`), and the speeds themselves (``link_angular_speed``, ``link_linear_speed``).
+        """
+        fraction = np.float32((self.data.qpos[self._joint_q] - self._rest) / self._span)  # as the observation
+        return self._rules(bool(fraction >= self.target_fraction))
+
+    def _rules(self, spark: bool) -> dict[str, bool | float]:
+        """:meth:`evaluate`'s entries, given whether the joint is past ``target_fraction``."""
+        angular, linear = self.link_speeds()
+        still = angular <= MANISKILL_MAX_ANGULAR_SPEED and linear <= MANISKILL_MAX_LINEAR_SPEED
+        return {"is_success_spark": spark, "is_success_maniskill": spark and still,
+                "link_angular_speed": angular, "link_linear_speed": linear}
+
     def _reward_terms(self, obs: np.ndarray) -> dict[str, float]:
         dist = float(obs[OBS.GRASP_DISTANCE])
         reach = 1.0 - np.tanh(10.0 * dist)
@@ -253,7 +299,12 @@ class SparkArticulationEnv(gym.Env):
         fraction = obs[OBS.JOINT_FRACTION]
         progress = float(min(max(fraction / self.target_fraction, 0.0), 1.0))  # np.clip costs 3 us on a scalar
         success = float(fraction >= self.target_fraction)
-        return {"reach": float(reach), "grasp": grasped, "progress": progress, "success": success}
+        terms = {"reach": float(reach), "grasp": grasped, "progress": progress, "success": success}
+        rules = self._rules(bool(success))
+        if self.success_rule == "maniskill":
+            terms["success"] = float(rules["is_success_maniskill"])
+        terms.update(rules)
+        return terms
 
     def _reward(self, terms: dict[str, float]) -> float:
         if self.reward_type == "sparse":

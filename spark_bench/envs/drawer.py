@@ -94,11 +94,22 @@ class SparkDrawerEnv(SparkArticulationEnv):
 
     **Arguments**: ``gymnasium.make("SparkDrawer-v0", asset=None, joint=None, target_fraction=0.75,
     reward_type="dense", render_mode=None, max_episode_steps=100, seed=None,
-    observation="basic", joint_estimate=None, end_effector="gripper")``; see
+    observation="basic", joint_estimate=None, end_effector="gripper", success_rule="spark")``; see
     :class:`~spark_bench.envs.base.SparkArticulationEnv`. A joint that does not exist, or an asset with
     no prismatic joint, raises :class:`~spark_bench.errors.InputError` at ``make``.
 
-    **Info**: ``reach``, ``grasp``, ``progress``, ``success`` (the reward terms) and ``is_success``.
+    **Success rules** (``success_rule=``): ``"spark"`` (the default) counts the drawer open once it passes
+    ``target_fraction`` of its range; ``"maniskill"`` is ManiSkill3's rule (``OpenCabinetDrawerEnv.evaluate``,
+    which its door task inherits): past ``target_fraction`` (0.75, ManiSkill's ``min_open_frac``) **and** the
+    drawer's link nearly still, its angular speed at most 1 rad/s and its centre of mass's speed at most 0.1 m/s
+    (world frame). The rule chosen drives ``info["is_success"]``, the ``success`` reward term and the sparse
+    reward; every ``info`` carries both rules, ``is_success_spark`` and ``is_success_maniskill``, and the
+    link's speeds (``link_angular_speed``, ``link_linear_speed``); ``env.unwrapped.evaluate()`` gives them at
+    the current state.
+
+    **Info**: ``reach``, ``grasp``, ``progress``, ``success`` (the reward terms), ``is_success`` (the chosen
+    rule), ``is_success_spark``, ``is_success_maniskill``, ``link_angular_speed``, ``link_linear_speed`` and
+    ``end_effector``.
     """
 
     joint_kind = "prismatic"

@@ -180,7 +180,7 @@ def run_eval(spec: MethodSpec, bench: str | None = None, options: EvalOptions | 
                                 paths=shared_paths(bench_dir, Path(runs_root), spec))
                 _say(f"spark-bench: {len(tasks)} cases ran on {where}", progress)
             else:
-                note = unpinned_note()
+                note = unpinned_note() if tasks else None
                 if note:
                     _say(note, True)
                 run_local(tasks, evaluate_case, failed_rows, workers, on_rows)

@@ -64,6 +64,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import DEFAULT_REVOLUTE_UPPER, ArticulatedAsset, Joint, Link, Visual
 from spark_bench.data.readers import read_json
 from spark_bench.errors import InputError
@@ -149,7 +150,7 @@ def read_entry(item, index: int, path: Path) -> Entry:
     if "limit" in data:
         raise InputError(path, f"part {name!r}: jointData has a limit: Articulate AnyMesh writes none "
                                "(joint_estimation.py get_mobility_json); PartNet-Mobility's are in degrees")
-    if kind == "fixed":
+    if kind == JointType.FIXED:
         return Entry(name, parent, kind)
     origin, direction = axis_line(data.get("axis"), path, f"part {name!r}: {kind} joint (jointData)")
     return Entry(name, parent, kind, origin, direction)
@@ -253,7 +254,7 @@ def build_asset(entries: list[Entry], meshes: dict[str, tuple[trimesh.Trimesh, t
         link = link_of[entry.name]
         if entry.parent is None:
             position[entry.name] = np.zeros(3)
-        elif entry.type == "fixed":
+        elif entry.type == JointType.FIXED:
             position[entry.name] = position[entry.parent]
         else:
             position[entry.name] = Y_UP_TO_OURS @ entry.origin
@@ -297,6 +298,6 @@ def read_run(run_dir: Path) -> ForeignObject:
               "parts": [{"name": e.name, "parent": e.parent, "joint": e.type,
                          "link": "base" if e.parent is None else f"link_{k}"} for k, e in enumerate(entries)],
               "limits": {kind: {"lower": lo, "upper": hi, "given_by": "spark-bench (the format has none)"}
-                         for kind, (lo, hi, _) in LIMITS.items() if kind != "fixed"},
+                         for kind, (lo, hi, _) in LIMITS.items() if kind != JointType.FIXED},
               "not_read": [f"{MESH_DIR}/{n} (no part of mobility.json names it)" for n in unlisted]}
     return ForeignObject(asset, record, articulated=True, open_questions=("yaw", "scale", "front"))

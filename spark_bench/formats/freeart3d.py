@@ -59,6 +59,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
 from spark_bench.asset.transforms import axis_angle_matrix
 from spark_bench.data.readers import read_json
@@ -147,7 +148,7 @@ def read_joint(entry, index: int, path: Path) -> PartJoint:
         raise InputError(path, f"joint {index}: range {span!r} is not finite")
     if abs(lo) > RANGE_TOL:
         raise InputError(path, f"joint {index}: range starts at {lo}, not 0 (recon writes [0, transform_scale])")
-    if kind == "revolute" and abs(hi) > 2 * math.pi + 1e-9:
+    if kind == JointType.REVOLUTE and abs(hi) > 2 * math.pi + 1e-9:
         raise InputError(path, f"joint {index}: revolute range {hi} is beyond 2 pi: FreeArt3D writes radians "
                                "(looks like degrees)")
     origin, direction = axis_line(entry.get("axis"), path, f"joint {index}:")
@@ -181,7 +182,7 @@ def load_part(path: Path, what: str) -> trimesh.Trimesh:
 
 def closed_part(mesh: trimesh.Trimesh, joint: PartJoint) -> tuple[trimesh.Trimesh, np.ndarray]:
     """``(the part moved from the written (open) state to the closed one, the axis that opens it)``."""
-    if joint.type == "revolute":
+    if joint.type == JointType.REVOLUTE:
         rotation = axis_angle_matrix(joint.direction, joint.scale)
         vertices = (mesh.vertices - joint.origin) @ rotation.T + joint.origin
         axis = -math.copysign(1.0, joint.scale) * joint.direction
@@ -231,7 +232,7 @@ def read_run(run_dir: Path) -> ForeignObject:
     record = {"format": FORMAT, "files": files, "facts": list(FACTS),
               "format_frame": "TRELLIS voxel frame: Z up, unit cube [-0.5, 0.5]^3 (GLB meshes Y up, turned back)",
               "joints": [{"index": i, "type": j.type, "range_written": j.scale,
-                          "unit": "rad" if j.type == "revolute" else "TRELLIS unit cube"}
+                          "unit": "rad" if j.type == JointType.REVOLUTE else "TRELLIS unit cube"}
                          for i, j in enumerate(joints)],
               "not_read": [f"{URDF} (present; see facts)" if (run_dir / URDF).is_file() else f"{URDF} (absent)",
                            "sds_output/states/ (the same parts posed)"] + [f"{n} (no joint lists it)"

@@ -75,6 +75,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
 from spark_bench.asset.transforms import rpy_to_matrix
 from spark_bench.data.readers import read_json
@@ -249,10 +250,10 @@ def read_joint(node: dict, index: int, path: Path) -> NodeJoint:
     if abs(lo) > RANGE_TOL:
         raise InputError(path, f"node {index}: joint range starts at {lo}, not 0 (parts are written at rest, "
                                "range [0, r])")
-    if kind == "fixed":
+    if kind == JointType.FIXED:
         return NodeJoint(kind, np.zeros(3), None, 0.0)
     origin, direction = axis_line(joint.get("axis"), path, f"node {index}: {kind} joint")
-    if kind == "revolute" and abs(hi) > FULL_TURN_DEG + 1e-6:
+    if kind == JointType.REVOLUTE and abs(hi) > FULL_TURN_DEG + 1e-6:
         raise InputError(path, f"node {index}: revolute range {hi} is beyond a full turn (degrees, at most "
                                f"{FULL_TURN_DEG:g})")
     return NodeJoint(kind, origin, direction, hi)
@@ -263,7 +264,7 @@ def check_degrees(joints: dict[int, NodeJoint], path: Path) -> None:
 
     :raises InputError: naming the nodes
     """
-    turning = {i: j.amount for i, j in joints.items() if j.type == "revolute" and abs(j.amount) > RANGE_TOL}
+    turning = {i: j.amount for i, j in joints.items() if j.type == JointType.REVOLUTE and abs(j.amount) > RANGE_TOL}
     if turning and all(abs(a) <= 2 * math.pi + 1e-9 for a in turning.values()):
         listed = ", ".join(f"node {i}: {a:g}" for i, a in sorted(turning.items()))
         raise InputError(path, f"revolute ranges look like radians ({listed}); SINGAPO writes degrees "
@@ -322,18 +323,18 @@ def _joints_of(index: int, nodes: list[dict], joint: NodeJoint, positions: dict[
     """The URDF joints (and helper link) that link node ``index`` to its parent, in our frame."""
     parent, name = nodes[index]["parent"], f"link_{index}"
     origin = _translation(positions[index] - positions[parent])
-    if joint.type == "fixed":
+    if joint.type == JointType.FIXED:
         return [Joint(f"joint_{index}", "fixed", f"link_{parent}", name, origin=origin)], []
     sign = -1.0 if joint.amount < 0 else 1.0  # a negative range opens the other way: same motion
     axis = sign * (RAW_TO_OURS @ joint.direction)
     amount = abs(joint.amount)
-    if joint.type == "revolute":
+    if joint.type == JointType.REVOLUTE:
         return [Joint(f"joint_{index}", "revolute", f"link_{parent}", name, origin, axis, 0.0,
                       math.radians(amount))], []
-    if joint.type == "continuous":
+    if joint.type == JointType.CONTINUOUS:
         return [Joint(f"joint_{index}", "continuous", f"link_{parent}", name, origin, axis, 0.0,
                       2 * math.pi, has_limits=False)], []
-    if joint.type == "prismatic":
+    if joint.type == JointType.PRISMATIC:
         return [Joint(f"joint_{index}", "prismatic", f"link_{parent}", name, origin, axis, 0.0, amount)], []
     helper = f"{name}_helper"  # screw: slide, then turn about the same axis
     return ([Joint(f"joint_{index}", "prismatic", f"link_{parent}", helper, origin, axis, 0.0, amount),
@@ -360,7 +361,7 @@ def build_asset(nodes: list[dict], root: int, joints: dict[int, NodeJoint],
         joint = joints.get(index)
         if index == root:
             positions[index] = np.zeros(3)
-        elif joint.type == "fixed":
+        elif joint.type == JointType.FIXED:
             positions[index] = positions[nodes[index]["parent"]]
         else:
             positions[index] = RAW_TO_OURS @ joint.origin
@@ -404,14 +405,14 @@ def read_run(run_dir: Path) -> ForeignObject:
     if root_type not in (None, "fixed"):
         facts.append({"fact": f"the root's joint ({root_type}) is ignored: the root has no parent",
                       "source": f"{SINGAPO} data/utils.py parse_tree (only the base is forced fixed)"})
-    flipped = [i for i, j in joints.items() if j.type != "fixed" and j.amount < 0]
+    flipped = [i for i, j in joints.items() if j.type != JointType.FIXED and j.amount < 0]
     if flipped:
         facts.append({"fact": f"negative ranges (nodes {flipped}) read as the negated axis with range [0, |r|]",
                       "source": f"{SINGAPO} objects/motions.py (motion = r * direction; same motion)"})
     record = {"format": FORMAT, "files": files, "facts": facts, "object_json": files[0], "sample": sample,
               "format_frame": "PartNet-Mobility raw: Y up, front +Z", "not_read": ["object.ply (all parts merged)"],
               "joints": [{"node": i, "type": j.type, "range_written": j.amount,
-                          "unit": "deg" if j.type == "revolute" else ("none" if j.type in ("fixed", "continuous")
+                          "unit": "deg" if j.type == JointType.REVOLUTE else ("none" if j.type in (JointType.FIXED, JointType.CONTINUOUS)
                                                                        else "object length")}
                          for i, j in sorted(joints.items())]}
     return ForeignObject(asset, record, articulated=True, open_questions=("scale",))

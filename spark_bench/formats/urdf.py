@@ -87,6 +87,7 @@ from pathlib import Path, PurePath
 import numpy as np
 from lxml import etree
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.asset.transforms import rpy_to_matrix
 from spark_bench.errors import InputError
@@ -358,7 +359,7 @@ def check_limits(asset: ArticulatedAsset, urdf: Path) -> None:
     :raises InputError: naming the joint and its limits
     """
     for joint in asset.joints.values():
-        if joint.type == "revolute" and max(abs(joint.lower), abs(joint.upper)) > REVOLUTE_LIMIT_MAX:
+        if joint.type == JointType.REVOLUTE and max(abs(joint.lower), abs(joint.upper)) > REVOLUTE_LIMIT_MAX:
             span = f"[{joint.lower:g}, {joint.upper:g}]"
             raise InputError(urdf, f"joint {joint.name!r}: revolute limits {span} are beyond 2 pi: URDF "
                                    "limits are radians (these look like degrees)")
@@ -374,7 +375,7 @@ def rest_as_written(asset: ArticulatedAsset) -> list[str]:
     flipped = []
     for joint in asset.joints.values():
         ends_at_zero = joint.has_limits and joint.upper == 0.0 and joint.lower < 0.0
-        if joint.type in ("revolute", "prismatic") and ends_at_zero:
+        if joint.type in (JointType.REVOLUTE, JointType.PRISMATIC) and ends_at_zero:
             joint.axis = -np.asarray(joint.axis, dtype=float)
             joint.lower, joint.upper = 0.0, -joint.lower
             flipped.append(joint.name)

@@ -29,6 +29,10 @@ class OpenResult:
     :param max_fraction: the largest fraction reached
     :param episode_return: the summed reward
     :param end_effector: what opened (or tried to open) the part: ``gripper`` or ``suction``
+    :param success_maniskill: the joint met ManiSkill3's success rule at some step (past the target fraction
+        and its link nearly still: :meth:`~spark_bench.envs.base.SparkArticulationEnv.evaluate`); where the
+        episode stops on success, the opener runs on after that stop, until the rule is met or the step limit,
+        and the other fields stay those of the stop
     """
 
     success: bool
@@ -37,6 +41,7 @@ class OpenResult:
     max_fraction: float
     episode_return: float
     end_effector: str = "gripper"
+    success_maniskill: bool = False
 
 
 def ground_truth_joint(env: gym.Env) -> tuple[np.ndarray, np.ndarray, str]:
@@ -71,7 +76,7 @@ def opener_for(env: gym.Env, axis, pivot, joint_type: str, pull_step: float = PU
 
 def open_with_joint(env: gym.Env, axis, pivot, joint_type: str, seed: int | None = None,
                     max_steps: int = 200, stop_on_success: bool = True,
-                    pull_step: float = PULL_STEP) -> OpenResult:
+                    pull_step: float = PULL_STEP, until_still: bool = True) -> OpenResult:
     """Run one scripted episode in ``env`` planned from the given joint parameters.
 
     :param env: a ``SparkDrawer-v0`` / ``SparkDoor-v0`` environment (wrapped or not)
@@ -80,21 +85,51 @@ def open_with_joint(env: gym.Env, axis, pivot, joint_type: str, seed: int | None
     :param joint_type: ``prismatic``, ``revolute`` or ``continuous``
     :param seed: reset seed
     :param max_steps: step limit (the environment's own time limit also applies)
-    :param stop_on_success: end the episode as soon as the joint passes the target
+    :param stop_on_success: end the episode as soon as the joint passes the target (the result's
+        ``success_maniskill`` is then decided by the steps after that stop, which change none of its other
+        fields: :func:`_run_until_still`)
     :param pull_step: path length per step while opening, m
+    :param until_still: run on after a stop on success to decide ``success_maniskill`` (False: it says only
+        whether ManiSkill's rule held up to the stop)
     """
     opener = opener_for(env, axis, pivot, joint_type, pull_step)
     obs, info = env.reset(seed=seed)
     total, best, success, steps = 0.0, env.unwrapped.joint_fraction, False, 0
+    maniskill, ended = False, False
     for steps in range(1, max_steps + 1):  # noqa: B007  (steps is reported)
         obs, reward, terminated, truncated, info = env.step(opener(obs))
         total += float(reward)
         best = max(best, env.unwrapped.joint_fraction)
         success = success or bool(info["is_success"])
-        if terminated or truncated or (success and stop_on_success):
+        maniskill = maniskill or bool(info["is_success_maniskill"])
+        ended = terminated or truncated
+        if ended or (success and stop_on_success):
             break
-    return OpenResult(success=success, steps=steps, fraction=env.unwrapped.joint_fraction,
-                      max_fraction=best, episode_return=total, end_effector=env.unwrapped.scene.end_effector)
+    result = OpenResult(success=success, steps=steps, fraction=env.unwrapped.joint_fraction,
+                        max_fraction=best, episode_return=total, end_effector=env.unwrapped.scene.end_effector,
+                        success_maniskill=maniskill)
+    if until_still and not maniskill and success and not ended:
+        result.success_maniskill = _run_until_still(env, opener, obs, max_steps - steps)
+    return result
+
+
+def _run_until_still(env: gym.Env, opener: ScriptedOpener, obs: np.ndarray, steps_left: int) -> bool:
+    """Run the opener on from where an episode stopped on success until the joint meets ManiSkill3's rule
+    (past the target and its link nearly still: a drawer still being pulled meets it once it stops at its
+    limit, or where the opener lets go), the episode ends or ``steps_left`` steps are spent; whether it met it.
+
+    :param env: the environment, in the state the episode stopped in
+    :param opener: the episode's opener, in the phase it stopped in
+    :param obs: the last observation
+    :param steps_left: the episode's step limit minus the steps taken
+    """
+    for _ in range(steps_left):
+        obs, _, terminated, truncated, info = env.step(opener(obs))
+        if info["is_success_maniskill"]:
+            return True
+        if terminated or truncated:
+            break
+    return False
 
 
 def open_with_ground_truth(env: gym.Env, seed: int | None = None, **kwargs) -> OpenResult:

@@ -41,6 +41,9 @@ one scripted episode planned from the predicted joint, ``eval``'s ``open`` stage
   remesh. When the source is not on this machine, or its drawers and doors are not the ground truth's
   (names, types, axes, pivots, ranges), the policies act on ``gt_metres`` and ``acts_on`` says why.
 - **The oracle shortcut**: a prediction folder that is the ground-truth folder is loaded once.
+- **ManiSkill3's rule beside spark-bench's**: each attempted row's ``success_maniskill`` and the score's
+  ``success_rate_maniskill`` (past the target **and** the part nearly still, ``OpenCabinetDrawer-v1``'s
+  success; :func:`open_with_predicted_joints`), over the same joints; ``success`` is spark-bench's as before.
 
 :func:`open_every_joint` is a diagnostic of the opener itself, on one object with its own joints.
 """
@@ -164,7 +167,9 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     effector = scene.end_effector
     grasp = scene.grasp
     try:
-        reference = None if grasp.reason else open_with_ground_truth(env, seed=seed, max_steps=max_steps)
+        # the reference decides coverage by spark-bench's rule alone: no steps after its stop
+        reference = None if grasp.reason else open_with_ground_truth(env, seed=seed, max_steps=max_steps,
+                                                                     until_still=False)
     except BaseException:
         env.close()
         raise
@@ -197,7 +202,7 @@ def _cup_reference(gt_metres, joint, seed: int, max_steps: int):
         return None
     try:
         if env.unwrapped.scene.grasp.reason is None:
-            reference = open_with_ground_truth(env, seed=seed, max_steps=max_steps)
+            reference = open_with_ground_truth(env, seed=seed, max_steps=max_steps, until_still=False)
             if reference.success:
                 return env, reference
     except BaseException:
@@ -255,11 +260,18 @@ def open_with_predicted_joints(pred_folder: str | Path, gt_folder: str | Path, m
     :param gt_bench: the object of ``gt_folder`` if the caller already loaded it (not modified)
     :param pairing: the prediction and the object acted on, if the caller already loaded them
         (:func:`load_pairing` of the same folders and metrics); used as they are
-    :returns: ``{"success_rate": fraction opened of the joints scored (None when none is), "joints": {...},
-        "joints_total", "joints_scored", "left_out", "acts_on"}`` (``acts_on``: :func:`object_acted_on`'s
-        word for what the episodes opened); a joint left out has ``success`` None and a one-line
-        ``reason`` (module docstring); one not attempted has ``success`` False and ``why``; one attempted
-        has ``success``, ``pred_joint``, ``max_fraction`` and ``steps``
+    :returns: ``{"success_rate": fraction opened of the joints scored (None when none is),
+        "success_rate_maniskill": the same under ManiSkill3's success rule, "joints": {...}, "joints_total",
+        "joints_scored", "left_out", "acts_on"}`` (``acts_on``: :func:`object_acted_on`'s word for what the
+        episodes opened); a joint left out has ``success`` None and a one-line ``reason`` (module
+        docstring); one not attempted has ``success`` False and ``why`` (not opened under either rule); one
+        attempted has ``success``, ``success_maniskill``, ``pred_joint``, ``max_fraction`` and ``steps``.
+        ``success_maniskill`` is ManiSkill3's rule (``OpenCabinetDrawer-v1``: past the same target fraction
+        **and** the part's link nearly still, :meth:`~spark_bench.envs.base.SparkArticulationEnv.evaluate`),
+        reported beside spark-bench's ``success`` over the same joints and coverage, never replacing it: the
+        episode stops on spark-bench's success as before (``success``, ``max_fraction`` and ``steps`` are
+        those of that stop) and the opener runs on until the part is still
+        (:func:`spark_bench.opening.episodes.open_with_joint`)
     """
     if pairing is None:
         pairing = load_pairing(pred_folder, gt_folder, metrics, gt_bench)
@@ -284,7 +296,19 @@ def scripted_score(pairing: Pairing, seed: int = 0, max_steps: int = OPENING_STE
             joints[joint.name] = _scripted_row(judged, pairing, seed, max_steps)
         finally:
             judged.close()
-    return {"success_rate": scored_mean(joints), "joints": joints, **coverage(joints), "acts_on": pairing.acts_on}
+    return {"success_rate": scored_mean(joints), "success_rate_maniskill": maniskill_rate(joints), "joints": joints,
+            **coverage(joints), "acts_on": pairing.acts_on}
+
+
+def maniskill_rate(joints: dict[str, dict]) -> float | None:
+    """The fraction of the scored joints (``success`` not None, as :func:`scored_mean`) opened under ManiSkill3's
+    rule (``success_maniskill``; a row not attempted, with ``why``, has none and counts as not opened); None
+    when none is scored.
+
+    :param joints: the scripted score's per-joint rows
+    """
+    values = [bool(row.get("success_maniskill")) for row in joints.values() if row.get("success") is not None]
+    return float(np.mean(values)) if values else None
 
 
 def _scripted_row(judged: JudgedJoint, pairing: Pairing, seed: int, max_steps: int) -> dict:
@@ -299,8 +323,9 @@ def _scripted_row(judged: JudgedJoint, pairing: Pairing, seed: int, max_steps: i
         return {"success": False, "why": why, **effector}
     axis, pivot, pred_type = pairing.estimates[pred_name]
     result = open_with_joint(judged.env, axis, pivot, pred_type, seed=seed, max_steps=max_steps)
-    return {"success": bool(result.success), "pred_joint": pred_name, "max_fraction": float(result.max_fraction),
-            "steps": int(result.steps), **effector}
+    return {"success": bool(result.success), "success_maniskill": bool(result.success_maniskill),
+            "pred_joint": pred_name, "max_fraction": float(result.max_fraction), "steps": int(result.steps),
+            **effector}
 
 
 # ----- the opener's own diagnostic --------------------------------------------------------------------
@@ -331,7 +356,7 @@ def open_every_joint(asset, episodes: int = 1, seed: int = 0, max_episode_steps:
             continue
         grasp = env.unwrapped.scene.grasp
         try:
-            results = [open_with_ground_truth(env, seed=seed + k) for k in range(episodes)]
+            results = [open_with_ground_truth(env, seed=seed + k, until_still=False) for k in range(episodes)]
         finally:
             env.close()
         reason = left_out_reason(grasp.reason, results[0] if results else None)

@@ -1,5 +1,5 @@
 """The generalist opening policies: one per environment (drawer, door), trained on many synth objects
-(``benchmarks/train_generalist.py``) and shipped with the package (``spark_bench/rl/weights/``).
+(``spark-bench train-generalist``, :mod:`spark_bench.rl.generalist_recipe`) and shipped with the package (``spark_bench/rl/weights/``).
 
 **End-effectors.** Each policy drives either end-effector of the environments: the parallel gripper, or the
 suction cup (:mod:`spark_bench.opening.planning.suction`) on a part the grasp planner finds nothing to pinch on. Which
@@ -384,7 +384,7 @@ def weights_record(folder: str | Path | None = None) -> dict:
 
     path = Path(folder or WEIGHTS_DIR) / RECORD_NAME
     if not path.is_file():
-        raise InputError(path, "no generalist policy record (train one with benchmarks/train_generalist.py)")
+        raise InputError(path, "no generalist policy record (train one with spark-bench train-generalist)")
     record = read_json(path)
     if not isinstance(record, dict) or record.get("feature_version") != FEATURE_VERSION:
         found = record.get("feature_version") if isinstance(record, dict) else None

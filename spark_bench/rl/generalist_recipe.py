@@ -24,6 +24,7 @@ from pathlib import Path
 
 from spark_bench.data.synth import GENERATOR_VERSION
 from spark_bench.errors import InputError
+from spark_bench.opening.planning.end_effector import EndEffector
 from spark_bench.rl.generalist import EPISODE_STEPS, FEATURE_VERSION, RECORD_NAME, WEIGHTS_DIR, weights_path
 from spark_bench.rl.generalist_report import plot_curves, report
 from spark_bench.rl.generalist_stages import POLICY_KWARGS, PPO_SETTINGS, StageSettings, train_kind
@@ -145,8 +146,8 @@ def cup_copies(built: list[BuiltTask], every: int) -> list[Task]:
     :param built: built training tasks
     :param every: keep one in this many (>= 1)
     """
-    gripped = [b.task for b in built if b.end_effector == "gripper" and b.task.end_effector == "auto"]
-    return [replace(task, end_effector="suction") for task in gripped[::every]]
+    gripped = [b.task for b in built if b.end_effector == EndEffector.GRIPPER and b.task.end_effector == EndEffector.AUTO]
+    return [replace(task, end_effector=EndEffector.SUCTION) for task in gripped[::every]]
 
 
 def new_record(options: RecipeOptions) -> dict:
@@ -207,7 +208,7 @@ def train_policy(kind: str, options: RecipeOptions, record: dict):
         "env_steps": result.steps, "wall_s": result.wall_s, "demos": result.demos,
         "train_tasks": len(built["train"]), "teacher_solved_train_tasks": len(solved),
         "train_tasks_by_end_effector": {e: sum(b.end_effector == e for b in built["train"])
-                                        for e in ("gripper", "suction")},
+                                        for e in (EndEffector.GRIPPER, EndEffector.SUCTION)},
         "kept": result.best.__dict__ if result.best else None, "curve": result.curve_dicts(),
         "test": test, "real": None}
     for b in (x for tasks in built.values() for x in tasks):

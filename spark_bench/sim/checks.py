@@ -20,6 +20,11 @@ check                  value                                                    
                                                                                  object's size
 =====================  ========================================================  =====================
 
+Beside these, reported and never in the verdict: Infinigen-Sim's rest-force check
+(:mod:`spark_bench.sim.rest_force`), the summed constraint force after one ``mj_forward`` at rest within
+±1e-3, in the ``mjcf_compiles`` check's details as ``rest_force_infinigen`` (another paper's protocol:
+an object spark-bench passes may fail it, and the other way round).
+
 A blocked joint's reason says whether the surfaces of the two parts meet too (the object blocks it:
 its range or geometry is wrong) or only their hulls do (:func:`spark_bench.sim.phantom.explain_blocking`).
 
@@ -40,6 +45,7 @@ from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.converter import load_source, unloadable_mesh_files
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.relief import joint_bodies, summarize_relief
+from spark_bench.sim.rest_force import REST_FORCE_CHECK, check_rest_force
 from spark_bench.sim.results import CheckReport, CheckResult
 from spark_bench.sim.sweep import (
     SweptJoint,
@@ -283,6 +289,7 @@ def run_checks(src, options: ConvertOptions | None = None, render: Path | None =
             report.checks[name] = CheckResult(False, float("nan"), {"reason": "the MJCF does not compile"})
         return report
     start = time.perf_counter()
+    _report_rest_force(report, model)
     report.checks["mass_inertia"] = check_mass_inertia(model)
     report.checks["rest_stability"] = check_rest_stability(model, joints, prepared.size)
     report.checks["rest_penetration"] = check_rest_penetration(model, prepared.size, prepared.excluded)
@@ -329,6 +336,12 @@ def _compile_check(asset: ArticulatedAsset, prepared, convert_s: float) -> tuple
         "relief": summarize_relief(prepared.relief), "excluded": sorted(f"{a}|{b}" for a, b in prepared.excluded),
         "phantom_blocks": [b.to_dict() for b in prepared.phantom],
         "coacd_failures": prepared.report.coacd_failures})
+
+
+def _report_rest_force(report: CheckReport, model) -> None:
+    """Infinigen-Sim's rest-force check (:func:`~spark_bench.sim.rest_force.check_rest_force`) into the
+    ``mjcf_compiles`` details as ``rest_force_infinigen``: reported, not a check of the verdict."""
+    report.checks["mjcf_compiles"].details[REST_FORCE_CHECK] = check_rest_force(model).to_dict()
 
 
 def _pybullet_check(asset: ArticulatedAsset, prepared) -> CheckResult:
@@ -396,6 +409,7 @@ def run_model_checks(xml: Path, render: Path | None = None) -> CheckReport:
         return report
     report.checks["mjcf_compiles"] = CheckResult(True, time.perf_counter() - start,
                                                  {"bodies": int(model.nbody - 1), "geoms": int(model.ngeom)})
+    _report_rest_force(report, model)
     joints = swept_joints_of_model(model)
     urdf = xml.with_suffix(".urdf")
     loaded = load_in_pybullet(urdf) if urdf.is_file() else None

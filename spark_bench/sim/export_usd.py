@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.sim.mjcf import base_rotation
 from spark_bench.sim.physical import principal_inertia
 from spark_bench.sim.prepared import PreparedObject
@@ -164,15 +165,15 @@ def _joint(stage, path: str, joint, prepared: PreparedObject, bodies: dict[str, 
     """One joint (see the module docstring for its frames, units and dynamics)."""
     from pxr import Gf, Sdf, UsdPhysics
 
-    if joint.type == "fixed":
+    if joint.type == JointType.FIXED:
         usd = UsdPhysics.FixedJoint.Define(stage, path)
         token, align = "X", np.eye(3)
     else:
         token, align = align_token(joint.axis)
-        usd = (UsdPhysics.PrismaticJoint if joint.type == "prismatic" else UsdPhysics.RevoluteJoint).Define(stage, path)
+        usd = (UsdPhysics.PrismaticJoint if joint.type == JointType.PRISMATIC else UsdPhysics.RevoluteJoint).Define(stage, path)
         usd.CreateAxisAttr(token)
-        if joint.type != "continuous":
-            scale = 1.0 if joint.type == "prismatic" else 180.0 / math.pi
+        if joint.type != JointType.CONTINUOUS:
+            scale = 1.0 if joint.type == JointType.PRISMATIC else 180.0 / math.pi
             usd.CreateLowerLimitAttr(float(joint.lower) * scale)
             usd.CreateUpperLimitAttr(float(joint.upper) * scale)
     prim = usd.GetPrim()

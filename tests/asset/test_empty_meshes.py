@@ -15,6 +15,7 @@ import struct
 
 import pytest
 from helpers_assets import object_with_door_meshes, tiny_cabinet
+from helpers_edits import edit_text
 
 from spark_bench.asset.urdf import EmptyMeshError, load_mesh_file, write_object_folder
 from spark_bench.cli import main
@@ -111,7 +112,7 @@ def test_a_primitive_visual_is_a_surface_too(tmp_path):
     object_with_door_meshes(tmp_path, {"empty.obj": b""})
     urdf = tmp_path / "mobility.urdf"
     box = '<visual><geometry><box size="0.1 0.1 0.1"/></geometry></visual>'
-    urdf.write_text(urdf.read_text().replace('<link name="door">', f'<link name="door">{box}'))
+    edit_text(urdf, '<link name="door">', f'<link name="door">{box}', count=-1)
     asset = load_object(tmp_path)
     assert asset.links["door"].has_geometry and len(asset.links["door"].skipped_meshes) == 1
 
@@ -121,7 +122,7 @@ def test_link_whose_every_collision_mesh_is_empty_is_an_input_error(tmp_path):
     (tmp_path / "textured_objs" / "hull.obj").write_bytes(b"")
     urdf = tmp_path / "mobility.urdf"
     hull = '<collision><geometry><mesh filename="textured_objs/hull.obj"/></geometry></collision>'
-    urdf.write_text(urdf.read_text().replace('<link name="door">', f'<link name="door">{hull}'))
+    edit_text(urdf, '<link name="door">', f'<link name="door">{hull}', count=-1)
     with pytest.raises(InputError, match="link 'door' has no collision mesh with a surface: "
                                          r"mesh file 'textured_objs/hull.obj' is empty \(0 bytes\)"):
         load_object(tmp_path)

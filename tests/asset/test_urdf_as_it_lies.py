@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
-import trimesh
+from helpers_boxes import box_between
+from helpers_edits import edit_text
 
 from spark_bench.data.readers import load_object
 from spark_bench.errors import InputError
@@ -22,14 +22,7 @@ INERTIAL = ('<inertial><mass value="0.2" /><inertia ixx="1e-4" ixy="0" ixz="0" i
             '</inertial>')
 
 
-def _box(lo, hi) -> trimesh.Trimesh:
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    box = trimesh.creation.box(extents=hi - lo)
-    box.apply_translation((lo + hi) / 2)
-    return box
-
-
-def _link(name: str, mesh: str, scale: str = "1 1 1") -> str:
+def _link_xml(name: str, mesh: str, scale: str = "1 1 1") -> str:
     geometry = f'<geometry><mesh filename="{mesh}" scale="{scale}" /></geometry>'
     return (f'<link name="{name}"><visual><origin xyz="0 0 0" rpy="0 0 0" /><material name="white"><color '
             f'rgba="0.8 0.8 0.8 1" /></material>{geometry}</visual><collision><origin xyz="0 0 0" rpy="0 0 0" />'
@@ -40,16 +33,16 @@ def urdformer_layout(root: Path, prefix: str = "../meshes/") -> Path:
     """``root/output/label3.urdf`` and ``root/meshes/`` as URDFormer writes them; returns the URDF."""
     (root / "output").mkdir(parents=True, exist_ok=True)
     (root / "meshes" / "parts").mkdir(parents=True, exist_ok=True)
-    _box((0, -0.5, 0), (0.5, 0.5, 1.0)).export(root / "meshes" / "cabinet.obj")
-    _box((-0.02, -0.23, 0.0), (0.0, 0.23, 0.22)).export(root / "meshes" / "parts" / "drawer.obj")
-    _box((-0.03, -0.01, -0.01), (0.0, 0.01, 0.01)).export(root / "meshes" / "parts" / "knob.obj")
+    box_between((0, -0.5, 0), (0.5, 0.5, 1.0)).export(root / "meshes" / "cabinet.obj")
+    box_between((-0.02, -0.23, 0.0), (0.0, 0.23, 0.22)).export(root / "meshes" / "parts" / "drawer.obj")
+    box_between((-0.03, -0.01, -0.01), (0.0, 0.01, 0.01)).export(root / "meshes" / "parts" / "knob.obj")
     text = ("<?xml version='1.0' encoding='utf-8'?>\n<robot name=\"my_urdf\">"
-            + _link("base_link", f"{prefix}cabinet.obj")
-            + _link("drawer0", f"{prefix}parts/drawer.obj", "1 1.98 0.98")
+            + _link_xml("base_link", f"{prefix}cabinet.obj")
+            + _link_xml("drawer0", f"{prefix}parts/drawer.obj", "1 1.98 0.98")
             + '<joint name="drawer0_to_base_link" type="prismatic"><axis xyz="-1 0 0" /><limit effort="5" lower="0" '
               'upper="0.4" velocity="2.283" /><origin xyz="0 0.0 0.75" rpy="0.0 0.0 0.0" /><parent link="base_link" />'
               '<child link="drawer0" /></joint>'
-            + _link("knob1", f"{prefix}parts/knob.obj")
+            + _link_xml("knob1", f"{prefix}parts/knob.obj")
             + '<joint name="knob1_to_drawer0" type="fixed"><axis xyz="0 0 1" /><limit effort="5" lower="0" '
               'upper="1.57" velocity="2.283" /><origin xyz="0 0.25 0.125" rpy="1.5707963267948963 0.0 0.0" />'
               '<parent link="drawer0" /><child link="knob1" /></joint></robot>')
@@ -115,9 +108,8 @@ def test_package_url_inside_its_own_package_needs_no_path(tmp_path, monkeypatch)
 def test_absolute_and_file_url_paths(tmp_path):
     urdf = urdformer_layout(tmp_path)
     meshes = (tmp_path / "meshes").resolve()
-    text = urdf.read_text()
-    urdf.write_text(text.replace("../meshes/cabinet.obj", f"{meshes}/cabinet.obj")
-                    .replace("../meshes/parts/drawer.obj", f"file://{meshes}/parts/drawer.obj"))
+    edit_text(urdf, "../meshes/cabinet.obj", f"{meshes}/cabinet.obj", count=-1)
+    edit_text(urdf, "../meshes/parts/drawer.obj", f"file://{meshes}/parts/drawer.obj", count=-1)
     asset = load_object(urdf)
     assert asset.links["base_link"].visuals[0].mesh.extents == pytest.approx([0.5, 1.0, 1.0])
     assert asset.links["drawer0"].visuals[0].source == "../meshes/parts/drawer.obj"

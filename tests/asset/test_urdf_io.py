@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from helpers_assets import tiny_cabinet
+from helpers_edits import edit_text
 
 from spark_bench.asset.urdf import write_object_folder
 from spark_bench.data import load_object
@@ -118,12 +119,12 @@ def test_duplicate_link_name(tmp_path):
 
 def test_missing_mesh_and_escaping_path(tmp_path):
     urdf = write_object(tmp_path, GOOD_JOINTS)
-    urdf.write_text(urdf.read_text().replace("cube.obj", "gone.obj", 1))
+    edit_text(urdf, "cube.obj", "gone.obj")
     with pytest.raises(InputError, match="mesh file 'textured_objs/gone.obj' not found"):
         load_object(tmp_path)
     outside = tmp_path.parent / "outside.obj"
     outside.write_text(CUBE_OBJ)
-    urdf.write_text(urdf.read_text().replace("textured_objs/gone.obj", "../outside.obj"))
+    edit_text(urdf, "textured_objs/gone.obj", "../outside.obj", count=-1)
     with pytest.raises(InputError, match="escapes the object folder"):
         load_object(tmp_path)
 

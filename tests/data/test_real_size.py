@@ -29,7 +29,7 @@ URDF = """<?xml version="1.0"?>
 """
 
 
-def _folder(tmp_path: Path, category: str, info: dict | None, partnet: bool = True) -> Path:
+def _drawered_folder(tmp_path: Path, category: str, info: dict | None, partnet: bool = True) -> Path:
     folder = tmp_path / "drawered"
     (folder / "textured_objs").mkdir(parents=True)
     trimesh.creation.box(extents=(0.8, 0.3, 0.1)).export(folder / "textured_objs" / "drawer.obj")
@@ -49,7 +49,7 @@ def _size(asset) -> np.ndarray:
 
 
 def test_an_annotated_object_is_read_at_its_annotated_scale(tmp_path):
-    folder = _folder(tmp_path, "Table", {"scale": 0.25, "keypoints": {}})
+    folder = _drawered_folder(tmp_path, "Table", {"scale": 0.25, "keypoints": {}})
     read = load_object(folder)
     (folder / "info.json").unlink()
     (folder / "mobility_v2.json").unlink()
@@ -62,7 +62,7 @@ def test_an_annotated_object_is_read_at_its_annotated_scale(tmp_path):
 
 
 def test_a_partnet_object_without_annotation_takes_its_category_median(tmp_path):
-    folder = _folder(tmp_path, "Microwave", None)
+    folder = _drawered_folder(tmp_path, "Microwave", None)
     scale = source_scale(folder, "Microwave")
     assert (scale.factor, scale.rule) == (CATEGORY_SCALE["Microwave"], "category Microwave")
     assert _size(load_object(folder)).max() == pytest.approx(CATEGORY_SCALE["Microwave"] * 1.2)
@@ -71,8 +71,9 @@ def test_a_partnet_object_without_annotation_takes_its_category_median(tmp_path)
 def test_objects_in_metres_and_unknown_categories_are_read_as_they_are(tmp_path):
     # a synth object or a method's output (no mobility_v2.json) of a category the table has, even with an
     # info.json of its own, and a PartNet one of a category the table has not
-    assert source_scale(_folder(tmp_path / "a", "Table", {"scale": 0.3}, partnet=False), "Table").rule == "as read"
-    folder = _folder(tmp_path / "b", "StorageFurniture", None)
+    folder = _drawered_folder(tmp_path / "a", "Table", {"scale": 0.3}, partnet=False)
+    assert source_scale(folder, "Table").rule == "as read"
+    folder = _drawered_folder(tmp_path / "b", "StorageFurniture", None)
     assert source_scale(folder, "StorageFurniture").factor == 1.0
     assert _size(load_object(folder)).max() == pytest.approx(1.2)
 

@@ -35,7 +35,7 @@ URDF = """<?xml version="1.0"?>
 """
 
 
-def _folder(tmp_path: Path, annotation: list | None) -> Path:
+def _lidded_folder(tmp_path: Path, annotation: list | None) -> Path:
     folder = tmp_path / "lidded"
     (folder / "textured_objs").mkdir(parents=True)
     for name in ("lid", "box", "knob"):
@@ -54,7 +54,8 @@ def _entry(index: int, joint: str, direction, a: float, b: float) -> dict:
 
 def test_a_joint_without_axis_or_limit_takes_the_annotation(tmp_path, caplog):
     # a range that runs backwards (60 to -120 degrees about -x) is written as -60..120 about +x
-    folder = _folder(tmp_path, [_entry(0, "hinge", [-1, 0, 0], 60, -120), _entry(2, "slider", [0, 0, 1], 0, 0.05)])
+    folder = _lidded_folder(tmp_path, [_entry(0, "hinge", [-1, 0, 0], 60, -120),
+                                       _entry(2, "slider", [0, 0, 1], 0, 0.05)])
     with caplog.at_level(logging.WARNING):
         asset = load_object(folder)
     lid = asset.joints["joint_0"]
@@ -69,7 +70,8 @@ def test_a_joint_without_axis_or_limit_takes_the_annotation(tmp_path, caplog):
 
 
 def test_an_opposite_written_axis_takes_the_range_turned_round(tmp_path):
-    folder = _folder(tmp_path, [_entry(0, "hinge", [0, 1, 0], 0, 90), _entry(2, "slider", [0, 0, -1], 0, 0.05)])
+    folder = _lidded_folder(tmp_path, [_entry(0, "hinge", [0, 1, 0], 0, 90),
+                                       _entry(2, "slider", [0, 0, -1], 0, 0.05)])
     knob = load_object(folder).joints["joint_2"]  # written about +z, annotated about -z over 0..5 cm
     np.testing.assert_allclose(knob.axis, [0.0, 0.0, 1.0])
     assert (knob.lower, knob.upper) == pytest.approx((-0.05, 0.0))
@@ -77,7 +79,7 @@ def test_an_opposite_written_axis_takes_the_range_turned_round(tmp_path):
 
 def test_without_an_annotation_the_urdf_defaults_stay_with_a_warning(tmp_path, caplog):
     for annotation in (None, [_entry(2, "slider", [0, 0, 1], 0, 0.05)]):
-        folder = _folder(tmp_path / str(annotation is None), annotation)
+        folder = _lidded_folder(tmp_path / str(annotation is None), annotation)
         with caplog.at_level(logging.WARNING):
             lid = load_object(folder).joints["joint_0"]
         np.testing.assert_allclose(lid.axis, [1.0, 0.0, 0.0])

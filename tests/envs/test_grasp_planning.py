@@ -9,6 +9,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import trimesh
+from helpers_boxes import box_mesh, box_part
 from helpers_open import opens_with_its_hinge_only
 from helpers_real import PARTNET_DEV
 
@@ -16,13 +17,6 @@ import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.asset.model import Collision, Joint, Link, Visual
 from spark_bench.envs.cabinet import METAL, procedural_cabinet
 from spark_bench.opening.planning.grasp import find_grasp, is_push_button
-
-
-def _box(center, size) -> tuple[Visual, Collision]:
-    origin = np.eye(4)
-    origin[:3, 3] = center
-    return (Visual(mesh=trimesh.creation.box(extents=size, transform=origin), rgba=METAL),
-            Collision(kind="box", origin=origin, size=np.asarray(size, float)))
 
 
 def _cylinder(center, radius, length) -> tuple[Visual, Collision]:
@@ -93,7 +87,7 @@ def test_a_shallow_front_with_no_handle_is_pinched_by_its_edges():
     size = front.size.copy()
     size[2] = 0.06
     drawer.visuals, drawer.collisions = [], []
-    visual, collision = _box(front.origin[:3, 3], size)
+    visual, collision = box_part(size, front.origin[:3, 3], METAL)
     drawer.visuals.append(visual)
     drawer.collisions.append(collision)
     grasp = find_grasp(asset, "joint_0")
@@ -111,7 +105,8 @@ def _door_with_lever(continuous: bool = True):
     door.visuals, door.collisions = door.visuals[:1], door.collisions[:1]
     panel = door.collisions[0]
     width = panel.size[1]
-    lever = [_box((-0.02, 0.0, -0.05), (0.015, 0.02, 0.12)), _box((-0.01, 0.0, 0.0), (0.02, 0.025, 0.025))]
+    lever = [box_part((0.015, 0.02, 0.12), (-0.02, 0.0, -0.05), METAL),
+             box_part((0.02, 0.025, 0.025), (-0.01, 0.0, 0.0), METAL)]
     asset.links["lever"] = Link(name="lever", visuals=[v for v, _ in lever], collisions=[c for _, c in lever],
                                 label="handle", semantic_joint="hinge")
     origin = np.eye(4)
@@ -233,9 +228,8 @@ def test_a_push_button_is_declined_as_one():
     asset = procedural_cabinet(0)
     lo, hi = asset.bounds()
     front = lo[0]
-    asset.links["button"] = Link("button", visuals=[Visual(mesh=trimesh.creation.box(
-        extents=(0.01, 0.03, 0.03), transform=trimesh.transformations.translation_matrix(
-            (front - 0.005, 0.5 * (lo[1] + hi[1]), hi[2] - 0.05))))])
+    asset.links["button"] = Link("button", visuals=[Visual(mesh=box_mesh(
+        (0.01, 0.03, 0.03), (front - 0.005, 0.5 * (lo[1] + hi[1]), hi[2] - 0.05)))])
     asset.joints["joint_button"] = Joint("joint_button", "prismatic", "base", "button",
                                          axis=np.array([1.0, 0.0, 0.0]), lower=0.0, upper=0.004)
     assert is_push_button(asset, "joint_button")
@@ -282,9 +276,9 @@ def test_a_pad_landing_on_the_object_is_measured():
     from spark_bench.opening.planning.pads import LANDING_MARGIN, pad_landing
 
     gripper = GripperConfig()
-    front = trimesh.creation.box(extents=[0.02, 0.6, 0.6], transform=trimesh.transformations.translation_matrix([0.01, 0, 0]))
-    bar = trimesh.creation.box(extents=[0.03, 0.02, 0.2], transform=trimesh.transformations.translation_matrix([-0.015, 0, 0]))
-    plate = trimesh.creation.box(extents=[0.02, 0.1, 0.1], transform=trimesh.transformations.translation_matrix([-0.01, 0.05, 0]))
+    front = box_mesh([0.02, 0.6, 0.6], [0.01, 0, 0])
+    bar = box_mesh([0.03, 0.02, 0.2], [-0.015, 0, 0])
+    plate = box_mesh([0.02, 0.1, 0.1], [-0.01, 0.05, 0])
     out, closing, along = np.array([-1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([0, 0, 1.0])
     tcp = np.array([-0.012 - 0.002, 0.0, 0.0])  # fingertips 2 mm above the front (x = 0)
     clear = pad_landing(trimesh.util.concatenate([front, bar]), tcp, out, closing, along, 0.045, 0.012, gripper)
@@ -335,19 +329,16 @@ def test_approach_blocked_finds_what_stands_in_the_way_in():
         links = {name: SimpleNamespace(has_geometry=True) for name in meshes}
         return SimpleNamespace(links=links, mesh=lambda links: meshes[links[0]])
 
-    def box(center, size):
-        return trimesh.creation.box(extents=size, transform=trimesh.transformations.translation_matrix(center))
-
     grasp = GraspTarget(point=np.zeros(3), outward=np.array([-1.0, 0, 0]), long_axis=np.array([0, 0, 1.0]),
                         has_handle=True, source="geometry")  # fingers close along y
-    far = box([-0.2, 2.0, 0], [0.1, 0.1, 0.1])
-    plate = box([-(near + 0.1), 0, 0], [0.01, 0.4, 0.4])
+    far = box_mesh([0.1, 0.1, 0.1], [-0.2, 2.0, 0])
+    plate = box_mesh([0.01, 0.4, 0.4], [-(near + 0.1), 0, 0])
     name, distance, through = approach_blocked(asset(far=far, plate=plate), grasp, gripper, 0.5)
     assert name == "plate" and through and distance == pytest.approx(near + 0.095, abs=1e-9)
-    post = box([-(near + 0.05), -gripper.max_opening, 0], [0.01, 0.01, 0.01])  # on one pad's line only
+    post = box_mesh([0.01, 0.01, 0.01], [-(near + 0.05), -gripper.max_opening, 0])  # on one pad's line only
     name, distance, through = approach_blocked(asset(far=far, post=post), grasp, gripper, 0.5)
     assert name == "post" and not through and distance == pytest.approx(near + 0.045, abs=1e-9)
-    beyond = box([-(near + 0.7), 0, 0], [0.01, 0.4, 0.4])
+    beyond = box_mesh([0.01, 0.4, 0.4], [-(near + 0.7), 0, 0])
     assert approach_blocked(asset(far=far, beyond=beyond), grasp, gripper, 0.5) is None
 
 
@@ -376,7 +367,7 @@ def _door_with_hinged_knob():
     (a dial's index mark) standing in the open fingers' sweep."""
     width = procedural_cabinet(0).links["link_1"].collisions[0].size[1]
     knob_at = np.array([-0.02, width - 0.08, 0.05])  # on the door's front (x = -0.02 in the door's frame)
-    fin = _box(knob_at + (-0.012, -0.03, 0.0), (0.024, 0.004, 0.04))
+    fin = box_part((0.024, 0.004, 0.04), knob_at + (-0.012, -0.03, 0.0), METAL)
     return _bare_door_with("knob", [_cylinder((0.0, 0.0, 0.0), 0.01, 0.03)], knob_at, fin), knob_at
 
 
@@ -469,8 +460,8 @@ def _door_with_wheel():
     center = np.array([-0.02, 0.5 * procedural_cabinet(0).links["link_1"].collisions[0].size[1], 0.0])
     parts = [_cylinder((0.0, 0.0, 0.0), 0.045, 0.05)]
     for sign in (-1.0, 1.0):
-        parts.append(_box((-0.04, 0.0, sign * 0.085), (0.02, 0.025, 0.09)))
-        parts.append(_box((-0.04, sign * 0.085, 0.0), (0.02, 0.09, 0.025)))
+        parts.append(box_part((0.02, 0.025, 0.09), (-0.04, 0.0, sign * 0.085), METAL))
+        parts.append(box_part((0.02, 0.09, 0.025), (-0.04, sign * 0.085, 0.0), METAL))
     return _bare_door_with("wheel", parts, center), center
 
 
@@ -572,7 +563,7 @@ def test_a_low_rounded_rib_is_not_pinched_but_a_bar_is():
     shape.apply_transform(asset.link_poses()["link_0"])
     assert find_grasp(asset, "joint_0", collision=shape).declined == "unholdable"
 
-    bar = _drawer_with([_box((-0.0125, 0.0, 0.0), (0.025, 0.16, 0.02))])
+    bar = _drawer_with([box_part((0.025, 0.16, 0.02), (-0.0125, 0.0, 0.0), METAL)])
     grasp = find_grasp(bar, "joint_0")
     assert grasp.source == "geometry" and grasp.reason is None and grasp.declined is None
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import trimesh
+from helpers_boxes import box_mesh
 
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.opening.planning.plate_front import SLIDING_RATIO, face_covered, plate_normal, plate_outward
@@ -13,28 +14,24 @@ from spark_bench.opening.planning.plate_front import SLIDING_RATIO, face_covered
 Y = np.array([0.0, 1.0, 0.0])
 
 
-def _box(extents, centre=(0.0, 0.0, 0.0)):
-    return trimesh.creation.box(extents=extents, transform=trimesh.transformations.translation_matrix(centre))
-
-
 def _points(mesh):
     return np.asarray(mesh.sample(4000, seed=0))
 
 
 def test_a_sash_is_a_plate_and_a_shallow_drawer_is_not():
-    sash = _points(_box((0.04, 0.5, 1.0)))  # 40 mm thick, 0.5 m along its slide
+    sash = _points(box_mesh((0.04, 0.5, 1.0)))  # 40 mm thick, 0.5 m along its slide
     normal = plate_normal(sash, Y)
     assert normal is not None and abs(normal @ [1.0, 0.0, 0.0]) > 0.99
-    drawer = _points(_box((0.45, 0.4, 0.1)))  # sliding along x: 0.1 m tall, 0.45 m deep
+    drawer = _points(box_mesh((0.45, 0.4, 0.1)))  # sliding along x: 0.1 m tall, 0.45 m deep
     assert plate_normal(drawer, np.array([1.0, 0.0, 0.0])) is None
     # the rule's edge: thickness over travel-direction extent
-    assert plate_normal(_points(_box((0.8 * 0.5 * SLIDING_RATIO, 0.5, 1.0))), Y) is not None
-    assert plate_normal(_points(_box((1.2 * 0.5 * SLIDING_RATIO, 0.5, 1.0))), Y) is None
+    assert plate_normal(_points(box_mesh((0.8 * 0.5 * SLIDING_RATIO, 0.5, 1.0))), Y) is not None
+    assert plate_normal(_points(box_mesh((1.2 * 0.5 * SLIDING_RATIO, 0.5, 1.0))), Y) is None
 
 
 def test_a_face_is_covered_only_where_the_object_stands_in_front_of_it():
-    sash = _box((0.04, 0.5, 1.0))
-    jamb = _box((0.1, 0.05, 1.2), centre=(0.0, 0.3, 0.0))  # 25 mm beyond the sash's +y edge
+    sash = box_mesh((0.04, 0.5, 1.0))
+    jamb = box_mesh((0.1, 0.05, 1.2), center=(0.0, 0.3, 0.0))  # 25 mm beyond the sash's +y edge
     points = _points(sash)
     assert face_covered(points, Y, jamb, clear=0.5)
     assert not face_covered(points, -Y, jamb, clear=0.5)
@@ -43,17 +40,17 @@ def test_a_face_is_covered_only_where_the_object_stands_in_front_of_it():
 
 
 def test_the_broad_face_away_from_the_object_and_clear_is_chosen():
-    sash = _box((0.04, 0.5, 1.0), centre=(-0.03, 0.0, 0.0))
-    frame = trimesh.util.concatenate([_box((0.12, 0.05, 1.2), centre=(0.0, 0.3, 0.0)),
-                                      _box((0.12, 0.05, 1.2), centre=(0.0, -0.3, 0.0))])
+    sash = box_mesh((0.04, 0.5, 1.0), center=(-0.03, 0.0, 0.0))
+    frame = trimesh.util.concatenate([box_mesh((0.12, 0.05, 1.2), center=(0.0, 0.3, 0.0)),
+                                      box_mesh((0.12, 0.05, 1.2), center=(0.0, -0.3, 0.0))])
     points = _points(sash)
     out = plate_outward(sash, points, Y, frame, np.zeros(3), clear=0.5)
     assert out is not None and out @ [-1.0, 0.0, 0.0] > 0.99  # the sash sits in the frame's front half
-    glass = _box((0.01, 1.2, 1.2), centre=(-0.1, 0.0, 0.0))  # something right in front of that face
+    glass = box_mesh((0.01, 1.2, 1.2), center=(-0.1, 0.0, 0.0))  # something right in front of that face
     covered = trimesh.util.concatenate([frame, glass])
     out = plate_outward(sash, points, Y, covered, np.zeros(3), clear=0.5)
     assert out is not None and out @ [1.0, 0.0, 0.0] > 0.99
-    drawer = _box((0.45, 0.4, 0.1))
+    drawer = box_mesh((0.45, 0.4, 0.1))
     assert plate_outward(drawer, _points(drawer), np.array([1.0, 0.0, 0.0]), frame, np.zeros(3), 0.5) is None
 
 

@@ -6,19 +6,12 @@ from __future__ import annotations
 
 import gymnasium as gym
 import numpy as np
+from helpers_open import opener_observation
 
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.envs import observation as OBS
-from spark_bench.envs.observation import OBS_SIZE
 from spark_bench.opening.episodes import ground_truth_joint, opener_for
 from spark_bench.opening.opener import PREGRASP_OFFSET, PUSH_GUARD, REGRASP_DISTANCE, ScriptedOpener
-
-
-def _obs(tcp, grasp, touch=(0.0, 0.0)) -> np.ndarray:
-    """An observation of the environments' layout with what the opener reads: TCP, grasp point, pad touch."""
-    obs = np.zeros(OBS_SIZE, dtype=np.float32)
-    obs[OBS.TCP], obs[OBS.GRASP], obs[OBS.TOUCH] = tcp, grasp, touch
-    return obs
 
 
 def _slipped_door_opener(grasp_moved=(0.0, 0.0, 0.0)):
@@ -28,14 +21,14 @@ def _slipped_door_opener(grasp_moved=(0.0, 0.0, 0.0)):
     outward = np.array([-1.0, 0.0, 0.0])
     opener = ScriptedOpener(axis=[0.0, 0.0, 1.0], pivot=[0.3, -0.5, 0.4], joint_type="revolute", outward=outward)
     rest = np.array([0.3, 0.0, 0.4])
-    opener(_obs(rest + PREGRASP_OFFSET * outward, rest))  # pre-grasp reached
+    opener(opener_observation(rest + PREGRASP_OFFSET * outward, rest))  # pre-grasp reached
     for _ in range(12):  # approach reached, close
-        opener(_obs(rest, rest))
+        opener(opener_observation(rest, rest))
     assert opener.phase == "open"
     grasp = rest + np.asarray(grasp_moved)
-    opener(_obs(grasp, grasp))
+    opener(opener_observation(grasp, grasp))
     tcp = grasp + np.array([-0.01, REGRASP_DISTANCE + 0.01, 0.0])
-    action = opener(_obs(tcp, grasp))
+    action = opener(opener_observation(tcp, grasp))
     assert opener.phase == "pregrasp" and opener.regrasps == 1 and action[3] < 0
     return opener, grasp, tcp, outward, action
 
@@ -46,7 +39,7 @@ def test_after_a_slip_the_hand_backs_out_from_a_door_before_it_crosses_over():
     opener, grasp, tcp, outward, action = _slipped_door_opener()
     assert action[0] < -0.5 and abs(action[1]) < 1e-6 and abs(action[2]) < 1e-6  # out, not across
     out = grasp + np.array([-PREGRASP_OFFSET, REGRASP_DISTANCE + 0.01, 0.0])  # backed out, still beside it
-    action = opener(_obs(out, grasp))
+    action = opener(opener_observation(out, grasp))
     assert action[1] < -0.5  # now across, towards the pre-grasp in front of the handle
 
 
@@ -62,30 +55,30 @@ def test_the_re_grasp_of_an_open_door_waits_comes_in_slowly_and_stops_where_it_w
     moving = grasp.copy()
     for _ in range(5):  # the door swings on, 3 mm a step: no approach yet
         moving = moving + 0.003 * outward
-        opener(_obs(moving + pre, moving))
+        opener(opener_observation(moving + pre, moving))
         assert opener.phase == "pregrasp"
-    opener(_obs(moving + pre, moving))  # at rest
+    opener(opener_observation(moving + pre, moving))  # at rest
     assert opener.phase == "approach"
-    action = opener(_obs(moving + pre, moving))
+    action = opener(opener_observation(moving + pre, moving))
     assert 0.5 * REGRASP_STEP <= np.linalg.norm(action[:3]) * MAX_STEP <= REGRASP_STEP + 1e-6  # slowly
     knocked = moving - 3 * PUSH_GUARD * outward  # the door swung back 3 mm in one step: the hand knocked it
-    action = opener(_obs(moving + 0.04 * outward, knocked))
+    action = opener(opener_observation(moving + 0.04 * outward, knocked))
     assert opener.phase == "close" and np.linalg.norm(action[:3]) < 1e-6
     for _ in range(3):  # closing, the hand stays where it stopped even as the door swings away
-        action = opener(_obs(moving + 0.04 * outward, knocked - 0.01 * outward))
+        action = opener(opener_observation(moving + 0.04 * outward, knocked - 0.01 * outward))
         assert np.linalg.norm(action[:3]) < 1e-6 and action[3] > 0
     # a pad touching the open door stops the approach too
     opener, grasp, tcp, outward, _ = _slipped_door_opener((-0.05, 0.0, 0.0))
     for _ in range(3):
-        opener(_obs(grasp + pre, grasp))
+        opener(opener_observation(grasp + pre, grasp))
     assert opener.phase == "approach"
-    opener(_obs(grasp + 0.03 * outward, grasp, touch=(0.3, 0.0)))
+    opener(opener_observation(grasp + 0.03 * outward, grasp, touch=(0.3, 0.0)))
     assert opener.phase == "close"
     # the same door slipped at rest (against its stop): the full-speed approach, untouched by a touch
     opener, grasp, tcp, outward, _ = _slipped_door_opener()
     for _ in range(3):
-        opener(_obs(grasp + pre, grasp))
-    action = opener(_obs(grasp + pre, grasp, touch=(0.3, 0.0)))
+        opener(opener_observation(grasp + pre, grasp))
+    action = opener(opener_observation(grasp + pre, grasp, touch=(0.3, 0.0)))
     assert opener.phase == "approach" and np.linalg.norm(action[:3]) * MAX_STEP > 1.5 * REGRASP_STEP
 
 
@@ -132,7 +125,7 @@ def test_the_wait_for_a_swinging_door_ends():
     pre = PREGRASP_OFFSET * outward
     for step in range(4 * PREGRASP_STEPS):
         moving = grasp + (0.003 if step % 2 else -0.003) * outward  # 6 mm back and forth every step
-        opener(_obs(moving + pre, moving))
+        opener(opener_observation(moving + pre, moving))
         if opener.phase != "pregrasp":
             break
     assert opener.phase == "approach" and PREGRASP_STEPS < step <= 2 * PREGRASP_STEPS + 1

@@ -30,7 +30,7 @@ def _handleless(part: str = "link_0"):
     return asset
 
 
-def _turned(axis: np.ndarray, about: np.ndarray) -> np.ndarray:
+def _quarter_turned(axis: np.ndarray, about: np.ndarray) -> np.ndarray:
     """``axis`` turned by 90 degrees about the unit direction ``about``."""
     return np.cross(about, axis) + about * float(about @ axis)
 
@@ -98,7 +98,7 @@ def test_the_cup_opens_a_flat_front_with_the_true_joint_and_fails_with_a_wrong_a
     axis, pivot, joint_type = ground_truth_joint(env)
     # a drawer's axis turned sideways (about the vertical), a door's hinge turned in the door's plane
     about = np.array([0.0, 0.0, 1.0]) if joint_type == "prismatic" else grasp.outward
-    wrong = open_with_joint(env, _turned(axis, about), pivot, joint_type, seed=0, max_steps=200)
+    wrong = open_with_joint(env, _quarter_turned(axis, about), pivot, joint_type, seed=0, max_steps=200)
     assert not wrong.success and wrong.max_fraction < 0.3
     env.close()
 

@@ -1,4 +1,4 @@
-"""Fixtures of the SPARK-output tests: a tiny benchmark and its ground truth."""
+"""Fixtures of the foreign-format tests: a tiny benchmark, its first case and that case's ground truth."""
 
 from __future__ import annotations
 
@@ -19,11 +19,13 @@ def bench(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def case0(bench):
+    """The case ``cab0`` of ``bench``."""
     return Benchmark(bench).case("cab0")
 
 
 @pytest.fixture(scope="module")
-def gt0(case0):
+def gt(case0):
+    """``cab0``'s ground truth (the object ``bench`` was written from)."""
     return case0.load_gt()
 
 

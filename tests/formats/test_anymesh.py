@@ -19,12 +19,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from helpers_boxes import box_mesh
 from helpers_formats import assert_matches_ground_truth, refused
 
 from spark_bench.asset.transforms import axis_angle_matrix
-from spark_bench.data.case import Benchmark
 from spark_bench.data.readers import load_object
-from spark_bench.errors import InputError
 from spark_bench.formats.anymesh import read_run
 from spark_bench.formats.foreign import read_import_record
 from spark_bench.formats.runs import import_runs
@@ -36,11 +35,6 @@ TOL = 1e-5
 YAW_DEG = 31.0
 PARTNET_ROOT = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # Y up, front +Z -> ours
 NAMES = {"link_0": "drawer@1", "link_1": "door@1"}  # the cabinet's parts as the segmentation names them
-
-
-@pytest.fixture(scope="module")
-def gt(bench):
-    return Benchmark(bench).case("cab0").load_gt()
 
 
 class AnyMeshFrame:
@@ -115,16 +109,13 @@ def test_round_trip_against_the_ground_truth(bench, gt, tmp_path):
     assert all("source" in f for f in record["facts"])
 
 
-def _box(center, size) -> trimesh.Trimesh:
-    return trimesh.creation.box(extents=size, transform=trimesh.transformations.translation_matrix(center))
-
-
 def test_nested_parts_move_with_their_parent(tmp_path):
     """A handle fixed to a door and a knob turning on it (parents by name, in Articulate AnyMesh's frame:
     Y up): the door's hinge carries both."""
-    parts = {"base": _box([0, 0, -0.1], [0.6, 0.8, 0.2]), "door@1": _box([0.3, 0.2, 0.01], [0.6, 0.4, 0.02]),
-             "handle@1": _box([0.5, 0.2, 0.04], [0.05, 0.2, 0.04]),
-             "knob@1": _box([0.1, 0.3, 0.04], [0.04, 0.04, 0.04])}
+    parts = {"base": box_mesh([0.6, 0.8, 0.2], [0, 0, -0.1]),
+             "door@1": box_mesh([0.6, 0.4, 0.02], [0.3, 0.2, 0.01]),
+             "handle@1": box_mesh([0.05, 0.2, 0.04], [0.5, 0.2, 0.04]),
+             "knob@1": box_mesh([0.04, 0.04, 0.04], [0.1, 0.3, 0.04])}
     (tmp_path / "mesh_parts").mkdir()
     for name, mesh in parts.items():
         mesh.export(tmp_path / "mesh_parts" / f"{name}.glb")
@@ -170,54 +161,50 @@ def _entries(run: Path) -> list[dict]:
     return json.loads((run / "mobility.json").read_text())
 
 
-def _refused(run: Path, *words: str) -> InputError:
-    return refused(read_run, run, *words)
-
-
 def test_nan_in_an_axis_is_refused(run):
     entries = _entries(run)
     entries[1]["jointData"]["axis"]["direction"][0] = math.nan  # json.dump writes NaN
     write_mobility(run, entries)
-    assert _refused(run, "door@1", "direction", "finite").path.endswith("mobility.json")
+    assert refused(read_run, run, "door@1", "direction", "finite").path.endswith("mobility.json")
 
 
 def test_a_zero_axis_is_refused(run):
     entries = _entries(run)
     entries[0]["jointData"]["axis"]["direction"] = [0, 0, 0]
     write_mobility(run, entries)
-    _refused(run, "drawer@1", "is zero")
+    refused(read_run, run, "drawer@1", "is zero")
 
 
 def test_a_missing_part_file_is_refused(run):
     (run / "mesh_parts" / "door@1.glb").unlink()
-    assert _refused(run, "door@1", "mesh is missing").path.endswith("mesh_parts/door@1.glb")
+    assert refused(read_run, run, "door@1", "mesh is missing").path.endswith("mesh_parts/door@1.glb")
 
 
 def test_a_truncated_glb_is_refused(run):
     path = run / "mesh_parts" / "base.glb"
     path.write_bytes(path.read_bytes()[:200])
-    assert _refused(run, "cannot read mesh").path.endswith("base.glb")
+    assert refused(read_run, run, "cannot read mesh").path.endswith("base.glb")
 
 
 def test_a_cycle_is_refused(run):
     entries = _entries(run)
     entries[0]["parent"], entries[1]["parent"] = "door@1", "drawer@1"
     write_mobility(run, entries)
-    _refused(run, "cycle in the part tree", "drawer@1 -> door@1 -> drawer@1")
+    refused(read_run, run, "cycle in the part tree", "drawer@1 -> door@1 -> drawer@1")
 
 
 def test_a_name_leading_out_of_mesh_parts_is_refused(run):
     entries = _entries(run)
     entries[0]["name"] = "../../drawer@1"
     write_mobility(run, entries)
-    assert _refused(run, "leaves mesh_parts/").path.endswith("mobility.json")
+    assert refused(read_run, run, "leaves mesh_parts/").path.endswith("mobility.json")
 
 
 def test_a_parent_the_segmentation_did_not_find_is_refused(run):
     entries = _entries(run)
     entries[1]["parent"] = "None"  # postprocess_segmentation writes f"{idx}. {None}"
     write_mobility(run, entries)
-    _refused(run, "parent 'None' names no part", "found no part of the parent link")
+    refused(read_run, run, "parent 'None' names no part", "found no part of the parent link")
 
 
 def test_limits_in_degrees_are_refused(run):
@@ -225,7 +212,7 @@ def test_limits_in_degrees_are_refused(run):
     entries = _entries(run)
     entries[1]["jointData"]["limit"] = {"a": 0.0, "b": 90.0, "noLimit": False}
     write_mobility(run, entries)
-    _refused(run, "door@1", "writes none", "degrees")
+    refused(read_run, run, "door@1", "writes none", "degrees")
 
 
 def test_partnet_mobility_v2_json_is_refused(run):
@@ -234,17 +221,17 @@ def test_partnet_mobility_v2_json_is_refused(run):
         {"id": 1, "parent": 0, "joint": "hinge", "name": "door", "parts": [],
          "jointData": {"axis": {"origin": [0, 0, 0], "direction": [0, 1, 0]},
                        "limit": {"a": 0, "b": 90, "noLimit": False}}}])
-    _refused(run, "'heavy' is PartNet-Mobility's mobility_v2.json word")
+    refused(read_run, run, "'heavy' is PartNet-Mobility's mobility_v2.json word")
 
 
 def test_other_files_are_refused(run):
     entries = _entries(run)
     entries[0]["joint"] = "ball"
     write_mobility(run, entries)
-    _refused(run, "joint type 'ball'")
+    refused(read_run, run, "joint type 'ball'")
     (run / "mobility.json").write_text('{"parts": []}')
-    _refused(run, "expected a non-empty list of parts")
+    refused(read_run, run, "expected a non-empty list of parts")
     (run / "mobility.json").write_text("[{")
-    _refused(run, "malformed JSON")
+    refused(read_run, run, "malformed JSON")
     (run / "mobility.json").unlink()
-    assert _refused(run, "no Articulate AnyMesh mobility.json").path.endswith("mobility.json")
+    assert refused(read_run, run, "no Articulate AnyMesh mobility.json").path.endswith("mobility.json")

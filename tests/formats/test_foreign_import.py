@@ -66,12 +66,13 @@ def write_toy_run(runs: Path, case, units: str = "cm", shape_only: bool = False)
 
 
 @pytest.fixture
-def bench(tmp_path):
+def bench_of_three(tmp_path):
+    """A benchmark of three procedural cabinets (``cab0`` .. ``cab2``), made again for each test."""
     return make_tiny_bench(tmp_path, n=3)
 
 
-def test_a_run_per_case_is_read_into_the_benchmark_frame_and_skips_are_listed(bench, tmp_path):
-    benchmark = Benchmark(bench)
+def test_a_run_per_case_is_read_into_the_benchmark_frame_and_skips_are_listed(bench_of_three, tmp_path):
+    benchmark = Benchmark(bench_of_three)
     cases = {case.id: case for case in benchmark.cases()}
     runs, out = tmp_path / "runs", tmp_path / "pred"
     write_toy_run(runs, cases["cab0"])
@@ -79,7 +80,7 @@ def test_a_run_per_case_is_read_into_the_benchmark_frame_and_skips_are_listed(be
     (runs / "stranger").mkdir(parents=True)  # names no case
     (out / "cab1").mkdir(parents=True)
     (out / "cab1" / "import.json").write_text("{}")  # a stale import of a case now skipped
-    report = import_runs("toy", runs, bench, out, reader=read_toy_run)
+    report = import_runs("toy", runs, bench_of_three, out, reader=read_toy_run)
 
     assert [c.case_id for c in report.imported] == ["cab0"] and report.exit_code == 0
     skipped = {c.case_id: c for c in report.skipped}
@@ -104,13 +105,14 @@ def test_a_run_per_case_is_read_into_the_benchmark_frame_and_skips_are_listed(be
     assert len(imported.movable_joints()) == len(gt.movable_joints())
 
 
-def test_the_command_exits_0_1_2(bench, tmp_path, monkeypatch, capsys):
+def test_the_command_exits_0_1_2(bench_of_three, tmp_path, monkeypatch, capsys):
     from spark_bench import formats
 
     monkeypatch.setitem(formats.FORMATS, "toy", "test_foreign_import:read_toy_run")
-    case = Benchmark(bench).case("cab0")
+    case = Benchmark(bench_of_three).case("cab0")
     write_toy_run(tmp_path / "runs", case)
-    args = ["import", "toy", "--runs", str(tmp_path / "runs"), "--bench", str(bench), "--out", str(tmp_path / "pred")]
+    args = ["import", "toy", "--runs", str(tmp_path / "runs"), "--bench", str(bench_of_three),
+            "--out", str(tmp_path / "pred")]
     assert main(args) == 0
     printed = capsys.readouterr().out
     assert "imported cab0" in printed and "spark-bench eval --method predictions" in printed
@@ -120,7 +122,7 @@ def test_the_command_exits_0_1_2(bench, tmp_path, monkeypatch, capsys):
     assert main([*args, "--cases", "nope"]) == 2
 
 
-def test_a_shape_only_prediction_has_no_articulation_numbers(bench, tmp_path, isolated_home):
+def test_a_shape_only_prediction_has_no_articulation_numbers(bench_of_three, tmp_path, isolated_home):
     """A shape-only format (part meshes, no joints) is scored for shape; its articulation columns are n/a,
     not the errors of a prediction that got every joint wrong."""
     from spark_bench.evaluation.runner import run_eval
@@ -128,11 +130,12 @@ def test_a_shape_only_prediction_has_no_articulation_numbers(bench, tmp_path, is
     from spark_bench.methods.base import MethodSpec
 
     runs, out = tmp_path / "runs", tmp_path / "pred"
-    for case in Benchmark(bench).cases():
+    for case in Benchmark(bench_of_three).cases():
         write_toy_run(runs, case, shape_only=True)
-    assert len(import_runs("toy", runs, bench, out, reader=read_toy_run).imported) == 3
-    summary = run_eval(MethodSpec.create("predictions", predictions=str(out), label="toy-parts"), str(bench),
-                       FAST, db=tmp_path / "r.sqlite", workers=0, runs_root=tmp_path / "runs_root", progress=False)
+    assert len(import_runs("toy", runs, bench_of_three, out, reader=read_toy_run).imported) == 3
+    summary = run_eval(MethodSpec.create("predictions", predictions=str(out), label="toy-parts"),
+                       str(bench_of_three), FAST, db=tmp_path / "r.sqlite", workers=0,
+                       runs_root=tmp_path / "runs_root", progress=False)
     assert summary.n_failed == 0
     assert summary.metrics["axis_err"] is None and summary.metrics["type_err"] is None
     assert summary.metrics["cd"] is not None and summary.metrics["cd"] < 0.05  # the right shape, scaled back

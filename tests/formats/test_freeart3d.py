@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from helpers_formats import refused
+from helpers_edits import edit_json
+from helpers_formats import refused, write_runs
 
 from spark_bench.asset.transforms import axis_angle_matrix
 from spark_bench.data.case import Benchmark
@@ -32,9 +33,10 @@ GLB_TOL = 1e-5
 TO_GLB = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]])  # TRELLIS postprocessing_utils.to_glb
 YAW_DEG = 90.0  # TRELLIS's front is -Y: our -X turned a quarter turn
 SIZE = 0.45  # the benchmark's [-1, 1] into TRELLIS's [-0.5, 0.5]
+JOINT_INFO = "sds_output/joint_info.json"  # the run file of the joints
 
 
-def _turn() -> np.ndarray:
+def _yaw_turn() -> np.ndarray:
     return axis_angle_matrix([0, 0, 1], math.radians(YAW_DEG))
 
 
@@ -68,7 +70,7 @@ def _write_urdf(run: Path, info: list[dict]) -> None:
 def write_run(run: Path, gt, negative: bool = True) -> Path:
     """``gt`` (benchmark frame) written as FreeArt3D writes its output: turned into TRELLIS's frame, parts
     at the open state, ``joint_info.json`` with ``s`` of the sign ``negative`` asks (both occur)."""
-    to_trellis = SIZE * _turn()
+    to_trellis = SIZE * _yaw_turn()
     frames = gt.joint_frames()
     opened = gt.link_meshes(gt.open_configuration())
     sds = run / "sds_output"
@@ -78,7 +80,7 @@ def write_run(run: Path, gt, negative: bool = True) -> Path:
         mesh = opened[joint.child]
         _write_glb(sds / "part_meshes" / f"articulated_{i:02d}.glb", mesh.vertices @ to_trellis.T, mesh.faces)
         point, axis = frames[joint.name]
-        axis, travel = _turn() @ axis, joint.upper - joint.lower
+        axis, travel = _yaw_turn() @ axis, joint.upper - joint.lower
         if joint.type == "revolute":  # closed = turned by +s about d: d = a, s = -travel (or both negated)
             d, s = (axis, -travel) if negative else (-axis, travel)
             origin = (to_trellis @ point).tolist()
@@ -109,13 +111,11 @@ def recon_closed_state(glb: Path, entry: dict) -> np.ndarray:
 # ----- the round trip --------------------------------------------------------------------------------------
 @pytest.mark.parametrize("negative", [True, False])
 def test_a_ground_truth_written_as_freeart3d_comes_back(bench, tmp_path, negative):
-    benchmark = Benchmark(bench)
     runs, out = tmp_path / "runs", tmp_path / "pred"
-    for case in benchmark.cases():
-        write_run(runs / case.id, case.load_gt(), negative=negative)
+    benchmark = write_runs(bench, runs, lambda run, gt: write_run(run, gt, negative=negative))
     report = import_runs("freeart3d", runs, bench, out, reader=read_run)
     assert [c.case_id for c in report.imported] == ["cab0", "cab1"], report.lines()
-    turn = _turn()
+    turn = _yaw_turn()
     for case in benchmark.cases():
         gt, imported = case.load_gt(), load_object(out / case.id)
         record = read_import_record(out / case.id)
@@ -167,68 +167,55 @@ def run(bench, tmp_path) -> Path:
     return write_run(tmp_path / "cab0", Benchmark(bench).case("cab0").load_gt())
 
 
-def _edit(run: Path, change) -> Path:
-    path = run / "sds_output" / "joint_info.json"
-    data = json.loads(path.read_text())
-    change(data)
-    path.write_text(json.dumps(data, indent=4))
-    return run
-
-
-def _refused(run: Path, file: str, *words: str) -> str:
-    return str(refused(read_run, run, *words, file=file))
-
-
 def test_a_truncated_glb_is_refused(run):
     glb = run / "sds_output" / "part_meshes" / "articulated_00.glb"
     glb.write_bytes(glb.read_bytes()[:200])
-    _refused(run, "articulated_00.glb", "cannot read mesh")
+    refused(read_run, run, "cannot read mesh", file="articulated_00.glb")
 
 
 def test_a_missing_part_file_is_refused(run):
     (run / "sds_output" / "part_meshes" / "articulated_01.glb").unlink()
-    _refused(run, "articulated_01.glb", "joint 1's part mesh file is missing")
+    refused(read_run, run, "joint 1's part mesh file is missing", file="articulated_01.glb")
     (run / "sds_output" / "part_meshes" / "fixed.glb").unlink()
-    _refused(run, "fixed.glb", "the base mesh file is missing")
+    refused(read_run, run, "the base mesh file is missing", file="fixed.glb")
 
 
 def test_nan_in_an_axis_is_refused(run):
-    _edit(run, lambda d: d[1]["axis"].update(origin=[0.1, float("nan"), 0.0]))
-    _refused(run, "joint_info.json", "joint 1: axis origin is not 3 finite numbers")
+    edit_json(run / JOINT_INFO, lambda d: d[1]["axis"].update(origin=[0.1, float("nan"), 0.0]), indent=4)
+    refused(read_run, run, "joint 1: axis origin is not 3 finite numbers", file="joint_info.json")
 
 
 def test_a_zero_axis_is_refused(run):
-    _edit(run, lambda d: d[0]["axis"].update(direction=[0, 0, 0]))
-    _refused(run, "joint_info.json", "joint 0: axis direction [0.0, 0.0, 0.0] is zero")
+    edit_json(run / JOINT_INFO, lambda d: d[0]["axis"].update(direction=[0, 0, 0]), indent=4)
+    refused(read_run, run, "joint 0: axis direction [0.0, 0.0, 0.0] is zero", file="joint_info.json")
 
 
 def test_degrees_where_radians_are_written_are_refused(run):
-    _edit(run, lambda d: d[1].update(range=[0, -90.0]))
-    _refused(run, "joint_info.json", "joint 1: revolute range -90.0 is beyond 2 pi", "radians")
+    edit_json(run / JOINT_INFO, lambda d: d[1].update(range=[0, -90.0]), indent=4)
+    refused(read_run, run, "joint 1: revolute range -90.0 is beyond 2 pi", "radians", file="joint_info.json")
 
 
 def test_a_range_not_from_zero_or_an_unknown_type_is_refused(run):
-    _edit(run, lambda d: d[0].update(range=[0.1, 0.3]))
-    _refused(run, "joint_info.json", "joint 0: range starts at 0.1, not 0")
-    _edit(run, lambda d: d[0].update(range=[0, 0.3], type="continuous"))
-    _refused(run, "joint_info.json", "joint 0: type 'continuous' is not prismatic or revolute")
+    edit_json(run / JOINT_INFO, lambda d: d[0].update(range=[0.1, 0.3]), indent=4)
+    refused(read_run, run, "joint 0: range starts at 0.1, not 0", file="joint_info.json")
+    edit_json(run / JOINT_INFO, lambda d: d[0].update(range=[0, 0.3], type="continuous"), indent=4)
+    refused(read_run, run, "joint 0: type 'continuous' is not prismatic or revolute", file="joint_info.json")
 
 
 def test_a_file_that_is_not_the_format_is_refused(run, tmp_path):
     info = run / "sds_output" / "joint_info.json"
     info.write_text(json.dumps({"joint_type": "Revolute"}))  # run_estimate's info_dict, not recon's list
-    _refused(run, "joint_info.json", "expected a non-empty list of joints")
+    refused(read_run, run, "expected a non-empty list of joints", file="joint_info.json")
     info.write_text("[{")
-    _refused(run, "joint_info.json", "malformed JSON")
+    refused(read_run, run, "malformed JSON", file="joint_info.json")
     empty = tmp_path / "empty"
     empty.mkdir()
-    _refused(empty, "sds_output/joint_info.json", "no FreeArt3D joint_info.json")
+    refused(read_run, empty, "no FreeArt3D joint_info.json", file="sds_output/joint_info.json")
 
 
 def test_the_import_lists_a_refused_run_with_its_reason(bench, tmp_path):
     runs = tmp_path / "runs"
-    for case in Benchmark(bench).cases():
-        write_run(runs / case.id, case.load_gt())
+    write_runs(bench, runs, write_run)
     (runs / "cab1" / "sds_output" / "part_meshes" / "fixed.glb").unlink()
     report = import_runs("freeart3d", runs, bench, tmp_path / "pred", reader=read_run)
     assert [c.case_id for c in report.imported] == ["cab0"]

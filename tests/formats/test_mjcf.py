@@ -26,14 +26,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from helpers_boxes import box_mesh
+from helpers_edits import edit_text
 from helpers_formats import assert_matches_ground_truth, refused
 from PIL import Image
 from scipy.spatial.transform import Rotation
 
 from spark_bench.asset.transforms import axis_angle_matrix
-from spark_bench.data.case import Benchmark
 from spark_bench.data.readers import load_object
-from spark_bench.errors import InputError
 from spark_bench.formats.foreign import read_import_record
 from spark_bench.formats.mjcf import read_run
 from spark_bench.formats.runs import import_runs
@@ -45,11 +45,6 @@ TOL = 1e-5
 YAW_DEG = 31.0
 STAMP = "20260125_134829"  # infer.py: datetime.now().strftime("%Y%m%d_%H%M%S")
 REFQUAT = "0.5 -0.5 0.5 0.5"  # Real2Code's get_offset_xml
-
-
-@pytest.fixture(scope="module")
-def gt(bench):
-    return Benchmark(bench).case("cab0").load_gt()
 
 
 class Parts:
@@ -166,7 +161,7 @@ def test_particulate_round_trip_against_the_ground_truth(bench, gt, tmp_path):
 DIMENSION_CM = "45*60*80"  # basic_info.json "dimension": the mesh scale is its largest / 100
 
 
-def _png(path: Path) -> None:
+def _write_png(path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     Image.new("RGB", (4, 4), (128, 90, 60)).save(path)
 
@@ -197,8 +192,8 @@ def write_physx(run: Path, gt, slide_range: tuple[float, float] | None = None,
         k = index[name]
         (run / "objs" / str(k)).mkdir(parents=True, exist_ok=True)
         trimesh.Trimesh(vertices, faces, process=False).export(run / "objs" / str(k) / f"{k}.obj")
-        _png(run / "objs" / str(k) / "material_0.png")
-    _png(run / "desert.png")  # shutil.copy('mjcf_source/desert.png', ...)
+        _write_png(run / "objs" / str(k) / "material_0.png")
+    _write_png(run / "desert.png")  # shutil.copy('mjcf_source/desert.png', ...)
 
     mujoco = ET.Element("mujoco", attrib={"model": "test"})
     ET.SubElement(mujoco, "compiler", attrib={"angle": "radian", "autolimits": "true"})
@@ -340,13 +335,10 @@ def write_real2code(run: Path, boxes: dict[str, trimesh.Trimesh], joints: dict[s
         f"{children}</body></worldbody></mujoco>")
 
 
-def _box(center, size) -> trimesh.Trimesh:
-    return trimesh.creation.box(extents=size, transform=trimesh.transformations.translation_matrix(center))
-
-
 def test_real2code_model_joints_in_world_coordinates(tmp_path):
-    boxes = {"link_0": _box([0, 0, 0.5], [0.6, 0.8, 1.0]), "link_1": _box([-0.31, 0.0, 0.5], [0.02, 0.8, 1.0]),
-             "link_2": _box([-0.1, 0.0, 1.1], [0.4, 0.6, 0.2])}
+    boxes = {"link_0": box_mesh([0.6, 0.8, 1.0], [0, 0, 0.5]),
+             "link_1": box_mesh([0.02, 0.8, 1.0], [-0.31, 0.0, 0.5]),
+             "link_2": box_mesh([0.4, 0.6, 0.2], [-0.1, 0.0, 1.1])}
     joints = {"link_1": {"type": "hinge", "pos": [-0.31, -0.4, 0.5], "axis": [0, 0, 1]},
               "link_2": {"type": "slide", "pos": [-0.1, 0.0, 1.1], "axis": [-1, 0, 0]}}
     write_real2code(tmp_path, boxes, joints)
@@ -395,7 +387,7 @@ def test_mujoco_applies_the_compiler_settings_and_default_classes(tmp_path):
     """Degrees (MJCF's default unit), ``eulerseq``, ``meshdir``, mesh ``scale``, default classes, a
     joint's ``ref``, an unlimited hinge, group 3 and planes, a body without geometry."""
     (tmp_path / "shapes").mkdir()
-    _box([0.05, 0, 0], [0.1, 0.2, 0.05]).export(tmp_path / "shapes" / "plate.obj")
+    box_mesh([0.1, 0.2, 0.05], [0.05, 0, 0]).export(tmp_path / "shapes" / "plate.obj")
     (tmp_path / "model.xml").write_text(SETTINGS_XML)
     found = read_run(tmp_path)
     asset, record = found.asset, found.record
@@ -412,7 +404,7 @@ def test_mujoco_applies_the_compiler_settings_and_default_classes(tmp_path):
     assert spin.type == "continuous"
     drawer = next(n for n, link in asset.links.items() if link.label == "drawer")
     plate = asset.link_meshes()[drawer]
-    corners = 2 * _box([0.05, 0, 0], [0.1, 0.2, 0.05]).vertices @ turn.T + frame_at + turn @ [0.2, 0, 0]
+    corners = 2 * box_mesh([0.1, 0.2, 0.05], [0.05, 0, 0]).vertices @ turn.T + frame_at + turn @ [0.2, 0, 0]
     assert np.abs(plate.bounds - [corners.min(0), corners.max(0)]).max() < 1e-6
     assert asset.links[drawer].visuals[0].rgba == pytest.approx((0.2, 0.4, 0.6, 1.0))
     assert record["compiler"] == {"angle": "degree", "eulerseq": "zyx", "meshdir": "shapes"}
@@ -433,31 +425,21 @@ def _model(run: Path) -> Path:
     return run / f"mjcf_{STAMP}" / "model.xml"
 
 
-def _edit(run: Path, old: str, new: str) -> None:
-    text = _model(run).read_text()
-    assert old in text
-    _model(run).write_text(text.replace(old, new, 1))
-
-
-def _refused(run: Path, *words: str) -> InputError:
-    return refused(read_run, run, *words)
-
-
 def test_an_include_leaving_the_run_folder_is_refused(run, tmp_path):
     (tmp_path / "outside.xml").write_text('<mujoco><compiler angle="degree"/></mujoco>')
-    _edit(run, "<asset>", '<include file="../../outside.xml"/>\n  <asset>')
-    assert _refused(run, "<include", "leads out of the run folder").path == str(_model(run))
+    edit_text(_model(run), "<asset>", '<include file="../../outside.xml"/>\n  <asset>')
+    assert refused(read_run, run, "<include", "leads out of the run folder").path == str(_model(run))
 
 
 def test_a_mesh_or_texture_path_leaving_the_run_folder_is_refused(run, tmp_path):
     trimesh.creation.box().export(tmp_path / "part_0.obj")
-    _edit(run, 'file="meshes/part_0.obj"', 'file="../../part_0.obj"')
-    _refused(run, '<mesh file="../../part_0.obj">', "leads out of the run folder")
-    _edit(run, 'file="../../part_0.obj"', f'file="{tmp_path / "part_0.obj"}"')  # an absolute name
-    _refused(run, "leads out of the run folder")
-    _edit(run, f'file="{tmp_path / "part_0.obj"}"', 'file="meshes/part_0.obj"')
-    _edit(run, "</asset>", '<texture name="t" type="2d" file="../../../etc/x.png"/></asset>')
-    _refused(run, "<texture file=", "leads out of the run folder")
+    edit_text(_model(run), 'file="meshes/part_0.obj"', 'file="../../part_0.obj"')
+    refused(read_run, run, '<mesh file="../../part_0.obj">', "leads out of the run folder")
+    edit_text(_model(run), 'file="../../part_0.obj"', f'file="{tmp_path / "part_0.obj"}"')  # an absolute name
+    refused(read_run, run, "leads out of the run folder")
+    edit_text(_model(run), f'file="{tmp_path / "part_0.obj"}"', 'file="meshes/part_0.obj"')
+    edit_text(_model(run), "</asset>", '<texture name="t" type="2d" file="../../../etc/x.png"/></asset>')
+    refused(read_run, run, "<texture file=", "leads out of the run folder")
 
 
 def test_a_model_file_linked_from_outside_is_refused(run, tmp_path):
@@ -465,73 +447,74 @@ def test_a_model_file_linked_from_outside_is_refused(run, tmp_path):
     outside.write_text(_model(run).read_text())
     _model(run).unlink()
     _model(run).symlink_to(outside)
-    _refused(run, "the model file (a link)", "leads out of the run folder")
+    refused(read_run, run, "the model file (a link)", "leads out of the run folder")
 
 
 def test_a_meshdir_leaving_the_run_folder_is_refused(run, tmp_path):
     (tmp_path / "meshes").mkdir()
     for path in (_model(run).parent / "meshes").iterdir():
         (tmp_path / "meshes" / path.name).write_bytes(path.read_bytes())
-    _edit(run, '<compiler angle="degree"/>', '<compiler angle="degree" meshdir="../.."/>')
-    _refused(run, "leads out of the run folder")
+    edit_text(_model(run), '<compiler angle="degree"/>', '<compiler angle="degree" meshdir="../.."/>')
+    refused(read_run, run, "leads out of the run folder")
 
 
 def test_an_include_cycle_is_refused(run):
     (_model(run).parent / "a.xml").write_text('<mujoco><include file="b.xml"/></mujoco>')
     (_model(run).parent / "b.xml").write_text('<mujoco><include file="a.xml"/></mujoco>')
-    _edit(run, "<asset>", '<include file="a.xml"/>\n  <asset>')
-    _refused(run, "a.xml", "cycle of includes")
+    edit_text(_model(run), "<asset>", '<include file="a.xml"/>\n  <asset>')
+    refused(read_run, run, "a.xml", "cycle of includes")
 
 
 def test_a_missing_part_file_is_refused(run):
     (_model(run).parent / "meshes" / "part_1.obj").unlink()
-    _refused(run, '<mesh file="meshes/part_1.obj">', "no such file")
+    refused(read_run, run, '<mesh file="meshes/part_1.obj">', "no such file")
 
 
 def test_a_truncated_mesh_is_refused(run):
     path = _model(run).parent / "meshes" / "part_1.obj"
     path.write_bytes(path.read_bytes()[:60])  # a few vertices and no face
-    _refused(run, "MuJoCo cannot compile it", "mesh_part_1", "meshes/part_1.obj")
+    refused(read_run, run, "MuJoCo cannot compile it", "mesh_part_1", "meshes/part_1.obj")
 
 
 def test_nan_in_an_axis_is_refused(run):
     text = _model(run).read_text()
     axis = text.split('type="hinge" axis="')[1].split('"')[0]
-    _edit(run, f'axis="{axis}"', 'axis="nan 0 1"')
-    _refused(run, "joint 'joint_", "not finite")
+    edit_text(_model(run), f'axis="{axis}"', 'axis="nan 0 1"')
+    refused(read_run, run, "joint 'joint_", "not finite")
 
 
 def test_radians_where_degrees_are_declared_are_refused(run, gt):
     """Particulate declares degrees; the door's range written in radians (export_mjcf's np.degrees
     forgotten) reads as a turn of a degree or two."""
     door = next(j for j in gt.movable_joints() if j.type == "revolute")
-    _edit(run, f'range="{f6(np.degrees([door.lower, door.upper]))}"', f'range="{f6([door.lower, door.upper])}"')
-    _refused(run, "reads as radians", 'angle="degree"')
+    edit_text(_model(run), f'range="{f6(np.degrees([door.lower, door.upper]))}"',
+              f'range="{f6([door.lower, door.upper])}"')
+    refused(read_run, run, "reads as radians", 'angle="degree"')
 
 
 def test_degrees_where_radians_are_declared_are_refused(gt, tmp_path):
     write_physx(tmp_path, gt)
-    text = (tmp_path / "basic.xml").read_text()
-    hinge = text.split('type="hinge"')[1].split('range="')[1].split('"')[0]
-    (tmp_path / "basic.xml").write_text(text.replace(f'range="{hinge}"', 'range="0 90"'))
-    _refused(tmp_path, "pivot_", "beyond a full turn in radians", "degrees written where radians are declared")
+    hinge = (tmp_path / "basic.xml").read_text().split('type="hinge"')[1].split('range="')[1].split('"')[0]
+    edit_text(tmp_path / "basic.xml", f'range="{hinge}"', 'range="0 90"', count=-1)
+    refused(read_run, tmp_path, "pivot_", "beyond a full turn in radians",
+            "degrees written where radians are declared")
 
 
 def test_other_files_are_refused(run, tmp_path):
     _model(run).write_text('<robot name="model"><link name="base"/></robot>')
-    _refused(run, "not an MJCF file", "<robot>", "URDF")
+    refused(read_run, run, "not an MJCF file", "<robot>", "URDF")
     _model(run).write_text("<mujoco><worldbody>")
-    _refused(run, "not an XML file")
+    refused(read_run, run, "not an XML file")
     _model(run).write_text('<mujoco><worldbody><body><geom type="box" size="1 1"/></body></worldbody></mujoco>')
-    _refused(run, "MuJoCo cannot")
+    refused(read_run, run, "MuJoCo cannot")
     _model(run).write_text('<mujoco><worldbody><geom type="plane" size="1 1 1"/></worldbody></mujoco>')
-    _refused(run, "no visual geom")
+    refused(read_run, run, "no visual geom")
     empty = tmp_path / "empty"
     empty.mkdir()
-    _refused(empty, "no MJCF file")
+    refused(read_run, empty, "no MJCF file")
     (empty / "a.xml").write_text("<mujoco/>")
     (empty / "b.xml").write_text("<mujoco/>")
-    _refused(empty, "2 *.xml files")
+    refused(read_run, empty, "2 *.xml files")
 
 
 def test_from_a_method_output_folder_to_the_leaderboard(bench, gt, tmp_path, isolated_home, capsys):

@@ -18,15 +18,12 @@ import math
 from pathlib import Path
 
 import numpy as np
-import pytest
 import trimesh
 from helpers_formats import refused
 from scipy.spatial import cKDTree
 
 from spark_bench.asset.transforms import axis_angle_matrix
-from spark_bench.data.case import Benchmark
 from spark_bench.data.readers import load_object
-from spark_bench.errors import InputError
 from spark_bench.formats.foreign import read_import_record
 from spark_bench.formats.parts import read_run
 from spark_bench.formats.runs import import_runs
@@ -40,21 +37,16 @@ PARTNET_ROOT = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  
 TO_GLB = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # TRELLIS to_glb: v @ TO_GLB
 
 
-@pytest.fixture(scope="module")
-def gt(bench):
-    return Benchmark(bench).case("cab0").load_gt()
-
-
 def gt_parts(gt) -> list[trimesh.Trimesh]:
     """The ground truth's links with geometry, each at rest in the benchmark frame (ours)."""
     return list(gt.link_meshes(gt.rest_configuration()).values())
 
 
-def _turned(parts: list[trimesh.Trimesh], rotation: np.ndarray) -> list[np.ndarray]:
+def _turned_vertices(parts: list[trimesh.Trimesh], rotation: np.ndarray) -> list[np.ndarray]:
     return [np.asarray(p.vertices) @ rotation.T for p in parts]
 
 
-def _normalized(vertex_sets: list[np.ndarray], largest_side: float) -> list[np.ndarray]:
+def _partcrafter_normalized(vertex_sets: list[np.ndarray], largest_side: float) -> list[np.ndarray]:
     """PartCrafter's ``normalize_mesh`` over the whole object: box centred, largest side ``largest_side``."""
     points = np.concatenate(vertex_sets)
     lo, hi = points.min(0), points.max(0)
@@ -67,7 +59,7 @@ def write_partcrafter(run: Path, gt, failed: tuple[int, ...] = (),
     for a part that did not decode. Returns the meshes written, in part order."""
     to_partcrafter = PARTNET_ROOT.T @ axis_angle_matrix([0, 0, 1], math.radians(YAW_DEG))
     parts = gt_parts(gt)
-    vertex_sets = _normalized(_turned(parts, to_partcrafter), 2.0)
+    vertex_sets = _partcrafter_normalized(_turned_vertices(parts, to_partcrafter), 2.0)
     outputs = [trimesh.Trimesh(v.astype(np.float32), p.faces) for v, p in zip(vertex_sets, parts)]
     for index in failed:
         outputs.insert(index, trimesh.Trimesh(vertices=[[0, 0, 0]], faces=[[0, 0, 0]]))
@@ -90,7 +82,8 @@ def write_omnipart(run: Path, gt) -> None:
     """``gt`` written as OmniPart's ``<output_root>/<image stem>/`` after ``merge_parts``."""
     to_trellis = axis_angle_matrix([0, 0, 1], math.radians(90.0 + YAW_DEG))
     parts = gt_parts(gt)
-    vertex_sets = _normalized(_turned(parts, to_trellis), 0.98)  # inside TRELLIS's [-0.5, 0.5]^3
+    # inside TRELLIS's [-0.5, 0.5]^3
+    vertex_sets = _partcrafter_normalized(_turned_vertices(parts, to_trellis), 0.98)
     glbs = [trimesh.Trimesh(v @ TO_GLB, p.faces) for v, p in zip(vertex_sets, parts)]
     run.mkdir(parents=True, exist_ok=True)
     trimesh.Scene(glbs).export(run / "mesh_textured.glb")
@@ -208,15 +201,11 @@ def test_omnipart_part_files_left_before_merge_parts(gt, tmp_path):
 
 
 # ----- bad input ------------------------------------------------------------------------------------------
-def _refused(run: Path, *words: str) -> InputError:
-    return refused(read_run, run, *words)
-
-
 def test_truncated_glb_is_refused_naming_it(gt, tmp_path):
     write_partcrafter(tmp_path, gt)
     data = (tmp_path / "part_01.glb").read_bytes()
     (tmp_path / "part_01.glb").write_bytes(data[: len(data) // 2])
-    error = _refused(tmp_path, "part_01.glb")
+    error = refused(read_run, tmp_path, "part_01.glb")
     assert error.path.endswith("part_01.glb")
 
 
@@ -224,16 +213,17 @@ def test_truncated_scene_is_refused_naming_it(gt, tmp_path):
     write_omnipart(tmp_path, gt)
     data = (tmp_path / "mesh_textured.glb").read_bytes()
     (tmp_path / "mesh_textured.glb").write_bytes(data[:100])
-    assert _refused(tmp_path, "cannot read GLB").path.endswith("mesh_textured.glb")
+    assert refused(read_run, tmp_path, "cannot read GLB").path.endswith("mesh_textured.glb")
 
 
 def test_a_missing_part_file_is_refused(gt, tmp_path):
     write_partcrafter(tmp_path / "gap", gt)
     (tmp_path / "gap" / "part_01.glb").unlink()  # a gap in the numbers
-    assert _refused(tmp_path / "gap", "part file missing", "none numbered 1").path.endswith("part_01.glb")
+    error = refused(read_run, tmp_path / "gap", "part file missing", "none numbered 1")
+    assert error.path.endswith("part_01.glb")
     write_partcrafter(tmp_path / "last", gt)
     (tmp_path / "last" / "part_02.glb").unlink()  # the last one: object.glb counts the parts
-    assert _refused(tmp_path / "last", "object.glb holds 3 parts").path.endswith("part_02.glb")
+    assert refused(read_run, tmp_path / "last", "object.glb holds 3 parts").path.endswith("part_02.glb")
 
 
 def test_a_part_file_leading_out_of_the_run_is_refused(gt, tmp_path):
@@ -241,14 +231,14 @@ def test_a_part_file_leading_out_of_the_run_is_refused(gt, tmp_path):
     outside = tmp_path / "elsewhere.glb"
     (tmp_path / "run" / "part_00.glb").rename(outside)
     (tmp_path / "run" / "part_00.glb").symlink_to(outside)
-    assert _refused(tmp_path / "run", "leads out of the run folder").path.endswith("part_00.glb")
+    assert refused(read_run, tmp_path / "run", "leads out of the run folder").path.endswith("part_00.glb")
 
 
 def test_only_failed_parts_is_refused(tmp_path):
     dummy = trimesh.Trimesh(vertices=[[0, 0, 0]], faces=[[0, 0, 0]])
     for i in range(2):
         dummy.export(tmp_path / f"part_{i:02}.glb")
-    _refused(tmp_path, "no part has a surface", "part_00.glb: 1 vertices", "part_01.glb")
+    refused(read_run, tmp_path, "no part has a surface", "part_00.glb: 1 vertices", "part_01.glb")
 
 
 def test_nan_vertices_are_refused(tmp_path):
@@ -256,7 +246,7 @@ def test_nan_vertices_are_refused(tmp_path):
     vertices = np.asarray(box.vertices).copy()
     vertices[0, 0] = np.nan
     trimesh.Trimesh(vertices, box.faces, process=False).export(tmp_path / "part_00.glb")
-    assert _refused(tmp_path, "NaN").path.endswith("part_00.glb")
+    assert refused(read_run, tmp_path, "NaN").path.endswith("part_00.glb")
 
 
 def test_nan_vertices_in_a_scene_are_refused(tmp_path):
@@ -265,11 +255,12 @@ def test_nan_vertices_in_a_scene_are_refused(tmp_path):
     vertices[3, 1] = np.inf
     broken = trimesh.Trimesh(vertices, box.faces, process=False)
     trimesh.Scene([box, broken]).export(tmp_path / "mesh_segment.glb")
-    assert _refused(tmp_path, "NaN or infinite").path.endswith("mesh_segment.glb")
+    assert refused(read_run, tmp_path, "NaN or infinite").path.endswith("mesh_segment.glb")
 
 
 def test_a_folder_of_another_format_is_refused(tmp_path):
     (tmp_path / "mobility.json").write_text("[]")
-    _refused(tmp_path, "no part meshes of PartCrafter or OmniPart", "part_NN.glb", "mesh_textured.glb")
+    refused(read_run, tmp_path, "no part meshes of PartCrafter or OmniPart", "part_NN.glb",
+            "mesh_textured.glb")
     (tmp_path / "part_00.glb").write_text('{"not": "a glb"}')
-    assert _refused(tmp_path, "cannot read").path.endswith("part_00.glb")
+    assert refused(read_run, tmp_path, "cannot read").path.endswith("part_00.glb")

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
-from helpers_formats import refused
+from helpers_edits import edit_json
+from helpers_formats import refused, write_runs
 
 from spark_bench.data.case import Benchmark
 from spark_bench.data.readers import load_object
@@ -29,6 +30,7 @@ from spark_bench.formats.singapo import RAW_TO_OURS, read_run
 # PLY written by trimesh keeps float64 vertices; normalizing by a box of them is exact to rounding.
 TOL = 1e-6
 OURS_TO_RAW = RAW_TO_OURS.T
+OBJECT_JSON = "object.json"  # the run file of the parts and joints (``diffuse_tree``)
 
 
 # ----- writing runs as SINGAPO does ------------------------------------------------------------------------
@@ -145,10 +147,8 @@ def test_the_raw_frame_is_partnet_mobility_s_mesh_frame():
 
 
 def test_a_ground_truth_written_as_singapo_comes_back(bench, tmp_path):
-    benchmark = Benchmark(bench)
     runs, out = tmp_path / "runs", tmp_path / "pred"
-    for case in benchmark.cases():
-        write_gt_run(runs / case.id, case.load_gt())
+    benchmark = write_runs(bench, runs, write_gt_run)
     report = import_runs("singapo", runs, bench, out, reader=read_run)
     assert [c.case_id for c in report.imported] == ["cab0", "cab1"], report.lines()
     for case in benchmark.cases():
@@ -225,55 +225,49 @@ def test_the_first_sample_and_cage_s_names_are_found(tmp_path):
 
 
 # ----- bad inputs ---------------------------------------------------------------------------------------
-def _edit(run: Path, change) -> Path:
-    data = json.loads((run / "object.json").read_text())
-    change(data["diffuse_tree"])
-    (run / "object.json").write_text(json.dumps(data))
-    return run
-
-
 @pytest.fixture
 def run(tmp_path) -> Path:
     return write_json_run(tmp_path / "cab0", generated_tree())
 
 
-def _refused(run: Path, file: str, *words: str) -> str:
-    return str(refused(read_run, run, *words, file=file))
-
-
 def test_a_truncated_ply_is_refused(run):
     ply = run / "plys" / "part_1.ply"
     ply.write_bytes(ply.read_bytes()[: len(ply.read_bytes()) // 2])
-    _refused(run, "plys/part_1.ply", "cannot read mesh")
+    refused(read_run, run, "cannot read mesh", file="plys/part_1.ply")
 
 
 def test_a_mesh_path_leaving_the_run_folder_is_refused(run, tmp_path):
     shutil.copy(run / "plys" / "part_1.ply", tmp_path / "outside.ply")
-    _edit(run, lambda t: t[1].update(plys=["../outside.ply"]))
-    _refused(run, "object.json", "node 1", "'../outside.ply' leaves the run folder")
-    _edit(run, lambda t: t[1].update(plys=[str(tmp_path / "outside.ply")]))
-    _refused(run, "object.json", "leaves the run folder")
+    edit_json(run / OBJECT_JSON, lambda t: t[1].update(plys=["../outside.ply"]), part="diffuse_tree")
+    refused(read_run, run, "node 1", "'../outside.ply' leaves the run folder", file="object.json")
+    edit_json(run / OBJECT_JSON, lambda t: t[1].update(plys=[str(tmp_path / "outside.ply")]),
+              part="diffuse_tree")
+    refused(read_run, run, "leaves the run folder", file="object.json")
 
 
 def test_nan_in_an_axis_is_refused(run):
-    _edit(run, lambda t: t[1]["joint"]["axis"].update(direction=[0.0, float("nan"), 0.0]))
+    edit_json(run / OBJECT_JSON, lambda t: t[1]["joint"]["axis"].update(direction=[0.0, float("nan"), 0.0]),
+              part="diffuse_tree")
     assert "NaN" in (run / "object.json").read_text()  # json.dump writes NaN, json.load reads it back
-    _refused(run, "object.json", "node 1: revolute joint axis direction is not 3 finite numbers")
+    refused(read_run, run, "node 1: revolute joint axis direction is not 3 finite numbers",
+            file="object.json")
 
 
 def test_a_zero_axis_on_a_moving_part_is_refused(run):
-    _edit(run, lambda t: t[3]["joint"]["axis"].update(direction=[0.0, 0.0, 0.0]))
-    _refused(run, "object.json", "node 3: prismatic joint axis direction [0.0, 0.0, 0.0] is zero")
+    edit_json(run / OBJECT_JSON, lambda t: t[3]["joint"]["axis"].update(direction=[0.0, 0.0, 0.0]),
+              part="diffuse_tree")
+    refused(read_run, run, "node 3: prismatic joint axis direction [0.0, 0.0, 0.0] is zero",
+            file="object.json")
 
 
 def test_a_missing_part_file_is_refused(run):
     (run / "plys" / "part_3.ply").unlink()
-    _refused(run, "plys/part_3.ply", "node 3: part mesh file is missing")
+    refused(read_run, run, "node 3: part mesh file is missing", file="plys/part_3.ply")
 
 
 def test_a_failed_retrieval_is_refused(run):
-    _edit(run, lambda t: [n.pop("plys") for n in t])
-    _refused(run, "object.json", "node 0: no 'plys'", "did not run or failed")
+    edit_json(run / OBJECT_JSON, lambda t: [n.pop("plys") for n in t], part="diffuse_tree")
+    refused(read_run, run, "node 0: no 'plys'", "did not run or failed", file="object.json")
 
 
 def test_a_cycle_in_the_tree_is_refused(run):
@@ -281,44 +275,45 @@ def test_a_cycle_in_the_tree_is_refused(run):
         tree[0]["children"] = []
         tree[1].update(parent=3, children=[2, 3])
         tree[3].update(parent=1, children=[1])
-    _edit(run, loop)
-    _refused(run, "object.json", "cycle in the tree: nodes 1 -> 3 -> 1", "no path to the root")
-    _edit(run, lambda t: t[0].update(parent=2))  # the base hangs from the loop too: no root at all
-    _refused(run, "object.json", "expected one root (parent -1), found 0")
+    edit_json(run / OBJECT_JSON, loop, part="diffuse_tree")
+    refused(read_run, run, "cycle in the tree: nodes 1 -> 3 -> 1", "no path to the root", file="object.json")
+    # the base hangs from the loop too: no root at all
+    edit_json(run / OBJECT_JSON, lambda t: t[0].update(parent=2), part="diffuse_tree")
+    refused(read_run, run, "expected one root (parent -1), found 0", file="object.json")
 
 
 def test_children_that_disagree_with_parents_are_refused(run):
-    _edit(run, lambda t: t[0].update(children=[1, 2, 3]))
-    _refused(run, "object.json", "node 0 lists child 2, whose parent is not 0")
+    edit_json(run / OBJECT_JSON, lambda t: t[0].update(children=[1, 2, 3]), part="diffuse_tree")
+    refused(read_run, run, "node 0 lists child 2, whose parent is not 0", file="object.json")
 
 
 def test_radians_where_degrees_are_written_are_refused(run):
-    _edit(run, lambda t: t[1]["joint"].update(range=[0.0, -1.314]))
-    _refused(run, "object.json", "look like radians", "node 1: -1.314", "writes degrees")
+    edit_json(run / OBJECT_JSON, lambda t: t[1]["joint"].update(range=[0.0, -1.314]), part="diffuse_tree")
+    refused(read_run, run, "look like radians", "node 1: -1.314", "writes degrees", file="object.json")
 
 
 def test_a_range_beyond_a_full_turn_or_not_from_zero_is_refused(run):
-    _edit(run, lambda t: t[1]["joint"].update(range=[0.0, 400.0]))
-    _refused(run, "object.json", "node 1: revolute range 400.0 is beyond a full turn")
-    _edit(run, lambda t: t[1]["joint"].update(range=[10.0, 90.0]))
-    _refused(run, "object.json", "node 1: joint range starts at 10.0, not 0")
+    edit_json(run / OBJECT_JSON, lambda t: t[1]["joint"].update(range=[0.0, 400.0]), part="diffuse_tree")
+    refused(read_run, run, "node 1: revolute range 400.0 is beyond a full turn", file="object.json")
+    edit_json(run / OBJECT_JSON, lambda t: t[1]["joint"].update(range=[10.0, 90.0]), part="diffuse_tree")
+    refused(read_run, run, "node 1: joint range starts at 10.0, not 0", file="object.json")
 
 
 def test_an_unknown_joint_type_is_refused(run):
-    _edit(run, lambda t: t[3]["joint"].update(type="slider"))
-    _refused(run, "object.json", "node 3: joint type 'slider' is not one of")
+    edit_json(run / OBJECT_JSON, lambda t: t[3]["joint"].update(type="slider"), part="diffuse_tree")
+    refused(read_run, run, "node 3: joint type 'slider' is not one of", file="object.json")
 
 
 def test_a_file_that_is_not_the_format_is_refused(tmp_path):
     run = tmp_path / "run"
     run.mkdir()
-    _refused(run, "run", "no SINGAPO output")
+    refused(read_run, run, "no SINGAPO output", file="run")
     (run / "object.json").write_text("{\"diffuse")
-    _refused(run, "object.json", "malformed JSON")
+    refused(read_run, run, "malformed JSON", file="object.json")
     (run / "object.json").write_text(json.dumps({"parts": []}))
-    _refused(run, "object.json", "not a SINGAPO object: no 'diffuse_tree'")
+    refused(read_run, run, "not a SINGAPO object: no 'diffuse_tree'", file="object.json")
     (run / "object.json").write_text(json.dumps({"diffuse_tree": {"0": {}}}))
-    _refused(run, "object.json", "diffuse_tree is not a non-empty list of nodes")
+    refused(read_run, run, "diffuse_tree is not a non-empty list of nodes", file="object.json")
 
 
 def test_the_import_lists_a_refused_run_with_its_reason(bench, tmp_path):

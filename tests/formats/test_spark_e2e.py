@@ -23,21 +23,20 @@ def _score(pred, gt, align):
 
 
 @pytest.fixture(scope="module")
-def floor(gt0):
-    return sampling_floor(gt0)
+def floor(gt):
+    return sampling_floor(gt)
 
 
 def sampling_floor(gt):
     """The scores of the very same surface sampled independently: the ground truth against a copy whose
     every mesh lists its faces in another order (so other points are drawn). A perfect prediction
     sampled independently of the ground truth cannot do better; the size is set by N, not by any error."""
-    gt0 = gt
-    shuffled = gt0.copy()
+    shuffled = gt.copy()
     rng = np.random.default_rng(0)
     for link in shuffled.links.values():
         for visual in link.visuals:
             visual.mesh = trimesh.Trimesh(visual.mesh.vertices, rng.permutation(visual.mesh.faces), process=False)
-    result = _score(shuffled, gt0, "none")
+    result = _score(shuffled, gt, "none")
     assert result.rest.cd > 0.0 and min(m.part.cd for m in result.matches) > 0.0
     return result
 
@@ -57,41 +56,41 @@ def _assert_near_zero(result, floor, axis_tol, pivot_tol):
         assert match.part.cd <= 1.5 * floor_part
 
 
-def test_spark_parts_turned_scaled_and_reordered_score_near_zero_with_icp(tmp_path, bench, gt0, floor):
+def test_spark_parts_turned_scaled_and_reordered_score_near_zero_with_icp(tmp_path, bench, gt, floor):
     runs, pred = tmp_path / "output", tmp_path / "pred"
     # SPARK's frame (Y up, front +Z), a quarter turn about the up axis, 0.8 x, shifted, parts in another
     # order than the ground truth's (body, door, drawer), SPARK's names (link0.., link0_to_link1)
-    write_fake_run(runs, "cab0", gt0, yaw_deg=90.0, scale=0.8, offset=(0.3, -0.2, 0.1))
+    write_fake_run(runs, "cab0", gt, yaw_deg=90.0, scale=0.8, offset=(0.3, -0.2, 0.1))
     assert import_runs(runs, bench, pred, cases=["cab0"]).exit_code == 0
     predicted = load_object(pred / "cab0")
     assert set(predicted.joints) == {"base_to_link0", "link0_to_link1", "link0_to_link2"}
-    assert {m.pred_joint: m.gt_joint for m in _score(predicted, gt0, "icp").matches} == {
+    assert {m.pred_joint: m.gt_joint for m in _score(predicted, gt, "icp").matches} == {
         "link0_to_link1": "joint_1", "link0_to_link2": "joint_0"}  # matched by geometry, not by name
     # ICP on 3,000 samples per side leaves a residual turn of ~1e-3 rad and shift of ~1e-3
-    _assert_near_zero(_score(predicted, gt0, "icp"), floor, axis_tol=0.01, pivot_tol=0.01)
-    unaligned = _score(predicted, gt0, "none")
+    _assert_near_zero(_score(predicted, gt, "icp"), floor, axis_tol=0.01, pivot_tol=0.01)
+    unaligned = _score(predicted, gt, "none")
     # the quarter turn is real and left to the alignment: the drawer slides sideways without it
     assert unaligned.rest.cd > 3 * floor.rest.cd
     assert max(m.axis_err for m in unaligned.matches) == pytest.approx(math.pi / 2, abs=1e-6)
 
 
-def test_camera_alignment_needs_no_metrics_alignment(tmp_path, bench, case0, gt0, floor):
+def test_camera_alignment_needs_no_metrics_alignment(tmp_path, bench, case0, gt, floor):
     camera = case0.read_camera()
     yaw = math.degrees(math.atan2(camera["position"][1], camera["position"][0])) - 180.0
     assert abs(yaw % 30.0) > 1.0  # off the alignment grid: only the camera can undo it exactly
     runs, pred = tmp_path / "output", tmp_path / "pred"
-    write_fake_run(runs, "cab0", gt0, case=case0, yaw_deg=yaw, scale=1.3)
+    write_fake_run(runs, "cab0", gt, case=case0, yaw_deg=yaw, scale=1.3)
     assert import_runs(runs, bench, pred, alignment="camera", cases=["cab0"]).exit_code == 0
     # exact up to float32 GLB vertices (~1e-7) and the optimizer's 8 printed decimals
-    _assert_near_zero(_score(load_object(pred / "cab0"), gt0, "none"), floor, axis_tol=1e-5, pivot_tol=1e-5)
+    _assert_near_zero(_score(load_object(pred / "cab0"), gt, "none"), floor, axis_tol=1e-5, pivot_tol=1e-5)
 
 
-def test_without_the_optimized_urdf_the_pivot_is_sparks_guess(tmp_path, bench, gt0):
+def test_without_the_optimized_urdf_the_pivot_is_sparks_guess(tmp_path, bench, gt):
     runs, pred = tmp_path / "output", tmp_path / "pred"
-    run = write_fake_run(runs, "cab0", gt0, yaw_deg=90.0)
+    run = write_fake_run(runs, "cab0", gt, yaw_deg=90.0)
     (run / "mobility_optimized.urdf").unlink()
     import_runs(runs, bench, pred, cases=["cab0"])
-    result = _score(load_object(pred / "cab0"), gt0, "icp")
+    result = _score(load_object(pred / "cab0"), gt, "icp")
     door = next(m for m in result.matches if m.gt_type == "revolute")
     assert door.pivot_err > 0.1  # generate_urdf.py puts every joint at the origin
     assert Benchmark(bench).case_ids() == ["cab0", "cab1"]

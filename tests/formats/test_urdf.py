@@ -25,11 +25,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from helpers_edits import edit_text
+from helpers_formats import refused, write_runs
 
 from spark_bench.asset.transforms import axis_angle_matrix, rpy_to_matrix
 from spark_bench.data.case import Benchmark
 from spark_bench.data.readers import load_object
-from spark_bench.errors import InputError
 from spark_bench.formats import urdf as urdf_format
 from spark_bench.formats.foreign import read_import_record, to_benchmark
 from spark_bench.formats.runs import import_runs
@@ -41,11 +42,6 @@ TOL = 1e-5
 QUARTER = axis_angle_matrix([0, 0, 1], math.pi / 2)  # TRELLIS's front (-Y) from ours (-X)
 HALF = axis_angle_matrix([0, 0, 1], math.pi)  # front +X (URDFormer, Articulate-Anything) from ours (-X)
 AA_ROOT_RPY = "1.570796326794897 0 1.570796326794897"  # articulate-anything README "Rotate meshes"
-
-
-@pytest.fixture(scope="module")
-def gt(bench):
-    return Benchmark(bench).case("cab0").load_gt()
 
 
 def _text(values) -> str:
@@ -249,10 +245,8 @@ def assert_same_object(found, gt, turn: np.ndarray, limits: bool = True) -> dict
 
 # ----- round trips ------------------------------------------------------------------------------------------
 def test_physx_anything_runs_come_back_through_the_import(bench, tmp_path):
-    benchmark = Benchmark(bench)
     runs, out = tmp_path / "runs", tmp_path / "pred"
-    for case in benchmark.cases():
-        write_physx_run(runs / case.id, case.load_gt())
+    benchmark = write_runs(bench, runs, write_physx_run)
     report = import_runs("urdf", runs, bench, out, reader=read_run)
     assert [c.case_id for c in report.imported] == ["cab0", "cab1"], report.lines()
     for case in benchmark.cases():
@@ -331,7 +325,7 @@ def test_freeart3d_output_urdf_is_read_through_its_joint_info(bench, gt, tmp_pat
     assert found.record["facts"][0]["source"].startswith("PeterZs/FreeArt3D pipelines/urdf.py")
     assert np.allclose(found.asset.bounds(), direct.asset.bounds())
     (run / "sds_output" / "joint_info.json").unlink()
-    _refused(run, "output.urdf", "FreeArt3D's output.urdf", "joint_info.json", "is missing")
+    refused(read_run, run, "FreeArt3D's output.urdf", "joint_info.json", "is missing", file="output.urdf")
 
 
 def test_an_object_folder_reads_as_the_project_s_loader_reads_it(bench, tmp_path):
@@ -369,22 +363,6 @@ def test_the_method_s_name_is_chosen_among_several(gt, tmp_path):
 
 
 # ----- bad inputs -------------------------------------------------------------------------------------------
-def _refused(run: Path, file: str, *words: str) -> str:
-    with pytest.raises(InputError) as caught:
-        read_run(run)
-    message = str(caught.value)
-    assert caught.value.path.endswith(file), message
-    assert all(w in message for w in words), message
-    assert "\n" not in message
-    return message
-
-
-def _edit(path: Path, old: str, new: str) -> None:
-    text = path.read_text()
-    assert old in text
-    path.write_text(text.replace(old, new, 1))
-
-
 @pytest.fixture
 def physx(gt, tmp_path) -> Path:
     return write_physx_run(tmp_path / "cab0", gt)
@@ -394,64 +372,66 @@ def test_a_truncated_glb_is_refused(gt, tmp_path):
     run = write_package_run(tmp_path / "run", gt)
     glb = run / "my_pkg" / "meshes" / "base_1.glb"
     glb.write_bytes(glb.read_bytes()[:200])
-    _refused(run, "base_1.glb", "cannot read mesh")
+    refused(read_run, run, "cannot read mesh", file="base_1.glb")
 
 
 def test_a_mesh_path_leaving_the_run_folder_is_refused(gt, physx, tmp_path):
     run = write_urdformer_run(tmp_path / "urdformer", gt)
     (run / "output" / "label13.urdf").rename(run / "label13.urdf")  # ../meshes now leads out of the run
     # the message names the way out: the URDF named directly is read as ROS reads it
-    _refused(run, "label13.urdf", "mesh path '../meshes/cabinet.obj' leaves the run folder", "name the URDF file",
-             "--package-path")
+    refused(read_run, run, "mesh path '../meshes/cabinet.obj' leaves the run folder", "name the URDF file",
+            "--package-path", file="label13.urdf")
     as_shipped = write_urdformer_run(tmp_path / "as_shipped", gt)
     assert set(load_object(as_shipped / "output" / "label13.urdf").links) == set(read_run(as_shipped).asset.links)
-    _edit(physx / "basic.urdf", "./objs/1/1.obj", "../../outside/1.obj")
-    _refused(physx, "basic.urdf", "'../../outside/1.obj' leaves the run folder")
+    edit_text(physx / "basic.urdf", "./objs/1/1.obj", "../../outside/1.obj")
+    refused(read_run, physx, "'../../outside/1.obj' leaves the run folder", file="basic.urdf")
 
 
 def test_a_symlinked_mesh_leading_out_is_refused(physx, tmp_path):
     outside = tmp_path / "elsewhere.obj"
     (physx / "objs" / "2" / "2.obj").rename(outside)
     (physx / "objs" / "2" / "2.obj").symlink_to(outside)
-    _refused(physx, "basic.urdf", "'./objs/2/2.obj' leaves the run folder")
+    refused(read_run, physx, "'./objs/2/2.obj' leaves the run folder", file="basic.urdf")
 
 
 def test_absolute_paths_with_no_copy_in_the_run_are_refused(gt, tmp_path):
     run = write_articulate_anything_run(tmp_path / "run", gt, copy_meshes=False)
-    _refused(run, "mobility.urdf", "original-0.obj' is absolute, outside the run folder")
+    refused(read_run, run, "original-0.obj' is absolute, outside the run folder", file="mobility.urdf")
 
 
 def test_a_missing_part_file_is_refused(physx):
     (physx / "objs" / "2" / "2.obj").unlink()
-    _refused(physx, "basic.urdf", "link 'l_2' has no visual mesh with a surface", "'objs/2/2.obj' not found")
+    refused(read_run, physx, "link 'l_2' has no visual mesh with a surface", "'objs/2/2.obj' not found",
+            file="basic.urdf")
 
 
 def test_nan_in_an_axis_is_refused(physx):
-    _edit(physx / "basic.urdf", '<axis xyz="', '<axis xyz="nan ')
-    _refused(physx, "basic.urdf", "zero or NaN axis")
+    edit_text(physx / "basic.urdf", '<axis xyz="', '<axis xyz="nan ')
+    refused(read_run, physx, "zero or NaN axis", file="basic.urdf")
 
 
 def test_a_cycle_in_the_tree_is_refused(physx):
-    _edit(physx / "basic.urdf", "</robot>", '<joint name="back" type="fixed"><parent link="l_2"/>'
+    edit_text(physx / "basic.urdf", "</robot>", '<joint name="back" type="fixed"><parent link="l_2"/>'
                                             '<child link="l_world"/></joint></robot>')
-    _refused(physx, "basic.urdf", "kinematic cycle")
+    refused(read_run, physx, "kinematic cycle", file="basic.urdf")
 
 
 def test_degrees_where_radians_are_meant_are_refused(physx):
     text = (physx / "basic.urdf").read_text()
     upper = text.split('type="revolute"')[1].split('upper="')[1].split('"')[0]
-    _edit(physx / "basic.urdf", f'upper="{upper}"', 'upper="90.0"')
-    _refused(physx, "basic.urdf", "revolute limits [0, 90] are beyond 2 pi", "radians", "degrees")
+    edit_text(physx / "basic.urdf", f'upper="{upper}"', 'upper="90.0"')
+    refused(read_run, physx, "revolute limits [0, 90] are beyond 2 pi", "radians", "degrees",
+            file="basic.urdf")
 
 
 def test_a_file_that_is_not_a_urdf_is_refused(physx, tmp_path):
     (physx / "basic.urdf").write_text('<mujoco model="scene"><worldbody/></mujoco>')
-    _refused(physx, "basic.urdf", "root element is <mujoco>, expected <robot>")
+    refused(read_run, physx, "root element is <mujoco>, expected <robot>", file="basic.urdf")
     (physx / "basic.urdf").write_text("<robot name='x'><link")
-    _refused(physx, "basic.urdf", "malformed XML")
+    refused(read_run, physx, "malformed XML", file="basic.urdf")
     empty = tmp_path / "empty"
     empty.mkdir()
-    _refused(empty, "empty", "no URDF (*.urdf)")
+    refused(read_run, empty, "no URDF (*.urdf)", file="empty")
 
 
 @pytest.mark.skipif(not HAS_COLLADA, reason="writing the DAE fixture needs pycollada")
@@ -460,13 +440,13 @@ def test_dae_without_pycollada_is_a_clear_error(gt, tmp_path, monkeypatch):
     real = urdf_format.importlib.util.find_spec
     monkeypatch.setattr(urdf_format.importlib.util, "find_spec", lambda name, *a: None if name == "collada"
                         else real(name, *a))
-    _refused(run, "object.urdf", "'package://my_pkg/meshes/link_1_0.dae' is COLLADA", "needs pycollada")
+    refused(read_run, run, "'package://my_pkg/meshes/link_1_0.dae' is COLLADA", "needs pycollada",
+            file="object.urdf")
 
 
 def test_the_import_lists_a_refused_run_with_its_reason(bench, tmp_path):
     runs = tmp_path / "runs"
-    for case in Benchmark(bench).cases():
-        write_physx_run(runs / case.id, case.load_gt())
+    write_runs(bench, runs, write_physx_run)
     (runs / "cab1" / "objs" / "0" / "0.obj").unlink()
     report = import_runs("urdf", runs, bench, tmp_path / "pred", reader=read_run)
     assert [c.case_id for c in report.imported] == ["cab0"]

@@ -36,24 +36,19 @@ from spark_bench.formats.runs import import_runs
 from spark_bench.formats.usd import read_run
 
 pytest.importorskip("pxr")
+from helpers_boxes import box_between
+from helpers_formats import refused
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, Vt  # noqa: E402
 
 FLIP = {"X": Gf.Quatf(0, 1, 0, 0), "Y": Gf.Quatf(0, 0, 1, 0), "Z": Gf.Quatf(0, 0, 0, 1)}  # Infinigen's
 
 
-def _box(lo, hi) -> trimesh.Trimesh:
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    box = trimesh.creation.box(extents=hi - lo)
-    box.apply_translation((lo + hi) / 2)
-    return box
-
-
-def cabinet() -> ArticulatedAsset:
+def infinigen_cabinet() -> ArticulatedAsset:
     """A carcass, a door hinged about -Z (axis-aligned, as Infinigen-Sim's joints are) and a drawer along -X."""
     links = {
-        "body": Link("body", [Visual(_box((0, -0.5, 0), (0.5, 0.5, 1.0)))]),
-        "door": Link("door", [Visual(_box((-0.02, -0.48, 0.5), (0.0, 0.0, 0.98)))]),
-        "drawer": Link("drawer", [Visual(_box((-0.02, -0.45, 0.05), (0.45, 0.45, 0.4)))]),
+        "body": Link("body", [Visual(box_between((0, -0.5, 0), (0.5, 0.5, 1.0)))]),
+        "door": Link("door", [Visual(box_between((-0.02, -0.48, 0.5), (0.0, 0.0, 0.98)))]),
+        "drawer": Link("drawer", [Visual(box_between((-0.02, -0.45, 0.05), (0.45, 0.45, 0.4)))]),
     }
     joints = {
         "door_hinge": Joint("door_hinge", "revolute", "body", "door", make_transform(translation=(0, 0, 0)),
@@ -184,7 +179,8 @@ def write_converter_style(path: Path, asset: ArticulatedAsset, units: float = 0.
     return path
 
 
-def assert_same_object(back: ArticulatedAsset, asset: ArticulatedAsset, pairs: dict[str, str], tol: float) -> None:
+def assert_moves_as(back: ArticulatedAsset, asset: ArticulatedAsset, pairs: dict[str, str],
+                    tol: float) -> None:
     """``back`` moves as ``asset``: each joint (by ``pairs``: ours -> theirs) on the same line, the same range,
     every part where the original's is, at rest and open."""
     for ours, theirs in pairs.items():
@@ -204,39 +200,30 @@ def assert_same_object(back: ArticulatedAsset, asset: ArticulatedAsset, pairs: d
 
 
 def test_infinigen_style_stage_reads_as_the_object(tmp_path):
-    asset = cabinet()
+    asset = infinigen_cabinet()
     back = load_object(write_infinigen_style(tmp_path / "cabinet.usda", asset))
     assert len(back.links) == 3 and {j.type for j in back.joints.values()} == {"revolute", "prismatic"}
     # the door about -Z written as +Z with the range negated: read as [0, 1.4] about -Z again
-    assert_same_object(back, asset, {"door_hinge": "door_hinge_0", "drawer_slide": "drawer_slide_0"}, 1e-5)
+    assert_moves_as(back, asset, {"door_hinge": "door_hinge_0", "drawer_slide": "drawer_slide_0"}, 1e-5)
 
 
 def test_converter_style_stage_in_centimetres_and_y_up(tmp_path):
-    asset = cabinet()
+    asset = infinigen_cabinet()
     tilted = asset.joints["door_hinge"]
     tilted.axis = np.array([0.0, 0.6, -0.8])  # off the X/Y/Z axes: carried by localRot0/1 with the token X
     tilted.origin = make_transform(translation=(0.0, 0.0, 0.5))
     back = load_object(write_converter_style(tmp_path / "cabinet.usd", asset))
     assert back.meta["usd"]["up_axis"] == "Y" and back.meta["usd"]["meters_per_unit"] == pytest.approx(0.01)
     assert back.links["door"].annotations["mass"] == pytest.approx(2.5)
-    assert_same_object(back, asset, {"door_hinge": "door_hinge", "drawer_slide": "drawer_slide"}, 1e-5)
+    assert_moves_as(back, asset, {"door_hinge": "door_hinge", "drawer_slide": "drawer_slide"}, 1e-5)
 
 
 def _corrupt(tmp_path: Path, edit) -> Path:
-    path = write_infinigen_style(tmp_path / "cabinet.usda", cabinet())
+    path = write_infinigen_style(tmp_path / "cabinet.usda", infinigen_cabinet())
     stage = Usd.Stage.Open(str(path))
     edit(stage)
     stage.GetRootLayer().Save()
     return path
-
-
-def _refused(path: Path, *words: str) -> InputError:
-    with pytest.raises(InputError) as info:
-        load_object(path)
-    for word in words:
-        assert word in str(info.value)
-    assert str(path) in str(info.value)
-    return info.value
 
 
 def test_d6_joint_is_refused_naming_the_prim(tmp_path):
@@ -245,7 +232,8 @@ def test_d6_joint_is_refused_naming_the_prim(tmp_path):
         joint.CreateBody0Rel().SetTargets(["/Asset/link_0"])
         joint.CreateBody1Rel().SetTargets(["/Asset/link_1"])
 
-    _refused(_corrupt(tmp_path, d6), "/Asset/Joints/lid_d6", "D6")
+    source = _corrupt(tmp_path, d6)
+    refused(load_object, source, "/Asset/Joints/lid_d6", "D6", str(source))  # naming the file read
 
 
 def test_drive_without_limits_is_refused(tmp_path):
@@ -254,7 +242,8 @@ def test_drive_without_limits_is_refused(tmp_path):
         joint.GetLowerLimitAttr().Clear()
         joint.GetUpperLimitAttr().Clear()
 
-    _refused(_corrupt(tmp_path, unlimited), "/Asset/Joints/door_hinge_0", "drive", "no limits")
+    source = _corrupt(tmp_path, unlimited)
+    refused(load_object, source, "/Asset/Joints/door_hinge_0", "drive", "no limits", str(source))
 
 
 def test_unlimited_hinge_without_a_drive_is_continuous(tmp_path):
@@ -275,7 +264,8 @@ def test_instanced_prim_is_refused(tmp_path):
         knob.GetReferences().AddInternalReference("/Prototypes/knob")
         knob.SetInstanceable(True)
 
-    _refused(_corrupt(tmp_path, instanced), "/Asset/link_1/visual/knob", "instanced")
+    source = _corrupt(tmp_path, instanced)
+    refused(load_object, source, "/Asset/link_1/visual/knob", "instanced", str(source))
 
 
 def test_missing_and_empty_meshes_are_refused(tmp_path):
@@ -284,12 +274,14 @@ def test_missing_and_empty_meshes_are_refused(tmp_path):
 
     for folder in ("a", "b"):
         (tmp_path / folder).mkdir()
-    _refused(_corrupt(tmp_path / "a", missing), "not found", "handle.usda")
+    source = _corrupt(tmp_path / "a", missing)
+    refused(load_object, source, "not found", "handle.usda", str(source))
 
     def empty(stage):
         UsdGeom.Mesh.Define(stage, "/Asset/link_2/visual/front")
 
-    _refused(_corrupt(tmp_path / "b", empty), "/Asset/link_2/visual/front", "no points")
+    source = _corrupt(tmp_path / "b", empty)
+    refused(load_object, source, "/Asset/link_2/visual/front", "no points", str(source))
 
 
 def test_import_usd_folder_and_file_runs(bench, tmp_path):
@@ -311,8 +303,8 @@ def test_import_usd_folder_and_file_runs(bench, tmp_path):
 
 def test_import_usd_refuses_a_reference_outside_the_run(tmp_path):
     (tmp_path / "run").mkdir()
-    outside = write_infinigen_style(tmp_path / "part.usda", cabinet())
-    path = write_infinigen_style(tmp_path / "run" / "model.usda", cabinet())
+    outside = write_infinigen_style(tmp_path / "part.usda", infinigen_cabinet())
+    path = write_infinigen_style(tmp_path / "run" / "model.usda", infinigen_cabinet())
     stage = Usd.Stage.Open(str(path))
     stage.DefinePrim("/Asset/link_1/visual/extra").GetReferences().AddReference(Sdf.Reference(str(outside)))
     stage.GetRootLayer().Save()

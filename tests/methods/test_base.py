@@ -5,20 +5,16 @@ from __future__ import annotations
 import json
 
 import pytest
-from helpers_bench import make_tiny_bench
+from helpers_bench import case_input, make_tiny_bench
 
 from spark_bench.data.case import Benchmark
 from spark_bench.errors import InputError
-from spark_bench.methods.base import CaseInput, Generation, GenerationError, regime_of
-
-
-def _case(bench, allowed, case_id="cab0") -> CaseInput:
-    return CaseInput(Benchmark(bench).case(case_id), frozenset(allowed))
+from spark_bench.methods.base import Generation, GenerationError, regime_of
 
 
 def test_case_input_refuses_undeclared_inputs(tmp_path):
     bench = make_tiny_bench(tmp_path, n=1)
-    case = _case(bench, {"image", "part_meshes"})
+    case = case_input(bench, {"image", "part_meshes"})
     assert case.image == Benchmark(bench).case("cab0").input_image and case.case_id == "cab0"
     for name in ("open_image", "gt_dir", "masks", "camera", "folder", "link_names"):
         with pytest.raises(PermissionError, match="did not declare"):
@@ -36,18 +32,18 @@ def test_open_part_masks_are_an_input_of_their_own(tmp_path):
     """The open image does not bring the open state's part masks with it, nor does the ground truth."""
     bench = make_tiny_bench(tmp_path, n=1)
     for allowed in ({"image", "camera", "open_image"}, {"image", "camera", "open_image", "gt"}):
-        case = _case(bench, allowed)
+        case = case_input(bench, allowed)
         with pytest.raises(PermissionError, match="'open_masks'"):
             case.open_part_masks()
         with pytest.raises(PermissionError, match="'open_masks'"):
             case.path("open_masks")
-    assert _case(bench, {"open_masks"}).path("open_masks") == Benchmark(bench).case("cab0").open_seg
+    assert case_input(bench, {"open_masks"}).path("open_masks") == Benchmark(bench).case("cab0").open_seg
     assert "gt open part masks" in regime_of({"image", "open_masks"})
 
 
 def test_case_camera_is_read_and_a_bad_one_names_its_file(tmp_path):
     bench = make_tiny_bench(tmp_path, n=1)
-    case = _case(bench, {"camera"})
+    case = case_input(bench, {"camera"})
     camera_path = Benchmark(bench).case("cab0").camera_path
     assert case.camera["width"] == 64 and len(case.camera["world_to_camera"]) == 4
     assert case.path("camera") == camera_path

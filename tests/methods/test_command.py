@@ -6,17 +6,13 @@ import json
 import sys
 
 import pytest
-from helpers_bench import make_tiny_bench
+from helpers_bench import case_input, make_tiny_bench
 
 from spark_bench.data.case import Benchmark
 from spark_bench.errors import InputError
-from spark_bench.methods.base import CaseInput, GenerationError
+from spark_bench.methods.base import GenerationError
 from spark_bench.methods.command import CommandMethod, find_object_folder, read_methods_file
 from spark_bench.methods.registry import make_method
-
-
-def _case(bench, method) -> CaseInput:
-    return CaseInput(Benchmark(bench).case("cab0"), frozenset(method.inputs))
 
 
 def test_methods_file_toml_and_json(tmp_path):
@@ -51,18 +47,18 @@ def test_command_arguments_fill_only_declared_inputs(tmp_path):
                        '[methods.d]\ncommand = ["prog", "{case_dir}"]\ninputs = ["image"]\n')
     templates = read_methods_file(methods)
     method_a = CommandMethod(templates["a"])
-    args = method_a.arguments(_case(bench, method_a), tmp_path / "out")
+    args = method_a.arguments(case_input(bench, method_a.inputs), tmp_path / "out")
     assert args == ["prog", str(case.input_image), str(case.camera_path), str(tmp_path / "out")]
     method_b = CommandMethod(templates["b"])
     with pytest.raises(GenerationError, match="open_image"):
-        method_b.arguments(_case(bench, method_b), tmp_path / "out")
+        method_b.arguments(case_input(bench, method_b.inputs), tmp_path / "out")
     # the case folder holds the ground truth: only a method that declared gt gets it
     method_c = CommandMethod(templates["c"])
-    assert method_c.arguments(_case(bench, method_c), tmp_path / "out") == ["prog", str(case.folder),
-                                                                           str(case.open_seg)]
+    assert method_c.arguments(case_input(bench, method_c.inputs), tmp_path / "out") == [
+        "prog", str(case.folder), str(case.open_seg)]
     method_d = CommandMethod(templates["d"])
     with pytest.raises(GenerationError, match="case_dir"):
-        method_d.arguments(_case(bench, method_d), tmp_path / "out")
+        method_d.arguments(case_input(bench, method_d.inputs), tmp_path / "out")
 
 
 def test_command_failure_reports_last_stderr_line(tmp_path):
@@ -74,12 +70,12 @@ def test_command_failure_reports_last_stderr_line(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     with pytest.raises(GenerationError, match="exit status 3: model not found"):
-        method.generate(_case(bench, method), out)
+        method.generate(case_input(bench, method.inputs), out)
     assert (out / "method_stderr.txt").read_text() == "model not found\n"
     # the shell never sees the template: a ';' stays one argument
     methods.write_text('[methods.a]\ncommand = ["echo", "{out}; rm -rf /"]\n')
     method = make_method("a", methods_file=str(methods))
-    assert method.arguments(_case(bench, method), out) == ["echo", f"{out}; rm -rf /"]
+    assert method.arguments(case_input(bench, method.inputs), out) == ["echo", f"{out}; rm -rf /"]
 
 
 def test_command_that_cannot_start_or_times_out_fails_the_case(tmp_path):
@@ -93,7 +89,7 @@ def test_command_that_cannot_start_or_times_out_fails_the_case(tmp_path):
         out = tmp_path / name
         out.mkdir()
         with pytest.raises(GenerationError, match=words):
-            method.generate(_case(bench, method), out)
+            method.generate(case_input(bench, method.inputs), out)
 
 
 def test_command_writes_an_object_folder(tmp_path):
@@ -104,7 +100,7 @@ def test_command_writes_an_object_folder(tmp_path):
     method = make_method("a", methods_file=str(methods))
     out = tmp_path / "out"
     out.mkdir()
-    generation = method.generate(_case(bench, method), out)
+    generation = method.generate(case_input(bench, method.inputs), out)
     assert generation.folder == out / "obj" and generation.info == {"returncode": 0}
 
 

@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers_bench import make_tiny_bench, write_case
+from helpers_bench import case_input, make_tiny_bench, write_case
 
 from spark_bench.data import load_object
 from spark_bench.data.case import Benchmark
-from spark_bench.methods.base import CaseInput
 from spark_bench.methods.geometry import (
     GeometryOptions,
     build_asset,
@@ -22,13 +21,9 @@ from spark_bench.metrics import compute_metrics
 from spark_bench.metrics.articulation import axis_error, line_distance
 
 
-def _case(folder, case_id="cab0") -> CaseInput:
-    return CaseInput(Benchmark(folder).case(case_id), frozenset({"part_meshes"}))
-
-
 def test_geometry_estimator_on_a_procedural_cabinet(tmp_path):
     bench = make_tiny_bench(tmp_path, n=1)
-    parts = _case(bench).part_meshes()
+    parts = case_input(bench, {"part_meshes"}).part_meshes()
     estimates = estimate_joints(parts, GeometryOptions())
     gt = load_object(Benchmark(bench).case("cab0").gt_dir)
     frames = gt.joint_frames()
@@ -77,7 +72,7 @@ def test_geometry_estimator_on_real_objects(object_id, real_object, tmp_path):
     source = load_object(real_object(object_id))
     write_case(tmp_path / "bench", object_id, source, source.category)
     gt = load_object(Benchmark(tmp_path / "bench").case(object_id).gt_dir)
-    parts = _case(tmp_path / "bench", object_id).part_meshes()
+    parts = case_input(tmp_path / "bench", {"part_meshes"}, object_id).part_meshes()
     pred = build_asset(parts, estimate_joints(parts))
     metrics = compute_metrics(pred, gt, n_samples=5000)
     type_err, axis_bound, pivot_bound = REAL[object_id]
@@ -93,7 +88,7 @@ def test_geometry_estimator_is_not_an_oracle(real_object, tmp_path):
     for object_id in ("41083", "7179"):
         source = load_object(real_object(object_id))
         write_case(tmp_path / "bench", object_id, source, source.category)
-        parts = _case(tmp_path / "bench", object_id).part_meshes()
+        parts = case_input(tmp_path / "bench", {"part_meshes"}, object_id).part_meshes()
         gt = load_object(Benchmark(tmp_path / "bench").case(object_id).gt_dir)
         results.append(compute_metrics(build_asset(parts, estimate_joints(parts)), gt, n_samples=3000))
     axis = np.mean([m.axis_err for m in results])

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import trimesh
+from helpers_assets import box_cabinet
+from helpers_boxes import box_mesh
 
 from spark_bench import CONVENTION_VERSION
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
@@ -22,34 +23,10 @@ from spark_bench.metrics.report import format_table
 N = 20_000  # samples per shape: enough for 1e-3 agreement with the analytic values
 
 
-def box(extents, center=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:
-    mesh = trimesh.creation.box(extents=extents)
-    mesh.apply_translation(center)
-    return mesh
-
-
-def cabinet(door_pivot=(-0.9, -0.5, 0.0), door_axis=(0.0, 0.0, 1.0), door_type="revolute",
-            drawer_axis=(-1.0, 0.0, 0.0), drawer_type="prismatic", door_offset=0.0) -> ArticulatedAsset:
-    """A 2x2x2 box (so the benchmark frame is the world frame) with, inside it, a door plate in
-    the plane x = -0.9 hinged on a vertical axis, and a drawer box sliding along -x."""
-    links = {
-        "base": Link("base", [Visual(box((2.0, 2.0, 2.0)))]),
-        "door": Link("door", [Visual(box((0.0, 1.0, 1.6), (door_offset, 0.5, 0.0)))]),
-        "drawer": Link("drawer", [Visual(box((0.6, 0.6, 0.3), (0.3, 0.0, 0.0)))]),
-    }
-    joints = {
-        "door_joint": Joint("door_joint", door_type, "base", "door", make_transform(translation=door_pivot),
-                            np.asarray(door_axis, float), 0.0, math.pi / 2),
-        "drawer_joint": Joint("drawer_joint", drawer_type, "base", "drawer",
-                              make_transform(translation=(-0.5, 0.2, 0.5)), np.asarray(drawer_axis, float), 0.0, 0.4),
-    }
-    return ArticulatedAsset("cabinet", links, joints, source="cabinet")
-
-
 def plates(heights) -> ArticulatedAsset:
     """Flat 2x2 squares (zero-thickness boxes) at the given heights, all in the base link."""
-    return ArticulatedAsset("plates", {"base": Link("base", [Visual(box((2.0, 2.0, 0.0), (0, 0, z))) for z in heights])},
-                            {}, source="plates")
+    plates = [Visual(box_mesh((2.0, 2.0, 0.0), (0, 0, z))) for z in heights]
+    return ArticulatedAsset("plates", {"base": Link("base", plates)}, {}, source="plates")
 
 
 def rotated(asset: ArticulatedAsset, angle: float, scale: float = 1.0, shift=(0.0, 0.0, 0.0)) -> ArticulatedAsset:
@@ -84,7 +61,7 @@ def assert_zero(result):
 
 
 def test_asset_against_itself_is_zero():
-    result = compute_metrics(cabinet(), cabinet(), n_samples=N)
+    result = compute_metrics(box_cabinet(), box_cabinet(), n_samples=N)
     assert_zero(result)
     assert [(m.gt_joint, m.pred_joint) for m in result.matches] == [("door_joint", "door_joint"),
                                                                     ("drawer_joint", "drawer_joint")]
@@ -92,7 +69,8 @@ def test_asset_against_itself_is_zero():
 
 def test_against_itself_in_another_frame_is_zero():
     # moved and scaled copies land in the same benchmark frame: normalization is per asset
-    result = compute_metrics(rotated(cabinet(), 0.0, scale=3.0, shift=(1.0, 2.0, -4.0)), cabinet(), n_samples=N)
+    result = compute_metrics(rotated(box_cabinet(), 0.0, scale=3.0, shift=(1.0, 2.0, -4.0)), box_cabinet(),
+                             n_samples=N)
     d = result.to_dict()
     assert d["cd"] < 1e-9 and d["cd_open"] < 1e-9 and d["axis_err"] < 1e-9 and d["pivot_err"] < 1e-9
 
@@ -101,8 +79,8 @@ def test_helper_chain_is_matched_to_itself():
     # a screw cap: prismatic into a helper link without geometry, continuous below it; both joints
     # move the same geometry, so only the tie-break keeps each joint with its own kind
     def bottle():
-        links = {"base": Link("base", [Visual(box((1.0, 1.0, 2.0)))]), "helper": Link("helper"),
-                 "cap": Link("cap", [Visual(box((0.5, 0.5, 0.3), (0.0, 0.0, 1.15)))])}
+        links = {"base": Link("base", [Visual(box_mesh((1.0, 1.0, 2.0)))]), "helper": Link("helper"),
+                 "cap": Link("cap", [Visual(box_mesh((0.5, 0.5, 0.3), (0.0, 0.0, 1.15)))])}
         joints = {"slide": Joint("slide", "prismatic", "base", "helper", np.eye(4), np.array([0, 0, 1.0]), 0, 0.1),
                   "spin": Joint("spin", "continuous", "helper", "cap", np.eye(4), np.array([0, 0, 1.0]), 0, 2 * np.pi)}
         return ArticulatedAsset("bottle", links, joints, source="bottle")
@@ -114,7 +92,7 @@ def test_helper_chain_is_matched_to_itself():
 
 
 def test_rerun_is_identical_and_seed_matters():
-    pred, gt = cabinet(door_pivot=(-0.9, -0.4, 0.0)), cabinet()
+    pred, gt = box_cabinet(door_pivot=(-0.9, -0.4, 0.0)), box_cabinet()
     a = compute_metrics(pred, gt, n_samples=5000, seed=7).to_dict()
     b = compute_metrics(pred, gt, n_samples=5000, seed=7).to_dict()
     c = compute_metrics(pred, gt, n_samples=5000, seed=8).to_dict()
@@ -135,7 +113,7 @@ def test_plates_a_known_distance_apart(gap, f01, f05):
 
 def test_hinge_moved_by_a_known_offset():
     # pred door plate and hinge 0.2 further in (+x): parallel axes 0.2 apart; part CD = 2 x 0.2
-    result = compute_metrics(cabinet(door_pivot=(-0.7, -0.5, 0.0)), cabinet(), n_samples=N)
+    result = compute_metrics(box_cabinet(door_pivot=(-0.7, -0.5, 0.0)), box_cabinet(), n_samples=N)
     door = result.matches[0]
     assert door.gt_joint == "door_joint" and door.pred_joint == "door_joint"
     assert door.pivot_err == pytest.approx(0.2, abs=1e-9)
@@ -147,7 +125,7 @@ def test_hinge_moved_by_a_known_offset():
 
 
 def test_hinge_moved_along_its_own_axis_has_no_pivot_error():
-    result = compute_metrics(cabinet(door_pivot=(-0.9, -0.5, 0.1)), cabinet(), n_samples=5000)
+    result = compute_metrics(box_cabinet(door_pivot=(-0.9, -0.5, 0.1)), box_cabinet(), n_samples=5000)
     assert result.matches[0].pivot_err == pytest.approx(0.0, abs=1e-12)
 
 
@@ -156,7 +134,7 @@ def test_axis_rotated_by_a_known_angle(angle):
     # door axis tilted by `angle` in the y-z plane through the same pivot: AxisErr = angle, the
     # two axes meet at the pivot so PivotErr = 0
     tilted = (0.0, math.sin(angle), math.cos(angle))
-    result = compute_metrics(cabinet(door_axis=tilted), cabinet(), n_samples=5000)
+    result = compute_metrics(box_cabinet(door_axis=tilted), box_cabinet(), n_samples=5000)
     assert result.matches[0].axis_err == pytest.approx(angle, abs=1e-12)
     assert result.matches[0].pivot_err == pytest.approx(0.0, abs=1e-12)
     assert result.axis_err == pytest.approx(angle / 2, abs=1e-12)  # mean with the exact drawer
@@ -165,13 +143,14 @@ def test_axis_rotated_by_a_known_angle(angle):
 
 
 def test_flipped_axis_is_sign_free_but_seen_when_open():
-    result = compute_metrics(cabinet(drawer_axis=(1.0, 0.0, 0.0)), cabinet(), n_samples=N)
+    result = compute_metrics(box_cabinet(drawer_axis=(1.0, 0.0, 0.0)), box_cabinet(), n_samples=N)
     assert result.matches[1].axis_err == 0.0 and result.rest.cd == 0.0
     assert result.open.cd > 0.01  # the drawer goes into the box instead of out of it
 
 
 def test_type_errors_and_continuous_as_revolute():
-    result = compute_metrics(cabinet(door_type="continuous", drawer_type="revolute"), cabinet(), n_samples=5000)
+    result = compute_metrics(box_cabinet(door_type="continuous", drawer_type="revolute"), box_cabinet(),
+                             n_samples=5000)
     assert [m.type_match for m in result.matches] == [True, False]
     assert result.type_err == 0.5
     assert result.matches[1].pivot_err is None  # a prismatic ground truth has no pivot
@@ -180,8 +159,9 @@ def test_type_errors_and_continuous_as_revolute():
 
 # ----- degenerate inputs -----------------------------------------------------------------------
 def test_prediction_without_movable_joints():
-    fused = ArticulatedAsset("fused", {"base": Link("base", [Visual(cabinet().mesh())])}, {}, source="fused")
-    result = compute_metrics(fused, cabinet(), n_samples=5000)
+    fused = ArticulatedAsset("fused", {"base": Link("base", [Visual(box_cabinet().mesh())])}, {},
+                             source="fused")
+    result = compute_metrics(fused, box_cabinet(), n_samples=5000)
     d = result.to_dict()
     assert d["type_err"] == 1.0
     assert d["axis_err"] is None and d["pivot_err"] is None
@@ -191,18 +171,19 @@ def test_prediction_without_movable_joints():
 
 
 def test_ground_truth_without_movable_joints():
-    fused = ArticulatedAsset("fused", {"base": Link("base", [Visual(cabinet().mesh())])}, {}, source="fused")
-    result = compute_metrics(cabinet(), fused, n_samples=2000)
+    fused = ArticulatedAsset("fused", {"base": Link("base", [Visual(box_cabinet().mesh())])}, {},
+                             source="fused")
+    result = compute_metrics(box_cabinet(), fused, n_samples=2000)
     assert result.type_err is None and result.axis_err is None  # nothing to get wrong
     assert sorted(result.extra_joints) == ["door_joint", "drawer_joint"] and result.missing_joints == []
 
 
 def test_prediction_with_more_parts_than_ground_truth():
-    pred = cabinet()
-    pred.links["lid"] = Link("lid", [Visual(box((0.4, 0.4, 0.0), (0.2, 0.0, 0.0)))])
+    pred = box_cabinet()
+    pred.links["lid"] = Link("lid", [Visual(box_mesh((0.4, 0.4, 0.0), (0.2, 0.0, 0.0)))])
     pred.joints["lid_joint"] = Joint("lid_joint", "revolute", "base", "lid", make_transform(translation=(0, 0, 0.95)),
                                      np.array([0, 1.0, 0]), 0.0, 1.0)
-    result = compute_metrics(pred, cabinet(), n_samples=5000)
+    result = compute_metrics(pred, box_cabinet(), n_samples=5000)
     assert result.extra_joints == ["lid_joint"] and result.missing_joints == []
     assert {m.pred_joint for m in result.matches} == {"door_joint", "drawer_joint"}
     assert result.type_err == 0.0 and result.to_dict()["n_extra_joints"] == 1
@@ -211,12 +192,12 @@ def test_prediction_with_more_parts_than_ground_truth():
 def test_empty_mesh_is_a_clear_error():
     empty = ArticulatedAsset("empty", {"base": Link("base")}, {}, source="empty/mobility.urdf")
     with pytest.raises(InputError, match="empty/mobility.urdf: empty mesh"):
-        compute_metrics(empty, cabinet(), n_samples=100)
+        compute_metrics(empty, box_cabinet(), n_samples=100)
 
 
 @pytest.mark.parametrize("where", ["vertex", "axis", "origin", "limit"])
 def test_nan_is_a_clear_error(where):
-    pred = cabinet()
+    pred = box_cabinet()
     if where == "vertex":
         pred.links["door"].visuals[0].mesh.vertices[0, 1] = np.nan
     elif where == "axis":
@@ -226,19 +207,19 @@ def test_nan_is_a_clear_error(where):
     else:
         pred.joints["drawer_joint"].upper = np.nan
     with pytest.raises(InputError, match="^cabinet: .*(NaN|not finite)"):
-        compute_metrics(pred, cabinet(), n_samples=100)
+        compute_metrics(pred, box_cabinet(), n_samples=100)
 
 
 def test_unknown_alignment_is_an_error():
     with pytest.raises(InputError, match="alignment"):
-        compute_metrics(cabinet(), cabinet(), align="magic")
+        compute_metrics(box_cabinet(), box_cabinet(), align="magic")
 
 
 # ----- alignment -------------------------------------------------------------------------------
 def test_icp_alignment_undoes_a_quarter_turn():
-    pred = rotated(cabinet(), math.pi / 2)
-    plain = compute_metrics(pred, cabinet(), n_samples=5000)
-    aligned = compute_metrics(pred, cabinet(), n_samples=5000, align="icp")
+    pred = rotated(box_cabinet(), math.pi / 2)
+    plain = compute_metrics(pred, box_cabinet(), n_samples=5000)
+    aligned = compute_metrics(pred, box_cabinet(), n_samples=5000, align="icp")
     assert plain.rest.cd > 0.1 and plain.axis_err > 0.5  # the drawer axis turned 90 degrees
     assert aligned.rest.cd < 1e-6 and aligned.open.cd < 1e-6
     assert aligned.axis_err < 1e-6 and aligned.pivot_err < 1e-6 and aligned.type_err == 0.0
@@ -247,7 +228,7 @@ def test_icp_alignment_undoes_a_quarter_turn():
 
 # ----- reporting and CLI ----------------------------------------------------------------------
 def test_json_dict_and_table():
-    d = compute_metrics(cabinet(door_pivot=(-0.7, -0.5, 0.0)), cabinet(), n_samples=2000).to_dict()
+    d = compute_metrics(box_cabinet(door_pivot=(-0.7, -0.5, 0.0)), box_cabinet(), n_samples=2000).to_dict()
     for key in ("cd", "fscore@0.1", "fscore@0.5", "cd_open", "axis_err", "pivot_err", "type_err",
                 "n_missing_joints", "n_extra_joints", "matching", "convention", "units"):
         assert key in d
@@ -266,8 +247,8 @@ def write_folder(asset: ArticulatedAsset, folder: Path) -> Path:
 def test_cli_json_and_table(tmp_path, capsys):
     from spark_bench.cli import main
 
-    pred = write_folder(cabinet(door_pivot=(-0.7, -0.5, 0.0)), tmp_path / "pred")
-    gt = write_folder(cabinet(), tmp_path / "gt")
+    pred = write_folder(box_cabinet(door_pivot=(-0.7, -0.5, 0.0)), tmp_path / "pred")
+    gt = write_folder(box_cabinet(), tmp_path / "gt")
     assert main(["metrics", "--pred", str(pred), "--gt", str(gt / "mobility.urdf"), "--json",
                  "--samples", "3000", "--match-samples", "1000"]) == 0
     d = json.loads(capsys.readouterr().out)
@@ -281,7 +262,7 @@ def test_cli_json_and_table(tmp_path, capsys):
 def test_cli_bad_input_exits_2(tmp_path, capsys):
     from spark_bench.cli import main
 
-    gt = write_folder(cabinet(), tmp_path / "gt")
+    gt = write_folder(box_cabinet(), tmp_path / "gt")
     assert main(["metrics", "--pred", str(tmp_path / "missing"), "--gt", str(gt)]) == 2
     assert "error" in capsys.readouterr().err
 

@@ -4,56 +4,22 @@ class carried per joint, and their aggregation in the eval summary."""
 from __future__ import annotations
 
 import json
-import math
 
-import numpy as np
 import pytest
-import trimesh
+from helpers_assets import box_cabinet
 
 from spark_bench import CONVENTION_VERSION
-from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
-from spark_bench.asset.transforms import make_transform
 from spark_bench.errors import SparkBenchError
 from spark_bench.evaluation.aggregate import by_part_class, summarize
 from spark_bench.metrics import compute_metrics
 from spark_bench.metrics.report import joint_errors, mean_by_part_class, mean_over_joints, mean_over_objects
 
 
-def box(extents, center=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:
-    mesh = trimesh.creation.box(extents=extents)
-    mesh.apply_translation(center)
-    return mesh
-
-
-def cabinet(door_type="revolute", door_pivot=(-0.9, -0.5, 0.0), with_drawer=True, annotate=False) -> ArticulatedAsset:
-    """A 2x2x2 box (benchmark frame = world frame) with a door hinged on a vertical axis at ``door_pivot``
-    (a handle fixed to it) and a drawer sliding along -x; ``annotate`` adds GAPartNet classes."""
-    links = {"base": Link("base", [Visual(box((2.0, 2.0, 2.0)))]),
-             "door": Link("door", [Visual(box((0.0, 1.0, 1.6), (0.0, 0.5, 0.0)))]),
-             "handle": Link("handle", [Visual(box((0.05, 0.05, 0.3), (-0.05, 0.8, 0.0)))])}
-    joints = {
-        "door_joint": Joint("door_joint", door_type, "base", "door", make_transform(translation=door_pivot),
-                            np.array([0.0, 0.0, 1.0]), 0.0, math.pi / 2),
-        "handle_joint": Joint("handle_joint", "fixed", "door", "handle", np.eye(4), np.array([1.0, 0.0, 0.0]), 0.0, 0.0),
-    }
-    if with_drawer:
-        links["drawer"] = Link("drawer", [Visual(box((0.6, 0.6, 0.3), (0.3, 0.0, 0.0)))])
-        joints["drawer_joint"] = Joint("drawer_joint", "prismatic", "base", "drawer",
-                                       make_transform(translation=(-0.5, 0.2, 0.5)), np.array([-1.0, 0.0, 0.0]),
-                                       0.0, 0.4)
-    if annotate:
-        links["handle"].annotations = {"is_gapart": True, "category": "line_fixed_handle"}  # never a joint's class
-        links["door"].annotations = {"is_gapart": True, "category": "hinge_door"}
-        if with_drawer:
-            links["drawer"].annotations = {"is_gapart": True, "category": "slider_drawer"}
-    return ArticulatedAsset("cabinet", links, joints, source="cabinet")
-
-
 def test_revolute_predicted_as_prismatic_has_a_pivot_error():
     """The door, predicted as a slider along its hinge line moved 0.2 off: PivotErr 0.2 (it was left out before
     FreeArt3D's rule), TypeErr counts it, the drawer (a ground-truth slider) has no pivot."""
-    result = compute_metrics(cabinet(door_type="prismatic", door_pivot=(-0.7, -0.5, 0.0)), cabinet(),
-                             n_samples=3000, n_match_samples=1000)
+    result = compute_metrics(box_cabinet(handle=True, door_type="prismatic", door_pivot=(-0.7, -0.5, 0.0)),
+                             box_cabinet(handle=True), n_samples=3000, n_match_samples=1000)
     door, drawer = result.matches
     assert door.gt_joint == "door_joint" and door.pred_type == "prismatic"
     assert door.pivot_err == pytest.approx(0.2, abs=1e-9) and not door.type_match
@@ -66,7 +32,8 @@ def test_revolute_predicted_as_prismatic_has_a_pivot_error():
 
 
 def test_part_classes_per_joint_from_gapartnet_annotations():
-    result = compute_metrics(cabinet(with_drawer=False), cabinet(annotate=True), n_samples=2000, n_match_samples=1000)
+    result = compute_metrics(box_cabinet(handle=True, with_drawer=False),
+                             box_cabinet(handle=True, annotate=True), n_samples=2000, n_match_samples=1000)
     assert result.part_classes == {"door_joint": "hinge_door", "drawer_joint": "slider_drawer"}
     assert [(m.gt_joint, m.gt_part_class) for m in result.matches] == [("door_joint", "hinge_door")]
     d = json.loads(json.dumps(result.to_dict()))  # as a results row stores it
@@ -77,7 +44,9 @@ def test_part_classes_per_joint_from_gapartnet_annotations():
     assert mean_by_part_class(records) == {
         "hinge_door": {"axis_err": 0.0, "pivot_err": 0.0, "type_err": 0.0, "n_joints": 1},
         "slider_drawer": {"axis_err": None, "pivot_err": None, "type_err": 1.0, "n_joints": 1}}
-    assert compute_metrics(cabinet(), cabinet(), n_samples=1000, n_match_samples=500).part_classes == {}
+    result = compute_metrics(box_cabinet(handle=True), box_cabinet(handle=True), n_samples=1000,
+                             n_match_samples=500)
+    assert result.part_classes == {}
 
 
 def _metrics(*joints, missing=()) -> dict:
@@ -109,14 +78,15 @@ def test_per_object_and_per_joint_means_by_hand():
     assert mean_over_joints([]) == {"axis_err": None, "pivot_err": None, "type_err": None}
 
 
-def _row(case_id, metrics, status="ok", convention=CONVENTION_VERSION) -> dict:
+def _store_row(case_id, metrics, status="ok", convention=CONVENTION_VERSION) -> dict:
     return {"case_id": case_id, "status": status, "convention": convention, "metrics": metrics,
             "axis_err": metrics.get("axis_err"), "pivot_err": metrics.get("pivot_err"),
             "type_err": metrics.get("type_err")}
 
 
 def test_summary_carries_joint_mean_and_part_classes():
-    rows = [_row("a", OBJ_A), _row("b", OBJ_B), _row("c", {"matching": [{"axis_err": 9.0}]}, status="failed")]
+    rows = [_store_row("a", OBJ_A), _store_row("b", OBJ_B),
+            _store_row("c", {"matching": [{"axis_err": 9.0}]}, status="failed")]
     summary = summarize(rows, sim=False)
     assert summary["axis_err"] == pytest.approx(0.35) and summary["type_err"] == pytest.approx(0.25)
     assert summary["joint_mean"]["axis_err"] == pytest.approx(0.225)  # the failed case enters neither
@@ -129,7 +99,7 @@ def test_summary_carries_joint_mean_and_part_classes():
 
 
 def test_rows_of_two_conventions_are_not_averaged():
-    rows = [_row("a", OBJ_A), _row("b", OBJ_B, convention="spark-bench-conv-1")]
+    rows = [_store_row("a", OBJ_A), _store_row("b", OBJ_B, convention="spark-bench-conv-1")]
     with pytest.raises(SparkBenchError, match="different metric conventions"):
         summarize(rows, sim=False)
 

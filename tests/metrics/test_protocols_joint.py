@@ -18,7 +18,7 @@ from spark_bench.metrics.protocols import PROTOCOLS, protocol_names, score
 from spark_bench.metrics.protocols import articulate_anything as aa
 from spark_bench.metrics.protocols import real2code as r2c
 from spark_bench.metrics.protocols import urdf_anything as ua
-from spark_bench.metrics.protocols.joints import record_from_dict
+from spark_bench.metrics.protocols.joints import joint_records, record_from_dict
 
 FIXTURES = Path(__file__).parent / "fixtures" / "protocols_joint"
 CASES = json.loads((FIXTURES / "cases.json").read_text())
@@ -112,7 +112,7 @@ def test_fixtures_cover_the_known_answers():
 
 
 # ----- known perturbations on an asset ------------------------------------------------------------------
-def _turned(asset, angle: float):
+def _axes_tilted(asset, angle: float):
     out = asset.copy()
     for joint in out.movable_joints():
         axis = np.asarray(joint.axis, dtype=float)
@@ -132,8 +132,8 @@ def _swapped_types(asset):
 @pytest.mark.parametrize("name", ["articulate-anything", "urdf-anything"])
 def test_axis_turned_by_02_passes_and_03_fails(name):
     gt = tiny_cabinet()
-    assert score(name, _turned(gt, 0.2), gt).metrics[JOINT_SUCCESS[name]] == 1.0
-    failed = score(name, _turned(gt, 0.3), gt).metrics
+    assert score(name, _axes_tilted(gt, 0.2), gt).metrics[JOINT_SUCCESS[name]] == 1.0
+    failed = score(name, _axes_tilted(gt, 0.3), gt).metrics
     assert failed[JOINT_SUCCESS[name]] == 0.0
     if name == "urdf-anything":
         assert failed["axis_within"] == 0.0
@@ -174,7 +174,7 @@ def test_self_pair_scores_perfectly(name):
 def test_real2code_axis_error_is_in_degrees():
     gt = tiny_cabinet()
     gt.joints["joint_drawer"].type = "fixed"  # one joint: no permutation to choose
-    result = score("real2code", _turned(gt, 0.2), gt)
+    result = score("real2code", _axes_tilted(gt, 0.2), gt)
     assert result.metrics["rot_err_deg"] == pytest.approx(np.degrees(0.2), rel=1e-9)
     assert result.metrics["axis_err"] == result.metrics["rot_err_deg"]
     assert result.units["rot_err_deg"] == "deg"
@@ -185,7 +185,7 @@ def test_real2code_permutation_cost_prefers_a_type_swap_to_a_few_degrees():
     joints each 0.2 rad (11.5 degrees) off cost more than two type failures (cost 1/3): it pairs the
     drawer with the door."""
     gt = tiny_cabinet()
-    result = score("real2code", _turned(gt, 0.2), gt)
+    result = score("real2code", _axes_tilted(gt, 0.2), gt)
     assert result.metrics["type_acc"] == 0.0 and result.metrics["rot_err_deg"] is None
 
 
@@ -208,8 +208,8 @@ def test_pivot_moved_along_the_papers_fallback_direction():
         door = pred.joints["joint_door"]
         door.origin = door.origin.copy()
         door.origin[:3, 3] += np.array([0.0, 1.0, 0.0]) * move  # z x (1, 0, 0) = (0, 1, 0)
-        records = {r.name: r for r in aa.joint_records(pred)}
-        g = {r.name: r for r in aa.joint_records(gt)}["joint_door"]
+        records = {r.name: r for r in joint_records(pred)}
+        g = {r.name: r for r in joint_records(gt)}["joint_door"]
         diff = aa.joint_diff(g, records["joint_door"])
         assert diff["joint_origin"]["xyz"] == pytest.approx(move, abs=1e-12)
         assert aa.failure_reason(diff, "revolute") == reason
@@ -228,7 +228,7 @@ def test_spark_protocol_reports_compute_metrics_unchanged(monkeypatch):
 
     original = evaluate.compute_metrics
     monkeypatch.setattr(evaluate, "compute_metrics", lambda p, g, seed=0: original(p, g, n_samples=3_000, seed=seed))
-    gt, pred = tiny_cabinet(), _turned(tiny_cabinet(), 0.2)
+    gt, pred = tiny_cabinet(), _axes_tilted(tiny_cabinet(), 0.2)
     result = score("spark", pred, gt)
     expected = original(pred, gt, n_samples=3_000).to_dict()
     for key in ("cd", "fscore@0.1", "axis_err", "pivot_err", "type_err", "part_cd"):

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import trimesh
+from helpers_boxes import box_mesh
 
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
 from spark_bench.asset.ops import scale_asset
@@ -27,25 +27,19 @@ def _fixture(name: str) -> dict:
     return json.loads((FIXTURES / f"fixture_{name}.json").read_text())
 
 
-def _box(extents, center=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:
-    mesh = trimesh.creation.box(extents=extents)
-    mesh.apply_translation(center)
-    return mesh
-
-
 def door_box(pivot_shift: float = 0.0, turn: float = 0.0, upper: float = 0.0, door_type: str = "revolute",
              drawer: bool = False) -> ArticulatedAsset:
     """A 2x2x2 box (its own benchmark frame) with a door hinged about Z at (-1, -0.5, 0); the pivot moved by
     ``pivot_shift`` along X with the door's mesh moved back (the same surface at rest); the axis turned by
     ``turn`` about X (the direction of the shift); the door opens to ``upper``."""
     axis = np.array([0.0, -math.sin(turn), math.cos(turn)])
-    links = {"base": Link("base", [Visual(_box((2.0, 2.0, 2.0)))]),
-             "door": Link("door", [Visual(_box((0.02, 1.0, 1.6), (0.01 - pivot_shift, 0.5, 0.0)))])}
+    links = {"base": Link("base", [Visual(box_mesh((2.0, 2.0, 2.0)))]),
+             "door": Link("door", [Visual(box_mesh((0.02, 1.0, 1.6), (0.01 - pivot_shift, 0.5, 0.0)))])}
     joints = {"door_joint": Joint("door_joint", door_type, "base", "door",
                                   make_transform(translation=(-1.0 + pivot_shift, -0.5, 0.0)), axis, 0.0, upper)}
     if drawer:
-        links["drawer"] = Link("drawer", [Visual(_box((0.6, 0.6, 0.3), (-0.7, 0.5, 0.5)))])
-        links["knob"] = Link("knob", [Visual(_box((0.05, 0.1, 0.1), (-1.05, 0.5, 0.5)))])
+        links["drawer"] = Link("drawer", [Visual(box_mesh((0.6, 0.6, 0.3), (-0.7, 0.5, 0.5)))])
+        links["knob"] = Link("knob", [Visual(box_mesh((0.05, 0.1, 0.1), (-1.05, 0.5, 0.5)))])
         joints["drawer_joint"] = Joint("drawer_joint", "prismatic", "base", "drawer", np.eye(4),
                                        np.array([-1.0, 0.0, 0.0]), 0.0, 0.4)
         joints["knob_joint"] = Joint("knob_joint", "revolute", "drawer", "knob", np.eye(4),
@@ -237,7 +231,7 @@ def test_partcrafter_scores_a_scaled_prediction_in_its_own_frame(monkeypatch):
 def test_partcrafter_part_iou_is_the_voxel_overlap_of_predicted_parts():
     """Two cubes, one half inside the other: the IoU of their filled voxelizations (pitch 2 / 64); one
     part: None (the paper's code raises)."""
-    cube = _box((0.5, 0.5, 0.5))
+    cube = box_mesh((0.5, 0.5, 0.5))
     triangles = cube.vertices[cube.faces]
     iou = partcrafter.parts_iou([triangles, triangles + [0.25, 0.0, 0.0]])
     assert iou == pytest.approx(1 / 3, abs=0.03)

@@ -96,7 +96,7 @@ def import_edges() -> dict[tuple[str, str], str]:
 def test_every_top_level_package_has_a_place_in_the_order():
     placed = [unit for layer in LAYERS for unit in layer]
     assert len(placed) == len(set(placed))
-    assert top_level_units() == set(placed), "add the new package to LAYERS and the README's order"
+    assert top_level_units() == set(placed), "add the new package to LAYERS and docs/architecture.md's order"
 
 
 def test_imports_run_down_the_order_only():

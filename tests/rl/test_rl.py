@@ -7,7 +7,7 @@ import json
 import gymnasium as gym
 import numpy as np
 import pytest
-from helpers_open import opens_with_its_hinge_only
+from helpers_open import opener_observation, opens_with_its_hinge_only
 
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.cli import main
@@ -263,13 +263,6 @@ def test_a_top_loading_washers_lid_lifted_by_its_lip_is_pinched_beside_the_deck_
     env.close()
 
 
-def _obs(tcp, grasp) -> np.ndarray:
-    """An observation of the environments' layout with only what the opener reads: TCP and grasp point."""
-    obs = np.zeros(OBS.OBS_SIZE, dtype=np.float32)
-    obs[OBS.TCP], obs[OBS.GRASP] = tcp, grasp
-    return obs
-
-
 def test_the_opener_moves_on_when_its_approach_stalls_and_grasps_again_when_the_handle_slips():
     """A pad resting on a lip stops the hand short of the handle: after STALL_STEPS steps without progress
     the opener closes there instead of pushing out the phase's step budget. While opening, a handle
@@ -287,23 +280,23 @@ def test_the_opener_moves_on_when_its_approach_stalls_and_grasps_again_when_the_
     opener = ScriptedOpener(axis=outward, pivot=np.zeros(3), joint_type="prismatic", outward=outward)
     grasp = np.array([0.3, 0.0, 0.4])
     pregrasp = grasp + PREGRASP_OFFSET * outward
-    opener(_obs(pregrasp, grasp))
+    opener(opener_observation(pregrasp, grasp))
     assert opener.phase == "approach"
     stuck = grasp + 0.03 * outward  # 3 cm short, and it stays there
     for _ in range(STALL_STEPS + 1):
-        opener(_obs(stuck, grasp))
+        opener(opener_observation(stuck, grasp))
     assert opener.phase == "close"
     for _ in range(10):
-        action = opener(_obs(stuck, grasp))
+        action = opener(opener_observation(stuck, grasp))
     assert opener.phase == "open" and action[3] > 0  # pulling, fingers closed
     # held: the grasp point moves with the TCP, no regrasp
-    action = opener(_obs(grasp + 0.01 * outward, grasp))
+    action = opener(opener_observation(grasp + 0.01 * outward, grasp))
     assert opener.phase == "open" and opener.regrasps == 0
     # slipped: the drawer stays, the hand ran on
     slipped = grasp + (REGRASP_DISTANCE + 0.01) * outward
-    action = opener(_obs(slipped, grasp))
+    action = opener(opener_observation(slipped, grasp))
     assert opener.phase == "pregrasp" and opener.regrasps == 1 and action[3] < 0  # fingers open
     for _ in range(MAX_REGRASPS + 2):
         opener.phase = "open"
-        opener(_obs(slipped, grasp))
+        opener(opener_observation(slipped, grasp))
     assert opener.regrasps == MAX_REGRASPS and opener.phase == "open"

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import trimesh
 from helpers_bench import write_case
+from helpers_open import identity_matching
 
 from spark_bench.asset import write_object_folder
 from spark_bench.asset.model import Collision, Visual
@@ -81,17 +82,13 @@ def button_dir(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def gt_dir(case_dir):
+def case_gt_dir(case_dir):
     return BenchmarkCase(case_dir).gt_dir
 
 
-def identity_matching(asset) -> dict:
-    return {"matching": [{"gt_joint": j.name, "pred_joint": j.name} for j in asset.movable_joints()]}
-
-
-def test_case_ground_truth_comes_back_at_source_size(case_dir, gt_dir, tmp_path):
+def test_case_ground_truth_comes_back_at_source_size(case_dir, case_gt_dir, tmp_path):
     source = procedural_cabinet(seed=0)
-    gt_bench, gt_metres, bench_to_metres = ground_truth_in_metres(gt_dir)
+    gt_bench, gt_metres, bench_to_metres = ground_truth_in_metres(case_gt_dir)
     assert gt_bench.bounds().max() == pytest.approx(1.0)  # the files: benchmark frame
     # the meshes went through files and back to metres: equal to well within 1e-6 m
     np.testing.assert_allclose(gt_metres.bounds(), source.bounds(), atol=1e-6)
@@ -107,31 +104,32 @@ def test_case_ground_truth_comes_back_at_source_size(case_dir, gt_dir, tmp_path)
     assert same.bounds().max() == pytest.approx(1.0)
 
 
-def test_ground_truth_joints_open_the_case_and_a_wrong_axis_does_not(gt_dir, tmp_path):
-    gt = load_object(gt_dir)
-    result = open_with_predicted_joints(gt_dir, gt_dir, identity_matching(gt))
+def test_ground_truth_joints_open_the_case_and_a_wrong_axis_does_not(case_gt_dir, tmp_path):
+    gt = load_object(case_gt_dir)
+    result = open_with_predicted_joints(case_gt_dir, case_gt_dir, identity_matching(gt))
     assert result["success_rate"] == 1.0
     assert {name for name, j in result["joints"].items() if j["success"]} == {j.name for j in gt.movable_joints()}
     # a prediction at another scale and place (methods answer in any frame): the same joints, still opened
     matrix = np.eye(4)
     matrix[:3, :3], matrix[:3, 3] = 0.37 * np.eye(3), [2.0, -1.0, 0.5]
     write_object_folder(similarity_asset(gt, matrix), tmp_path / "moved")
-    assert open_with_predicted_joints(tmp_path / "moved", gt_dir, identity_matching(gt))["success_rate"] == 1.0
+    moved = open_with_predicted_joints(tmp_path / "moved", case_gt_dir, identity_matching(gt))
+    assert moved["success_rate"] == 1.0
     # the drawer's axis turned sideways: the pull drags the handle across the front, the drawer stays shut
     wrong = gt.copy()
     drawer = next(j for j in wrong.movable_joints() if j.type == "prismatic")
     drawer.axis = np.array([0.0, 1.0, 0.0])
     write_object_folder(wrong, tmp_path / "wrong")
-    joints = open_with_predicted_joints(tmp_path / "wrong", gt_dir, identity_matching(gt))["joints"]
+    joints = open_with_predicted_joints(tmp_path / "wrong", case_gt_dir, identity_matching(gt))["joints"]
     assert joints[drawer.name]["success"] is False
     assert all(j["success"] for name, j in joints.items() if name != drawer.name)
 
 
-def test_unmatched_joint_counts_as_not_opened(gt_dir):
-    gt = load_object(gt_dir)
+def test_unmatched_joint_counts_as_not_opened(case_gt_dir):
+    gt = load_object(case_gt_dir)
     door = next(j for j in gt.movable_joints() if j.type == "revolute")
     metrics = {"matching": [m for m in identity_matching(gt)["matching"] if m["gt_joint"] != door.name]}
-    result = open_with_predicted_joints(gt_dir, gt_dir, metrics)
+    result = open_with_predicted_joints(case_gt_dir, case_gt_dir, metrics)
     assert result["joints"][door.name] == {"success": False, "why": "no matched predicted joint", "end_effector": "gripper"}
     assert result["success_rate"] == pytest.approx(1 - 1 / len(result["joints"]))
 
@@ -206,22 +204,22 @@ def test_a_part_with_nothing_to_pinch_is_opened_with_the_suction_cup(flat_dir, t
     assert rl["scored_by"] == {"gripper": 1, "suction": 1} and rl["joints"]["joint_1"]["end_effector"] == "gripper"
 
 
-def test_the_oracle_ground_truth_is_loaded_once(gt_dir, tmp_path, object_loads):
+def test_the_oracle_ground_truth_is_loaded_once(case_gt_dir, tmp_path, object_loads):
     """The oracle's prediction folder is the ground-truth folder: one load, not two (seconds on a real
     object); a prediction in another folder is still loaded from its own files."""
     loaded = object_loads
     no_matching = {"matching": []}  # every joint unmatched: only the ground truth's own episodes run
-    same = open_with_predicted_joints(gt_dir, gt_dir, no_matching)
+    same = open_with_predicted_joints(case_gt_dir, case_gt_dir, no_matching)
     assert len(loaded) == 1
     loaded.clear()
     # the same folder spelled another way (a relative path with ".."): still one load
-    spelled = gt_dir.parent / ".." / gt_dir.parent.name / gt_dir.name
-    open_with_predicted_joints(spelled, gt_dir, no_matching)
+    spelled = case_gt_dir.parent / ".." / case_gt_dir.parent.name / case_gt_dir.name
+    open_with_predicted_joints(spelled, case_gt_dir, no_matching)
     assert len(loaded) == 1
     loaded.clear()
-    write_object_folder(load_object(gt_dir), tmp_path / "copy")
+    write_object_folder(load_object(case_gt_dir), tmp_path / "copy")
     loaded.clear()
-    other = open_with_predicted_joints(tmp_path / "copy", gt_dir, no_matching)
+    other = open_with_predicted_joints(tmp_path / "copy", case_gt_dir, no_matching)
     assert len(loaded) == 2 and loaded[1] == str(tmp_path / "copy")
     assert other == same and all(j["success"] is False for j in same["joints"].values())
 
@@ -273,7 +271,7 @@ def _reference_fails_on(joint_name: str, monkeypatch) -> None:
 
 
 @pytest.mark.parametrize("why", ["planner", "scene", "reference"])
-def test_both_scores_leave_out_the_same_joint_with_the_same_reason(why, button_dir, jammed_dir, gt_dir,
+def test_both_scores_leave_out_the_same_joint_with_the_same_reason(why, button_dir, jammed_dir, case_gt_dir,
                                                                    monkeypatch):
     """The one rule, for the scripted opening score and the RL transfer score alike: the planner declines
     the push button, the scene finds the jammed drawer stuck, the opener fails the reference episode (here:
@@ -282,7 +280,8 @@ def test_both_scores_leave_out_the_same_joint_with_the_same_reason(why, button_d
     from spark_bench.rl.transfer import rl_transfer_score
 
     folder, joint, words = {"planner": (button_dir, "joint_0", "push button"), "scene": (jammed_dir, "joint_0", "jammed"),
-                            "reference": (gt_dir, "joint_1", "fails with the ground-truth joint too")}[why]
+                            "reference": (case_gt_dir, "joint_1", "fails with the ground-truth joint too"),
+                            }[why]
     if why == "reference":
         _reference_fails_on(joint, monkeypatch)
     metrics = {"matching": [{"gt_joint": joint, "pred_joint": joint}]}

@@ -10,7 +10,7 @@ import trimesh
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from helpers_assets import box_visual  # noqa: E402
+from helpers_boxes import box_visual  # noqa: E402
 
 from spark_bench.asset.model import ArticulatedAsset, Collision, Joint, Link, Visual  # noqa: E402
 from spark_bench.asset.transforms import make_transform  # noqa: E402

@@ -10,7 +10,7 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from helpers_assets import box_visual  # noqa: E402
+from helpers_boxes import box_part  # noqa: E402
 
 from spark_bench.asset.model import ArticulatedAsset, Collision, Joint, Link  # noqa: E402
 from spark_bench.asset.transforms import make_transform  # noqa: E402
@@ -18,14 +18,8 @@ from spark_bench.sim import phantom, run_checks  # noqa: E402
 from spark_bench.sim.checks import PENETRATION_TOLERANCE, REST_DRIFT_FLOOR, RestContact  # noqa: E402
 
 
-def _box(extents, center) -> tuple:
-    """A visual box and the same box as a given collision primitive (used as it is: no erosion, no
-    relief cut, so the hulls are exactly what the test says)."""
-    return box_visual(extents, center), Collision("box", make_transform(translation=center), np.array(extents))
-
-
 def _solid(name: str, boxes: list, label: str, collision_only: list = ()) -> Link:
-    parts = [_box(e, c) for e, c in boxes]
+    parts = [box_part(e, c) for e, c in boxes]
     extra = [Collision("box", make_transform(translation=c), np.array(e)) for e, c in collision_only]
     return Link(name, visuals=[v for v, _ in parts], collisions=[c for _, c in parts] + extra, label=label)
 

@@ -8,7 +8,7 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from helpers_assets import box_visual  # noqa: E402
+from helpers_boxes import box_visual  # noqa: E402
 
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link  # noqa: E402
 from spark_bench.sim import relief, run_checks  # noqa: E402

@@ -12,6 +12,7 @@ import trimesh
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from helpers_assets import tiny_cabinet  # noqa: E402
+from helpers_boxes import l_shape  # noqa: E402
 
 from spark_bench.asset.ops import scale_asset  # noqa: E402
 from spark_bench.sim.decompose import DecomposeStats, decompose_many  # noqa: E402
@@ -22,13 +23,7 @@ from spark_bench.sim.options import CoacdParams  # noqa: E402
 PARAMS = CoacdParams(mcts_iterations=20, mcts_nodes=8, resolution=500)
 
 
-def _l_shape() -> trimesh.Trimesh:
-    a = trimesh.creation.box(extents=(0.2, 0.05, 0.05), transform=trimesh.transformations.translation_matrix((0.1, 0.025, 0.025)))
-    b = trimesh.creation.box(extents=(0.05, 0.2, 0.05), transform=trimesh.transformations.translation_matrix((0.025, 0.1, 0.025)))
-    return a.union(b)
-
-
-def _normalized(hulls) -> np.ndarray:
+def _normalized_points(hulls) -> np.ndarray:
     points = np.concatenate([v for v, _ in hulls])
     lo, hi = points.min(0), points.max(0)
     return np.sort((points - 0.5 * (lo + hi)) / np.max(hi - lo), axis=0)
@@ -37,11 +32,11 @@ def _normalized(hulls) -> np.ndarray:
 def test_coacd_hulls_scale_with_the_mesh():
     # decompose_many feeds CoACD the normalized mesh (rounded to 2^-30), so a scaled copy's hulls are the
     # same hulls, scaled: what makes a scale-invariant key right
-    ell = _l_shape()
+    ell = l_shape()
     small, large = (decompose_many([(ell.vertices * s, ell.faces)], PARAMS, cache=None, workers=1)[0]
                     for s in (0.013, 7.3))
     assert len(small) == len(large) >= 2
-    np.testing.assert_allclose(_normalized(small), _normalized(large), atol=1e-6)
+    np.testing.assert_allclose(_normalized_points(small), _normalized_points(large), atol=1e-6)
 
 
 @pytest.mark.parametrize("factor", [0.8122090000000002, 3.7])
@@ -66,7 +61,7 @@ def test_a_scaled_copy_simplifies_and_welds_the_same(factor):
 
 
 def test_scaled_part_is_a_cache_hit_with_scaled_hulls(tmp_path):
-    ell = _l_shape()
+    ell = l_shape()
     first = decompose_many([(ell.vertices, ell.faces)], PARAMS, cache=tmp_path, workers=1)[0]
     stats = DecomposeStats()
     moved = ell.vertices * 3.7 + [1.0, -2.0, 0.5]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
+from helpers_boxes import l_shape
 from scipy.spatial import ConvexHull
 
 from spark_bench.sim.decompose import DecomposeStats, decompose_many, load_cached, mesh_key
@@ -25,13 +26,6 @@ from spark_bench.sim.physical import (
     shell_fraction,
 )
 from spark_bench.sim.shapes import CollisionShape
-
-
-def _l_shape() -> trimesh.Trimesh:
-    """A closed L-shaped solid (two boxes unioned): non-convex, 0.2 m arms."""
-    a = trimesh.creation.box(extents=(0.2, 0.05, 0.05), transform=trimesh.transformations.translation_matrix((0.1, 0.025, 0.025)))
-    b = trimesh.creation.box(extents=(0.05, 0.2, 0.05), transform=trimesh.transformations.translation_matrix((0.025, 0.1, 0.025)))
-    return a.union(b)
 
 
 def test_thicken_flat_square_to_thickness():
@@ -72,7 +66,7 @@ def test_concavity_separates_convex_from_l_shape():
     box = trimesh.creation.box(extents=(0.2, 0.2, 0.05))
     v, f = convex_hull(box.vertices, 1e-4)
     assert concavity(box, v, f, spacing=0.005) < 0.01
-    ell = _l_shape()
+    ell = l_shape()
     v, f = convex_hull(ell.vertices, 1e-4)
     assert concavity(ell, v, f, spacing=0.005) > 0.05  # the hull fills the inner corner
 
@@ -206,7 +200,7 @@ def test_mesh_key_is_translation_and_scale_invariant_and_parameter_sensitive():
 
 
 def test_coacd_decomposes_l_shape_and_caches(tmp_path):
-    ell = _l_shape()
+    ell = l_shape()
     moved = ell.copy()
     moved.apply_translation((5.0, 0, 0))
     params = CoacdParams(mcts_iterations=20, mcts_nodes=8, resolution=500)
@@ -227,7 +221,7 @@ def test_coacd_decomposes_l_shape_and_caches(tmp_path):
 
 
 def test_torn_cache_entry_is_recomputed(tmp_path):
-    ell = _l_shape()
+    ell = l_shape()
     params = CoacdParams(mcts_iterations=20, mcts_nodes=8, resolution=500)
     decompose_many([(ell.vertices, ell.faces)], params, cache=tmp_path, workers=1)
     (entry,) = tmp_path.rglob("*.npz")
@@ -240,7 +234,7 @@ def test_torn_cache_entry_is_recomputed(tmp_path):
 
 def test_coacd_crash_costs_only_its_mesh_and_says_why():
     ball = trimesh.creation.icosphere(subdivisions=2, radius=0.1)
-    ell = _l_shape()
+    ell = l_shape()
     assert len(ball.faces) > len(ell.faces)  # the largest mesh runs first: the others come after it
     broken = (ball.vertices, ball.faces + 10 ** 9)  # faces far out of range: CoACD segfaults on it
     stats = DecomposeStats()
@@ -253,7 +247,7 @@ def test_coacd_crash_costs_only_its_mesh_and_says_why():
 
 
 def test_hung_coacd_call_is_killed_with_a_reason():
-    ell = _l_shape()
+    ell = l_shape()
     stats = DecomposeStats()
     hulls = decompose_many([(ell.vertices, ell.faces)], CoacdParams(), workers=1, stats=stats, timeout=0.0)
     assert stats.failed == {0: "CoACD ran over 0 s (taken as hung; worker killed)"}

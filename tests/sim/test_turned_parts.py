@@ -23,7 +23,7 @@ def _carcass() -> trimesh.Trimesh:
     return trimesh.boolean.union(boxes)
 
 
-def _turn(mesh: trimesh.Trimesh, degrees: float, axis=(0.0, 0.0, 1.0)) -> trimesh.Trimesh:
+def _turned_mesh(mesh: trimesh.Trimesh, degrees: float, axis=(0.0, 0.0, 1.0)) -> trimesh.Trimesh:
     turned = mesh.copy()
     turned.apply_transform(trimesh.transformations.rotation_matrix(np.radians(degrees), axis))
     return turned
@@ -36,14 +36,14 @@ def _volume(hulls) -> float:
 def test_flat_frame_turns_only_flat_faced_parts_that_are_turned():
     box = trimesh.creation.box(extents=(0.3, 0.5, 0.7))
     assert flat_frame(box.vertices, box.faces) is None  # axis-aligned: decomposed as before
-    turned = _turn(box, 7.0)
+    turned = _turned_mesh(box, 7.0)
     rotation = flat_frame(turned.vertices, turned.faces)
     assert rotation is not None
     np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-9)
     assert np.linalg.det(rotation) > 0
     # in the frame found the part is axis-aligned again, its sides in the same order
     np.testing.assert_allclose(np.ptp(turned.vertices @ rotation.T, axis=0), (0.3, 0.5, 0.7), atol=1e-9)
-    slight = _turn(box, 0.5)
+    slight = _turned_mesh(box, 0.5)
     assert flat_frame(slight.vertices, slight.faces) is None  # within a degree of the axes: kept
     # a curved part has no planes to align (a tilted 64-sided cylinder: caps are a quarter of its area)
     cylinder = trimesh.creation.cylinder(radius=0.3, height=1.0, sections=64)
@@ -53,7 +53,7 @@ def test_flat_frame_turns_only_flat_faced_parts_that_are_turned():
 
 def test_a_turned_carcass_gets_the_hulls_of_the_upright_one_turned():
     upright = _carcass()
-    turned = _turn(upright, 7.0, axis=(0.0, 1.0, 0.0))
+    turned = _turned_mesh(upright, 7.0, axis=(0.0, 1.0, 0.0))
     stats = DecomposeStats()
     hulls_upright = decompose_many([(upright.vertices, upright.faces)], PARAMS, workers=1)[0]
     hulls_turned = decompose_many([(turned.vertices, turned.faces)], PARAMS, workers=1, stats=stats)[0]

@@ -230,7 +230,7 @@ def candidate_hypotheses(asset: ArticulatedAsset, joint_name: str, prior: Hypoth
         directions["prior"] = prior_world
     for name, world_dir in directions.items():
         axis_joint = joint_rot.T @ world_dir
-        for jtype in ("revolute", "prismatic"):
+        for jtype in (JointType.REVOLUTE, JointType.PRISMATIC):
             value = prior.value if prior.type == jtype and prior.value > 0 else values[jtype]
             out.append(Hypothesis(jtype, axis_joint, np.zeros(3), value, tag=f"{jtype}/{name}/prior"))
         if box is not None:

@@ -54,9 +54,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.metrics.protocols.base import ProtocolInfo, ProtocolResult
-from spark_bench.metrics.protocols.joints import JointRecord, joint_records, match_joints, part_aabb_center
+from spark_bench.metrics.protocols.joints import JointRecord, paired_records, part_aabb_center
 
 AXIS_CUTOFF = 0.25
 ORIGIN_CUTOFF = 0.05
@@ -113,7 +114,7 @@ def origin_distance(gt_type: str, p1: np.ndarray, a1: np.ndarray, p2: np.ndarray
     :param p2: predicted joint position
     :param a2: predicted axis
     """
-    if gt_type != "revolute":
+    if gt_type != JointType.REVOLUTE:
         return float(np.linalg.norm(p1 - p2))
     w = np.cross(a2, a1)
     if np.allclose(w, 0):
@@ -156,7 +157,7 @@ def failure_reason(diff: dict, gt_type: str) -> str:
     elif (diff["joint_limit"]["direction_diff"] > LIMIT_DIRECTION_CUTOFF
           or diff["joint_limit"]["range_diff"] > LIMIT_RANGE_CUTOFF):
         reason = "joint_limit"
-    if gt_type == "prismatic" and reason in ("joint_origin", "joint_limit"):
+    if gt_type == JointType.PRISMATIC and reason in ("joint_origin", "joint_limit"):
         return "success"
     return reason
 
@@ -231,17 +232,17 @@ def joint_metrics(outcomes: list[dict]) -> dict[str, float | None]:
     success = [r == "success" for r in reasons]
     diffs = [o for o in outcomes if o["diff"] is not None]
     axes = [o["diff"]["joint_axis"] for o in diffs]
-    pivots = [o["diff"]["joint_origin"]["xyz"] for o in diffs if o["gt_type"] == "revolute"]
+    pivots = [o["diff"]["joint_origin"]["xyz"] for o in diffs if o["gt_type"] == JointType.REVOLUTE]
     return {
         "joint_success_rate": rate(success),
-        "revolute_success_rate": rate([s for s, o in zip(success, outcomes) if o["gt_type"] == "revolute"]),
-        "prismatic_success_rate": rate([s for s, o in zip(success, outcomes) if o["gt_type"] == "prismatic"]),
+        "revolute_success_rate": rate([s for s, o in zip(success, outcomes) if o["gt_type"] == JointType.REVOLUTE]),
+        "prismatic_success_rate": rate([s for s, o in zip(success, outcomes) if o["gt_type"] == JointType.PRISMATIC]),
         **{f"failure_{r}": rate([x == r for x in reasons]) for r in FAILURE_REASONS},
         "axis_err": float(np.mean(axes)) if axes else None,
         "pivot_err": float(np.mean(pivots)) if pivots else None,
         "n_joints": float(len(outcomes)),
-        "n_revolute": float(sum(o["gt_type"] == "revolute" for o in outcomes)),
-        "n_prismatic": float(sum(o["gt_type"] == "prismatic" for o in outcomes))}
+        "n_revolute": float(sum(o["gt_type"] == JointType.REVOLUTE for o in outcomes)),
+        "n_prismatic": float(sum(o["gt_type"] == JointType.PRISMATIC for o in outcomes))}
 
 
 def score(pred: ArticulatedAsset, gt: ArticulatedAsset, seed: int = 0) -> ProtocolResult:
@@ -251,9 +252,7 @@ def score(pred: ArticulatedAsset, gt: ArticulatedAsset, seed: int = 0) -> Protoc
     :param gt: the ground truth, as loaded
     :param seed: sampling seed of spark-bench's part matching
     """
-    matched = match_joints(pred, gt, seed)
-    p_records = {r.name: r for r in joint_records(pred)}
-    pairs = [(g, p_records.get(matched.get(g.name, ""))) for g in joint_records(gt)]
+    pairs, _ = paired_records(pred, gt, seed)
     outcomes = joint_outcomes(pairs)
     placed = [(g, p) for g, p in pairs if p is not None and g.type in SCORED_TYPES]
     metrics = {**joint_metrics(outcomes), **link_placement(link_poses(pred, gt, placed))}

@@ -42,6 +42,7 @@ import copy
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.metrics.protocols.base import ProtocolInfo, ProtocolResult
 from spark_bench.metrics.protocols.parts import object_dict, require_geometry
@@ -89,7 +90,7 @@ def _rescale(tree: list[dict], factor) -> None:
     for part in tree:
         part["aabb"]["center"] = np.array(part["aabb"]["center"]) * factor
         part["aabb"]["size"] = np.array(part["aabb"]["size"]) * factor
-        if part["joint"]["type"] != "fixed":
+        if part["joint"]["type"] != JointType.FIXED:
             part["joint"]["axis"]["origin"] = np.array(part["joint"]["axis"]["origin"]) * factor
 
 

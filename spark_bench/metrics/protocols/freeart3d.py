@@ -50,6 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.metrics.align import rigid_fit
 from spark_bench.metrics.matching import match_parts, part_cost_matrix
@@ -108,8 +109,8 @@ INFO = ProtocolInfo(
 # ----- states and normalization --------------------------------------------------------------------------
 def joint_limits(joint: Joint) -> tuple[float, float]:
     """The joint's limits as ``process_state`` reads them (its defaults when the URDF gives none)."""
-    kind = "prismatic" if joint.type == "prismatic" else "revolute"
-    if joint.type == "continuous" or not joint.has_limits:
+    kind = "prismatic" if joint.type == JointType.PRISMATIC else "revolute"
+    if joint.type == JointType.CONTINUOUS or not joint.has_limits:
         return DEFAULT_LIMITS[kind]
     return float(joint.lower), float(joint.upper)
 
@@ -309,7 +310,7 @@ class JointLine:
 def joint_lines(asset: ArticulatedAsset) -> dict[str, JointLine]:
     """Each movable joint's URDF axis line (every joint at 0), mesh frame."""
     frames = asset.joint_frames({j.name: 0.0 for j in asset.movable_joints()})
-    return {name: JointLine("prismatic" if asset.joints[name].type == "prismatic" else "revolute",
+    return {name: JointLine("prismatic" if asset.joints[name].type == JointType.PRISMATIC else "revolute",
                             point @ WORLD_TO_MESH.T, direction @ WORLD_TO_MESH.T)
             for name, (point, direction) in frames.items()}
 
@@ -323,7 +324,7 @@ def eval_joint(pred: JointLine, gt: JointLine) -> tuple[float | None, float | No
         norms = np.linalg.norm(a) * np.linalg.norm(b)
         axis_err = min(np.arccos(np.dot(a, b) / norms), np.arccos(np.dot(a, -b) / norms))
         orig_err = np.nan
-        if gt.type == "revolute":
+        if gt.type == JointType.REVOLUTE:
             normal = np.cross(a, b)
             orig_err = np.linalg.norm(np.dot(pred.origin - gt.origin, normal)) / np.linalg.norm(normal)
     return (None if np.isnan(axis_err) else float(axis_err)), (None if np.isnan(orig_err) else float(orig_err))
@@ -375,7 +376,7 @@ def joint_errors(pred: ArticulatedAsset, gt: ArticulatedAsset, pred_norm: Normal
         axis_err, orig_err = eval_joint(pred_lines[pred_name].normalized(pred_norm).aligned(alignment),
                                         gt_lines[gt_name].normalized(gt_norm))
         axis.append(axis_err)
-        if gt_lines[gt_name].type == "revolute":
+        if gt_lines[gt_name].type == JointType.REVOLUTE:
             pivot.append(orig_err)
             if orig_err is None:
                 notes.append(f"joint {gt_name}: PivotErr undefined (parallel axes: 0 / 0 in FreeArt3D's code)")

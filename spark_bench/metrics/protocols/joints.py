@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.metrics.articulation import axis_error, same_type
 from spark_bench.metrics.geometry import (
@@ -93,7 +94,7 @@ def file_units_per_length(asset: ArticulatedAsset) -> float:
 
 def _limits_as_written(joint) -> tuple[float, float]:
     """The ``<limit>`` as the file wrote it; the papers read a missing one as ``lower = upper = 0``."""
-    if not joint.has_limits or joint.type == "continuous":
+    if not joint.has_limits or joint.type == JointType.CONTINUOUS:
         return 0.0, 0.0
     return float(joint.lower), float(joint.upper)
 
@@ -113,7 +114,7 @@ def joint_records(asset: ArticulatedAsset) -> list[JointRecord]:
         axis = axis / np.linalg.norm(axis)
         world_axis = world[:3, :3] @ axis
         lower, upper = _limits_as_written(joint)
-        scale = units if joint.type == "prismatic" else 1.0  # a prismatic limit is a length
+        scale = units if joint.type == JointType.PRISMATIC else 1.0  # a prismatic limit is a length
         out.append(JointRecord(
             name=joint.name, type=joint.type, local_xyz=origin[:3, 3] * units,
             local_rpy=Rotation.from_matrix(origin[:3, :3]).as_euler("xyz"), local_axis=axis,
@@ -155,6 +156,20 @@ def match_joints(pred: ArticulatedAsset, gt: ArticulatedAsset, seed: int = 0,
     tie = np.array([[0.5 * (not same_type(p.type, g.type)) + 0.4 * axis_error(p.direction, g.direction) / (np.pi / 2)
                      for g in g_axes] for p in p_axes])
     return {g_axes[pair.gt].name: p_axes[pair.pred].name for pair in match_parts(cost, tie)}
+
+
+def paired_records(pred: ArticulatedAsset, gt: ArticulatedAsset,
+                   seed: int = 0) -> tuple[list[tuple[JointRecord, JointRecord | None]], int]:
+    """``([(ground-truth record, matched predicted record or None), ...], number of predicted records)``: every
+    ground-truth joint with the predicted joint spark-bench's part matching pairs it with (:func:`match_joints`).
+
+    :param pred: the prediction, as loaded
+    :param gt: the ground truth, as loaded
+    :param seed: sampling seed of the part matching
+    """
+    matched = match_joints(pred, gt, seed)
+    p_records = {r.name: r for r in joint_records(pred)}
+    return [(g, p_records.get(matched.get(g.name, ""))) for g in joint_records(gt)], len(p_records)
 
 
 def part_aabb_center(asset: ArticulatedAsset, links: tuple[str, ...]) -> np.ndarray | None:

@@ -104,7 +104,9 @@ def _normalized(asset: ArticulatedAsset) -> tuple[np.ndarray, list[np.ndarray]]:
     rest = asset.rest_configuration()
     whole = posed_triangles(asset, rest)
     center, scale = scene_normalization(whole)
-    parts = [(part_triangles(asset, part, rest) - center) * scale for part in asset_parts(asset)]
+    # the parts as scene_to_parts gets them: the Scene's transform S T applied, x s + (-c s) (the whole
+    # mesh as normalize_mesh moves a Trimesh: (x - c) s)
+    parts = [part_triangles(asset, part, rest) * scale + (-center * scale) for part in asset_parts(asset)]
     return (whole - center) * scale, [p for p in parts if has_area(p)]
 
 

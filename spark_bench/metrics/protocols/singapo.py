@@ -51,6 +51,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from scipy.spatial.transform import Rotation
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.metrics.protocols.base import ProtocolInfo, ProtocolResult
 from spark_bench.metrics.protocols.parts import (
@@ -100,7 +101,7 @@ def zero_center(tree: list[dict]) -> None:
     shift = -((centers - halves).min(0) + (centers + halves).max(0)) / 2
     for part in tree:
         part["aabb"]["center"] = np.array(part["aabb"]["center"]) + shift
-        if part["joint"]["type"] != "fixed":
+        if part["joint"]["type"] != JointType.FIXED:
             part["joint"]["axis"]["origin"] = np.array(part["joint"]["axis"]["origin"]) + shift
 
 
@@ -116,7 +117,7 @@ def rescale(tree: list[dict], factor) -> None:
     for part in tree:
         part["aabb"]["center"] = np.array(part["aabb"]["center"], dtype=np.float32) * factor
         part["aabb"]["size"] = np.array(part["aabb"]["size"], dtype=np.float32) * factor
-        if part["joint"]["type"] != "fixed":
+        if part["joint"]["type"] != JointType.FIXED:
             part["joint"]["axis"]["origin"] = np.array(part["joint"]["axis"]["origin"], dtype=np.float32) * factor
 
 
@@ -178,11 +179,11 @@ def part_transforms(tree: list[dict], state: float, fix_range: bool = True, skip
         joint = tree[i]["joint"]
         matrix = np.eye(4, dtype=dtype)
         origin = np.array([np.nan] * 3, dtype=dtype)
-        if joint["type"] == "prismatic":
+        if joint["type"] == JointType.PRISMATIC:
             matrix[:3, 3] = np.array(joint["axis"]["direction"], dtype=dtype) * joint["range"][1] * state
             kind = "translation"
-        elif joint["type"] in ("revolute", "continuous"):
-            if joint["type"] == "continuous":
+        elif joint["type"] in (JointType.REVOLUTE, JointType.CONTINUOUS):
+            if joint["type"] == JointType.CONTINUOUS:
                 radians = np.radians(360 * state)
             elif fix_range:
                 radians = np.radians(np.sign(joint["range"][1]) * 90 * state)
@@ -364,10 +365,10 @@ def move_points(points: np.ndarray, tree: list[dict], state: float, dtype=np.flo
     for i in _visit_order(tree):
         joint = tree[i]["joint"]
         moved = [i] + list(tree[i]["children"])
-        if joint["type"] == "prismatic":
+        if joint["type"] == JointType.PRISMATIC:
             points[moved] += np.array(joint["axis"]["direction"], dtype=dtype) * joint["range"][1] * state
-        elif joint["type"] in ("revolute", "continuous"):
-            if joint["type"] == "continuous":
+        elif joint["type"] in (JointType.REVOLUTE, JointType.CONTINUOUS):
+            if joint["type"] == JointType.CONTINUOUS:
                 radians = np.radians(360 * state)
             else:
                 radians = np.radians(np.sign(joint["range"][1]) * 90 * state)

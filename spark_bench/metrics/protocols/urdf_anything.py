@@ -36,9 +36,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.metrics.protocols.base import ProtocolInfo, ProtocolResult
-from spark_bench.metrics.protocols.joints import JointRecord, joint_records, match_joints
+from spark_bench.metrics.protocols.joints import JointRecord, paired_records
 
 ANGULAR_CUTOFF = 0.25
 EUCLIDEAN_CUTOFF = 0.05
@@ -96,7 +97,7 @@ def origin_xyz_error(gt_type: str, p1: np.ndarray, a1: np.ndarray, p2: np.ndarra
     :param p2: predicted origin xyz
     :param a2: predicted axis (rpy-turned)
     """
-    if gt_type != "revolute":
+    if gt_type != JointType.REVOLUTE:
         return float(np.linalg.norm(p1 - p2))
     a1, a2 = a1 / np.linalg.norm(a1), a2 / np.linalg.norm(a2)
     w = np.cross(a2, a1)
@@ -162,7 +163,7 @@ def articulation_metrics(pairs: list[tuple[JointRecord, JointRecord | None]], n_
         "origin_orientation_error_rad": _mean([e["orientation"] for e in entries]),
         "origin_combined_error": _mean([e["combined"] for e in entries]),
         "axis_err": _mean([e["axis_err"] for e in entries]),
-        "pivot_err": _mean([e["xyz"] for e in entries if e["gt_type"] == "revolute"]),
+        "pivot_err": _mean([e["xyz"] for e in entries if e["gt_type"] == JointType.REVOLUTE]),
         "num_gt_joints": float(n), "num_pred_joints": float(n_pred), "missing_joints": float(missing)}
 
 
@@ -173,10 +174,8 @@ def score(pred: ArticulatedAsset, gt: ArticulatedAsset, seed: int = 0) -> Protoc
     :param gt: the ground truth, as loaded
     :param seed: sampling seed of spark-bench's part matching
     """
-    matched = match_joints(pred, gt, seed)
-    p_records = {r.name: r for r in joint_records(pred)}
-    pairs = [(g, p_records.get(matched.get(g.name, ""))) for g in joint_records(gt)]
-    metrics = articulation_metrics(pairs, len(p_records))
+    pairs, n_pred = paired_records(pred, gt, seed)
+    metrics = articulation_metrics(pairs, n_pred)
     missing = int(metrics["missing_joints"])
     notes = [f"{missing} ground-truth joint(s) without a matched prediction count as failures"] if missing else []
     return ProtocolResult(INFO.name, metrics, {k: INFO.units[k] for k in metrics}, notes)

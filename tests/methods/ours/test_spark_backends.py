@@ -28,7 +28,6 @@ import numpy as np
 import pytest
 from helpers_fake_spark import TAG, write_fake_checkout, write_fake_run
 from helpers_http import LoopbackServer
-from helpers_toy import write_toy_case
 from PIL import Image
 from scipy.spatial import cKDTree
 
@@ -63,13 +62,6 @@ TINY_OPT = [*(["optimize.method=native"] if hasattr(SparkConfig().optimize, "met
             "optimize.sweeps=1"]
 EXACT_PRIOR = ["prior.noise.p_axis=0", "prior.noise.p_type=0", "prior.noise.p_sign=0",
                "prior.noise.sigma_origin=0", "prior.noise.p_range=0"]
-
-
-@pytest.fixture(scope="module")
-def toy_case(tmp_path_factory) -> Path:
-    case = tmp_path_factory.mktemp("toy") / "case"
-    write_toy_case(case)
-    return case
 
 
 def camera_yaw_deg(case_dir: Path) -> float:
@@ -109,7 +101,8 @@ def _prior_json(folder: Path, case: Path) -> Path:
     return path
 
 
-def _case(case: Path, *kinds: str) -> CaseInput:
+def _given(case: Path, *kinds: str) -> CaseInput:
+    """What a method is given of the case folder ``case``: its image and the inputs ``kinds``."""
     return CaseInput(BenchmarkCase(case), frozenset({"image", *kinds}))
 
 
@@ -170,7 +163,7 @@ def test_pairing_never_goes_by_name(toy_case, tmp_path):
 
     yaw = camera_yaw_deg(toy_case)
     run = write_fake_run(tmp_path / "output", "toy_cabinet", BenchmarkCase(toy_case).load_gt(), yaw_deg=yaw)
-    geometry = read_spark_geometry(run, _case(toy_case, "camera"))  # the camera undoes SPARK's view turn
+    geometry = read_spark_geometry(run, _given(toy_case, "camera"))  # the camera undoes SPARK's view turn
     assert geometry.record["alignment"] == "camera" and not geometry.offered_to_prior
     # a VLM that called the door link1 and the drawer link2: SPARK's link1 is the drawer
     vlm = PriorStructure([PriorLink("link0", "body"), PriorLink("link1", "door"), PriorLink("link2", "drawer")],
@@ -201,7 +194,7 @@ def test_extra_spark_parts_stay_with_the_body(toy_case, tmp_path):
     from spark_bench.methods.ours.structure import PriorJoint, PriorLink, PriorStructure
 
     run = write_fake_run(tmp_path / "output", "toy_cabinet", BenchmarkCase(toy_case).load_gt())
-    geometry = read_spark_geometry(run, _case(toy_case))
+    geometry = read_spark_geometry(run, _given(toy_case))
     assert geometry.record["alignment"] == "icp"  # no camera declared: the turn is left to the metrics
     door_only = PriorStructure([PriorLink("body", "body"), PriorLink("door", "door")],
                                [PriorJoint("joint_0", "revolute", "body", "door", "down", [-0.6, 0.45, 0.40])])
@@ -223,7 +216,8 @@ def test_a_silently_failed_spark_stage_is_named(toy_case, tmp_path, breakage, wo
     canned = write_fake_run(tmp_path / "canned", "toy_cabinet", BenchmarkCase(toy_case).load_gt(), **breakage)
     command = script_command(tmp_path, RUN_PY_LIKE, str(canned), "{out}", "{case_id}")
     with pytest.raises(InputError) as info:
-        spark_geometry(command, _case(toy_case, "camera"), _prior_json(tmp_path, toy_case), tmp_path / "work", timeout_s=60)
+        spark_geometry(command, _given(toy_case, "camera"), _prior_json(tmp_path, toy_case),
+                       tmp_path / "work", timeout_s=60)
     message = str(info.value)
     assert "\n" not in message
     for word in words:
@@ -235,18 +229,19 @@ def test_spark_command_failures_name_the_command(toy_case, tmp_path):
     fails = script_command(tmp_path, "import sys\nprint('loading checkpoint...')\n"
                                      "print('RuntimeError: CUDA out of memory', file=sys.stderr)\nsys.exit(3)\n")
     with pytest.raises(InputError, match=r"exited 3: .*CUDA out of memory"):
-        spark_geometry(fails, _case(toy_case, "camera"), prior, tmp_path / "work", timeout_s=60)
+        spark_geometry(fails, _given(toy_case, "camera"), prior, tmp_path / "work", timeout_s=60)
     with pytest.raises(InputError, match="left no SPARK run"):
-        spark_geometry(f"{PY} -c pass", _case(toy_case, "camera"), prior, tmp_path / "work", timeout_s=60)
+        spark_geometry(f"{PY} -c pass", _given(toy_case, "camera"), prior, tmp_path / "work", timeout_s=60)
     start = time.monotonic()
     with pytest.raises(InputError, match="timed out after 3 s"):
-        spark_geometry(script_command(tmp_path, HANGS), _case(toy_case, "camera"), prior, tmp_path / "work", timeout_s=3)
+        spark_geometry(script_command(tmp_path, HANGS), _given(toy_case, "camera"), prior, tmp_path / "work",
+                       timeout_s=3)
     assert time.monotonic() - start < 30  # the child holding the pipes was killed with it (it sleeps 60 s)
 
 
 def test_spark_command_stale_output_and_bad_templates(toy_case, tmp_path):
     prior = _prior_json(tmp_path, toy_case)
-    case = _case(toy_case, "camera")
+    case = _given(toy_case, "camera")
     canned = write_fake_run(tmp_path / "canned", "toy_cabinet", BenchmarkCase(toy_case).load_gt(), scale=0.5)
     geometry = spark_geometry(script_command(tmp_path, RUN_PY_LIKE, str(canned), "{out}", "{case_id}"), case,
                               prior, tmp_path / "work", timeout_s=60)
@@ -265,7 +260,7 @@ def test_spark_command_stale_output_and_bad_templates(toy_case, tmp_path):
         spark_geometry("spark-infer --case {case} --out {out}", case, prior, tmp_path / "work")
     # without the case camera SPARK's view-turned parts cannot meet the prior's joints: refused at once
     with pytest.raises(InputError, match="camera.json: the spark geometry backend needs the case camera"):
-        spark_geometry(f"{PY} -c pass", _case(toy_case), prior, tmp_path / "work")
+        spark_geometry(f"{PY} -c pass", _given(toy_case), prior, tmp_path / "work")
 
 
 def test_a_spark_command_given_the_case_folder_says_so_in_the_regime():
@@ -333,7 +328,7 @@ def images_answer(png: bytes) -> bytes:
     return json.dumps({"created": 0, "data": [{"b64_json": base64.b64encode(png).decode()}]}).encode()
 
 
-def _png(image: Image.Image) -> bytes:
+def _png_bytes(image: Image.Image) -> bytes:
     buffer = io.BytesIO()
     image.save(buffer, format="PNG")
     return buffer.getvalue()
@@ -349,7 +344,7 @@ def test_http_open_state_request_and_mask(toy_case, monkeypatch):
     open_image = Image.open(toy_case / "open.png")
     truth = np.asarray(Image.open(toy_case / "open_seg.png")) > 0
     bigger = open_image.resize((512, 512), Image.Resampling.NEAREST)  # generators answer at their own size
-    script = [(200, images_answer(_png(open_image)), 0), (200, images_answer(_png(bigger)), 0)]
+    script = [(200, images_answer(_png_bytes(open_image)), 0), (200, images_answer(_png_bytes(bigger)), 0)]
     with FakeImages(script) as server:
         same = http_open_state(_open_config(server.url), input_png)
         resized = http_open_state(_open_config(server.url), input_png)
@@ -371,13 +366,14 @@ def test_http_open_state_request_and_mask(toy_case, monkeypatch):
     ((200, b'{"data": [{"url": "https://x/y.png"}]}', 0), ["no data[0].b64_json"]),
     ((200, images_answer(b"this is not a PNG"), 0), ["not an image", "17 bytes"]),
     ((200, json.dumps({"data": [{"b64_json": "@@@"}]}).encode(), 0), ["not base64"]),
-    ((200, images_answer(_png(Image.new("RGB", (64, 64), "white"))), 0), ["no object"]),
+    ((200, images_answer(_png_bytes(Image.new("RGB", (64, 64), "white"))), 0), ["no object"]),
     ((200, images_answer(b""), 2.0), ["no answer within 0.5 s"]),
 ])
 def test_http_open_state_failures(reply, words):
     with FakeImages([reply]) as server:
         with pytest.raises(InputError) as info:
-            http_open_state(_open_config(server.url, timeout_s=0.5, max_retries=0), _png(Image.new("RGB", (64, 64))))
+            http_open_state(_open_config(server.url, timeout_s=0.5, max_retries=0),
+                            _png_bytes(Image.new("RGB", (64, 64))))
     message = str(info.value)
     assert info.value.path == server.url and "\n" not in message
     for word in words:
@@ -386,7 +382,7 @@ def test_http_open_state_failures(reply, words):
 
 
 def test_http_open_state_retries_overload_and_gives_up_on_a_bad_request(toy_case):
-    good = images_answer(_png(Image.open(toy_case / "open.png")))
+    good = images_answer(_png_bytes(Image.open(toy_case / "open.png")))
     input_png = (toy_case / "input.png").read_bytes()
     config = _open_config("", max_retries=2, backoff_s=0.0)
     with FakeImages([(503, b'{"error": "busy"}', 0), (429, b"{}", 0), (200, good, 0)]) as server:

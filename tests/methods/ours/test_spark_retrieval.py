@@ -78,22 +78,22 @@ def test_retrieval_config_errors_name_the_problem(tmp_path):
 
 # ----- the retrieved structure ----------------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def objects(tmp_path_factory):
+def cabinet_objects(tmp_path_factory):
     root = tmp_path_factory.mktemp("objects")
     return {f"cab{seed}": generate_object("StorageFurniture", seed, root, f"cab{seed}") for seed in (12, 13, 14)}
 
 
-def _turned(asset, yaw_deg: float):
+def _yawed(asset, yaw_deg: float):
     c, s = np.cos(np.radians(yaw_deg)), np.sin(np.radians(yaw_deg))
     turn = np.eye(4)
     turn[:2, :2] = [[c, -s], [s, c]]
     return to_benchmark_frame(similarity_asset(to_benchmark_frame(asset)[0], turn))[0]
 
 
-def test_retrieval_prior_keeps_the_retrieved_joints_after_the_turn(objects):
+def test_retrieval_prior_keeps_the_retrieved_joints_after_the_turn(cabinet_objects):
     """The object as the search returns it (turned 33 degrees about the up axis): the prior's named axes,
     assembled back, must be its joints' axes exactly, its pivots on their lines, its limits theirs."""
-    asset = _turned(load_object(objects["cab13"]), 33.0)
+    asset = _yawed(load_object(cabinet_objects["cab13"]), 33.0)
     found = Retrieval(asset, {"yaw_deg": 33.0, "gallery": "g", "object_id": "cab13"})
     prior, frame = retrieval_prior(found)
     geometry = retrieval_geometry(found)
@@ -117,9 +117,9 @@ def test_retrieval_prior_keeps_the_retrieved_joints_after_the_turn(objects):
     assert set(geometry.meshes) <= {link.name for link in prior.links}
 
 
-def test_retrieved_prior_pairs_other_geometry_by_structure(objects):
+def test_retrieved_prior_pairs_other_geometry_by_structure(cabinet_objects):
     """A retrieved prior with parts that are not the same retrieval's: paired by structure, not names."""
-    asset = _turned(load_object(objects["cab13"]), 0.0)
+    asset = _yawed(load_object(cabinet_objects["cab13"]), 0.0)
     prior, frame = retrieval_prior(Retrieval(asset, {"yaw_deg": 0.0}))
     other = predicted_parts(asset, "predictions")
     assembled = assemble_prior(prior, other, frame)
@@ -127,7 +127,7 @@ def test_retrieved_prior_pairs_other_geometry_by_structure(objects):
 
 
 # ----- one case end to end ---------------------------------------------------------------------------------
-def test_ours_with_retrieval_reads_no_ground_truth(objects, tmp_path, isolated_home, monkeypatch):
+def test_ours_with_retrieval_reads_no_ground_truth(cabinet_objects, tmp_path, isolated_home, monkeypatch):
     """A case of cab12 with its ground-truth folder and label images deleted; the gallery holds a
     re-written copy of cab12 (other bytes: the leak check lets it through) and two other cabinets. The run
     must retrieve the copy once, assemble it, refine it against the open image and write the object,
@@ -137,14 +137,14 @@ def test_ours_with_retrieval_reads_no_ground_truth(objects, tmp_path, isolated_h
     import spark_bench.methods.retrieval.search as search
 
     case_dir = tmp_path / "bench" / "cases" / "case-r"
-    prepare_case(objects["cab12"], case_dir, PrepareOptions(image_size=128, resolution=40))
+    prepare_case(cabinet_objects["cab12"], case_dir, PrepareOptions(image_size=128, resolution=40))
     case = BenchmarkCase(case_dir)
     for path in (case.input_seg, case.open_seg):
         path.unlink()
     shutil.rmtree(case.gt_dir)
     gallery = tmp_path / "gallery"
     gallery.mkdir()
-    for name, folder in objects.items():
+    for name, folder in cabinet_objects.items():
         if name == "cab12":
             write_object_folder(load_object(folder), gallery / "copy-cab12")
         else:
@@ -181,4 +181,4 @@ def test_ours_with_retrieval_reads_no_ground_truth(objects, tmp_path, isolated_h
     assert json.loads((out / "retrieval.json").read_text())["object_id"] == "copy-cab12"
     refined, before = real_load(out), real_load(out / "prior")
     assert sorted(j.name for j in refined.movable_joints()) == sorted(report["movable_joints"])
-    assert len(before.movable_joints()) == len(real_load(objects["cab12"]).movable_joints())
+    assert len(before.movable_joints()) == len(real_load(cabinet_objects["cab12"]).movable_joints())

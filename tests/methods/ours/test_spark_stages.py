@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 
 import pytest
-from helpers_toy import write_toy_case
 
 from spark_bench.data.case import BenchmarkCase
 from spark_bench.errors import InputError
@@ -49,13 +48,6 @@ def exact_prior():
     PRIOR_BACKENDS.register(ExactPrior)
     yield ExactPrior
     PRIOR_BACKENDS.unregister(ExactPrior.name)
-
-
-@pytest.fixture(scope="module")
-def toy_case(tmp_path_factory):
-    case = tmp_path_factory.mktemp("toy") / "case"
-    write_toy_case(case)
-    return case
 
 
 def test_a_new_prior_backend_is_one_registered_class(exact_prior, toy_case, tmp_path):

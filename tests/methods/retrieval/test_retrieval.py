@@ -91,7 +91,7 @@ def make_gallery(folder: Path, objects: dict[str, Path], rewritten: dict[str, Pa
     return folder
 
 
-def run(method: RetrievalMethod, case: BenchmarkCase, out: Path):
+def _generate(method: RetrievalMethod, case: BenchmarkCase, out: Path):
     out.mkdir(parents=True, exist_ok=True)
     return method.generate(CaseInput(case, frozenset(method.inputs)), out)
 
@@ -152,7 +152,7 @@ def test_retrieval_returns_the_exact_object_from_a_rewritten_copy(objects, cases
     assert method.config()["gallery_hash"] == folder_gallery(gallery).content_hash
     for target in targets:
         out = tmp_path / f"out-{target}"
-        generation = run(method, cases[target], out)
+        generation = _generate(method, cases[target], out)
         record = generation.info["retrieval"]
         assert record["object_id"] == f"copy-{target}", generation.info
         assert record["category"] == "StorageFurniture"
@@ -181,7 +181,7 @@ def test_retrieval_turns_the_object_to_match_the_image(objects, tmp_path, isolat
     case = BenchmarkCase(case_dir)
     gallery = make_gallery(tmp_path / "gallery", {"cab13": objects["cab13"]})
     method = RetrievalMethod(gallery, SearchOptions(yaw_weight=0.0))
-    generation = run(method, case, tmp_path / "out")
+    generation = _generate(method, case, tmp_path / "out")
     assert abs(generation.info["retrieval"]["yaw_deg"] - turn) < 8.0, generation.info
     predicted, gt = load_object(tmp_path / "out"), case.load_gt()
     pred_frames, gt_frames = predicted.joint_frames(), gt.joint_frames()
@@ -192,7 +192,7 @@ def test_retrieval_turns_the_object_to_match_the_image(objects, tmp_path, isolat
 
 def test_retrieval_returns_the_nearest_object_of_another_category(objects, cases, tmp_path, isolated_home):
     gallery = make_gallery(tmp_path / "gallery", {k: v for k, v in objects.items() if k.startswith("cab")})
-    generation = run(RetrievalMethod(gallery), cases["microwave22"], tmp_path / "out")
+    generation = _generate(RetrievalMethod(gallery), cases["microwave22"], tmp_path / "out")
     assert generation.info["retrieval"]["category"] == "StorageFurniture"
     assert load_object(tmp_path / "out").movable_joints()
 
@@ -203,7 +203,7 @@ def test_a_gallery_holding_the_case_object_is_refused(objects, cases, tmp_path, 
     (gallery / "cab12" / "images").mkdir()  # a download's extras do not hide it
     (gallery / "cab12" / "images" / "x.png").write_bytes(b"extra")
     with pytest.raises(GalleryLeakError, match="case-a's own object") as caught:
-        run(RetrievalMethod(gallery), cases["cab12"], tmp_path / "out")
+        _generate(RetrievalMethod(gallery), cases["cab12"], tmp_path / "out")
     assert caught.value.path == str(gallery)
     assert not any((tmp_path / "out").iterdir())
 
@@ -213,7 +213,7 @@ def test_unverifiable_source_is_said_in_the_results(objects, cases, tmp_path, is
     case = BenchmarkCase(case_dir)
     case.write_record({**case.record, "source": str(tmp_path / "nowhere")})
     gallery = make_gallery(tmp_path / "gallery", objects, leave_out=("cab14",))
-    check = run(RetrievalMethod(gallery), case, tmp_path / "out").info["gallery_check"]
+    check = _generate(RetrievalMethod(gallery), case, tmp_path / "out").info["gallery_check"]
     assert check["status"] == "unchecked" and "nowhere" in check["reason"]
 
 
@@ -232,7 +232,7 @@ def test_empty_or_broken_gallery_is_a_clear_input_error(kind, cases, tmp_path, i
     expected = {"missing": "gallery folder not found", "empty": "empty gallery", "junk": "broken gallery",
                 "bad-urdf": "broken gallery"}[kind]
     with pytest.raises(InputError, match=expected) as caught:
-        run(RetrievalMethod(gallery), cases["cab12"], tmp_path / "out")
+        _generate(RetrievalMethod(gallery), cases["cab12"], tmp_path / "out")
     assert caught.value.path == str(gallery)
 
 
