@@ -29,6 +29,7 @@ from spark_bench.data.contact_sheet import write_contact_sheet
 from spark_bench.data.readers import URDF_NAMES, load_object
 from spark_bench.data.real_size import source_scale
 from spark_bench.errors import InputError, SparkBenchError
+from spark_bench.ray_executor import connect_ray, ray_map, require_paths
 from spark_bench.timing import StageTimer
 
 #: Stages timed by :func:`prepare_case` (``benchmarks/measure_prepare.py`` reports them); the timer also
@@ -39,6 +40,8 @@ STAGES = ("load", "merge", "watertight", "normalize_write", "render")
 #: come from the watertight ``voxel.glb``). Options stored without the key are of builds made before
 #: ``source`` became the default, which rendered the watertight remesh.
 RENDER_MESHES = ("source", "watertight")
+#: Where :func:`prepare_benchmark` runs its objects: local processes, or one Ray task per object.
+EXECUTORS = ("local", "ray")
 
 
 @dataclass
@@ -363,6 +366,10 @@ def _prepare_one(src: Path, case_dir: Path, options: PrepareOptions) -> CaseResu
     return CaseResult(case_dir.name, None, timer.wall)
 
 
+def _prepare_task(task: tuple[Path, Path, PrepareOptions]) -> CaseResult:
+    """:func:`_prepare_one` of ``(src, case_dir, options)`` as a Ray task (module-level: shipped by name)."""
+    return _prepare_one(*task)
+
 def write_manifest(bench: Benchmark, name: str, options: PrepareOptions, failed: dict[str, str],
                    source: str | None, created: str | None = None) -> dict:
     """(Re)write the benchmark's manifest from its complete case folders and the failures of this run."""
@@ -405,7 +412,8 @@ def _previous(bench: Benchmark, options: PrepareOptions) -> dict:
 def prepare_benchmark(src: str | Path, out: str | Path, ids: Sequence[str] | None = None,
                       options: PrepareOptions | None = None, workers: int = 1, progress: bool = True,
                       name: str | None = None, overwrite: bool = False, contact_sheet: bool = True,
-                      on_result=None, isolate: bool = False) -> dict:
+                      on_result=None, isolate: bool = False, executor: str = "local",
+                      ray_address: str | None = None) -> dict:
     """Prepare every object under ``src`` into the benchmark folder ``out``; returns the manifest.
 
     Complete cases already in ``out`` are kept (resume); a failing object is recorded in the
@@ -423,7 +431,14 @@ def prepare_benchmark(src: str | Path, out: str | Path, ids: Sequence[str] | Non
     :param isolate: render in spawned processes even with one worker, so that this process opens no OpenGL
         context: a process that forks workers afterwards must not have rendered (``eval`` builds its
         benchmark and then forks; workers that render after such a fork hang in EGL's set-up)
+    :param executor: ``local`` (``workers`` processes) or ``ray``: a Ray task per object, on the cluster at
+        ``ray_address`` or as :func:`~spark_bench.ray_executor.connect_ray` finds one; every node must see
+        ``src`` and ``out`` (docs/cluster.md)
     """
+    if executor not in EXECUTORS:
+        raise SparkBenchError(f"unknown executor {executor!r}; choose from {', '.join(EXECUTORS)}")
+    if executor == "ray":  # before anything is written: an address nothing answers at is one line
+        connect_ray(ray_address, workers)
     options = options or PrepareOptions()
     out = Path(out)
     bench = Benchmark(out)
@@ -442,7 +457,9 @@ def prepare_benchmark(src: str | Path, out: str | Path, ids: Sequence[str] | Non
                 todo[case_id] = path
         created = old.get("created")
         write_manifest(bench, name, options, failed, str(Path(src).resolve()), created)
-        for result in _run(todo, bench, options, workers, progress, isolate):
+        if executor == "ray" and todo:
+            require_paths([str(Path(src).resolve()), str(out.resolve())])
+        for result in _run(todo, bench, options, workers, progress, isolate, executor == "ray"):
             if result.reason is not None:
                 failed[result.case_id] = result.reason
             if on_result:
@@ -456,28 +473,34 @@ def prepare_benchmark(src: str | Path, out: str | Path, ids: Sequence[str] | Non
 
 
 def _run(todo: dict[str, Path], bench: Benchmark, options: PrepareOptions, workers: int,
-         progress: bool, isolate: bool = False) -> Iterator[CaseResult]:
+         progress: bool, isolate: bool = False, on_ray: bool = False) -> Iterator[CaseResult]:
     from tqdm import tqdm
 
     bar = tqdm(total=len(todo), desc="prepare", unit="case", disable=not progress or not todo)
     try:
-        if not isolate and (workers <= 1 or len(todo) <= 1):
+        if not on_ray and not isolate and (workers <= 1 or len(todo) <= 1):
             for case_id, path in todo.items():
                 bar.set_postfix_str(case_id)
                 yield _prepare_one(path, bench.case_dir(case_id), options)
                 bar.update()
             return
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor, as_completed
-
-        # spawn: each worker opens its own OpenGL context, none inherited from a fork
-        with ProcessPoolExecutor(max(1, workers), mp_context=multiprocessing.get_context("spawn")) as pool:
-            futures = [pool.submit(_prepare_one, path, bench.case_dir(case_id), options)
-                       for case_id, path in todo.items()]
-            for future in as_completed(futures):
-                result = future.result()
-                bar.set_postfix_str(result.case_id)
-                bar.update()
-                yield result
+        # absolute: a Ray task runs in a worker whose working folder is not this process's
+        tasks = [(path.resolve(), bench.case_dir(case_id).resolve(), options) for case_id, path in todo.items()]
+        lost = lambda task, reason: CaseResult(task[1].name, reason)  # noqa: E731 (a task Ray could not finish)
+        for result in ray_map(_prepare_task, tasks, lost) if on_ray else _in_processes(tasks, workers):
+            bar.set_postfix_str(result.case_id)
+            bar.update()
+            yield result
     finally:
         bar.close()
+
+
+def _in_processes(tasks: list[tuple[Path, Path, PrepareOptions]], workers: int) -> Iterator[CaseResult]:
+    """Each :func:`_prepare_task` in a spawned worker process, each result as it ends."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    # spawn: each worker opens its own OpenGL context, none inherited from a fork
+    with ProcessPoolExecutor(max(1, workers), mp_context=multiprocessing.get_context("spawn")) as pool:
+        for future in as_completed([pool.submit(_prepare_task, task) for task in tasks]):
+            yield future.result()

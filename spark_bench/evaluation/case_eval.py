@@ -130,6 +130,24 @@ def _score(pred_folder: Path, gt_bench, options: EvalOptions, threads: int) -> d
                            workers=threads).to_dict()
 
 
+def _protocol_scores(stages: _Stages, pred_folder: Path, gt_bench, options: EvalOptions) -> dict[str, dict]:
+    """``{protocol: ProtocolResult dict}`` of the prediction under each paper's protocol of ``options``; a
+    protocol that fails records ``{"protocol", "error"}`` and never fails the case (its metrics stand).
+    Each protocol applies its own paper's normalization to the prediction as stored and the case's ground
+    truth as stored (the benchmark frame)."""
+    from spark_bench.data.readers import load_object
+    from spark_bench.metrics.protocols import score
+
+    pred = load_object(pred_folder)
+    out: dict[str, dict] = {}
+    for name in options.protocols:
+        try:
+            out[name] = stages(f"protocol[{name}]", score, name, pred, gt_bench, options.seed).to_dict()
+        except StageError as exc:
+            out[name] = {"protocol": name, "error": exc.reason}
+    return out
+
+
 def _sim_checks(pred_folder: Path) -> dict:
     from spark_bench.sim import run_checks
 
@@ -209,6 +227,8 @@ def evaluate_case(task: CaseTask) -> list[dict]:
         gt_bench = stages("load_gt", case.load_gt)  # as stored: the benchmark frame (the scores bring it to metres)
         metrics = stages("metrics", _score, generation.folder, gt_bench, task.options, task.threads)
         metrics = _mark_articulation(metrics, generation.articulation_metrics_valid)
+        if task.options.protocols:
+            metrics["protocols"] = _protocol_scores(stages, generation.folder, gt_bench, task.options)
         row.update(metrics=metrics, **_metric_columns(metrics))
         checks: dict = {}
         # the prediction and the object the scores act on, loaded by the first score that asks and kept for the

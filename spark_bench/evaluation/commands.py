@@ -38,6 +38,10 @@ def add_commands(subparsers) -> None:
                    help="local: a process pool; ray: Ray tasks (docs/cluster.md)")
     p.add_argument("--ray-address", help="a Ray cluster's address (default: RAY_ADDRESS, else the cluster `ray start` "
                    "runs on this machine, else a private local Ray)")
+    p.add_argument("--protocol", action="append", metavar="NAME",
+                   help="also score each case as a paper's own evaluation code does (repeatable, or 'all'; "
+                        "docs/protocols.md): the numbers are stored in the row and shown by "
+                        "`leaderboard --protocol NAME`")
     p.add_argument("--n-samples", type=int, default=100_000, help="surface samples per shape")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--align", choices=("none", "icp"), default="none")
@@ -70,6 +74,9 @@ def add_commands(subparsers) -> None:
                         "e.g. --methods retrieval --methods 'ours (prior=retrieval,...)', or give simple labels "
                         "comma-separated")
     b.add_argument("--max-cases", type=int, default=24, help="HTML: cases shown with renders")
+    b.add_argument("--protocol", action="append", metavar="NAME",
+                   help="instead of spark-bench's tables, each paper's table as that paper reports it, from the "
+                        "rows `eval --protocol` stored (repeatable, or 'all')")
     b.add_argument("--db", help="results database (default: $SPARK_BENCH_HOME/results.sqlite)")
     b.set_defaults(func=run_leaderboard_command)
 
@@ -83,6 +90,9 @@ def _db(args) -> Path:
 def run_eval_command(args) -> int:
     from spark_bench.evaluation.runner import EvalOptions, run_eval, usable_cores
     from spark_bench.methods.base import MethodSpec
+    from spark_bench.metrics.protocols import protocol_names
+
+    protocols = tuple(protocol_names(args.protocol)) if args.protocol else ()  # an unknown name fails first
 
     def absolute(path: str | None) -> str | None:  # workers may run elsewhere: no relative paths
         return str(Path(path).expanduser().resolve()) if path else None
@@ -92,6 +102,7 @@ def run_eval_command(args) -> int:
                              config=absolute(args.config), label=args.label, regime=args.regime,
                              gallery=absolute(args.gallery))
     options = EvalOptions(sim=args.sim, rl=args.rl, n_samples=args.n_samples, seed=args.seed, align=args.align,
+                          protocols=protocols,
                           **({} if args.rl_finetune_steps is None else {"rl_finetune_steps": args.rl_finetune_steps}))
     cases = [c for c in args.cases.split(",") if c] if args.cases else None
     workers = usable_cores() if args.workers is None else args.workers
@@ -135,6 +146,8 @@ def run_leaderboard_command(args) -> int:
     from spark_bench.evaluation.leaderboard import build_leaderboard, render
     from spark_bench.evaluation.store import ResultsStore
 
+    if args.protocol:
+        return _write(_protocol_text(args), args.out)
     with ResultsStore(_db(args)) as store:
         board = build_leaderboard(store, bench=args.bench,
                                   labels=args.methods)
@@ -142,10 +155,26 @@ def run_leaderboard_command(args) -> int:
         raise SparkBenchError("--format html needs --out FILE (images are written beside it)")
     text = render(board, args.format, per_category=args.per_category, per_part_class=args.per_part_class,
                   out=Path(args.out) if args.out else None, max_cases=args.max_cases)
-    if args.out:
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(text)
-        print(f"wrote {args.out}", file=sys.stderr)
+    return _write(text, args.out)
+
+
+def _protocol_text(args) -> str:
+    """``leaderboard --protocol``: the papers' tables of the benchmark ``leaderboard`` would show."""
+    from spark_bench.evaluation.leaderboard import default_bench
+    from spark_bench.evaluation.protocol_board import protocol_boards
+    from spark_bench.evaluation.store import ResultsStore
+
+    with ResultsStore(_db(args)) as store:
+        bench = args.bench or default_bench(store)
+        return protocol_boards(store, bench, args.protocol, args.format, labels=args.methods)
+
+
+def _write(text: str, out: str | None) -> int:
+    """Write ``text`` to ``out`` (folders made), or to stdout."""
+    if out:
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
+        Path(out).write_text(text)
+        print(f"wrote {out}", file=sys.stderr)
     else:
         sys.stdout.write(text)
     return 0

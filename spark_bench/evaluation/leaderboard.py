@@ -91,6 +91,22 @@ def selected_labels(selectors: list[str], stored: set[str]) -> set[str]:
     return out
 
 
+def default_bench(store: ResultsStore) -> str:
+    """The benchmark a leaderboard shows when none is named: the only one in the store, else ``synth-v1``.
+
+    :param store: the results store
+    :raises SparkBenchError: an empty store, or several benchmarks and none of them ``synth-v1``
+    """
+    benches = store.benches()
+    if not benches:
+        raise SparkBenchError(f"no results in {store.path}; run `spark-bench eval` first")
+    if len(benches) == 1:
+        return benches[0]
+    if "synth-v1" in benches:
+        return "synth-v1"
+    raise SparkBenchError(f"results for several benchmarks ({', '.join(benches)}): choose one with --bench")
+
+
 def build_leaderboard(store: ResultsStore, bench: str | None = None, labels: list[str] | None = None
                       ) -> Leaderboard:
     """The leaderboard of one benchmark from the store.
@@ -101,13 +117,7 @@ def build_leaderboard(store: ResultsStore, bench: str | None = None, labels: lis
         that itself contains commas is taken whole)
     :raises SparkBenchError: a label that no row of the benchmark has
     """
-    if bench is None:
-        benches = store.benches()
-        if not benches:
-            raise SparkBenchError(f"no results in {store.path}; run `spark-bench eval` first")
-        bench = benches[0] if len(benches) == 1 else ("synth-v1" if "synth-v1" in benches else None)
-        if bench is None:
-            raise SparkBenchError(f"results for several benchmarks ({', '.join(benches)}): choose one with --bench")
+    bench = bench or default_bench(store)
     rows = store.rows(bench=bench)
     if labels:
         wanted = selected_labels(labels, {r["label"] for r in rows})

@@ -23,7 +23,7 @@ from spark_bench.data.case import Benchmark
 from spark_bench.errors import SparkBenchError
 from spark_bench.evaluation.case_eval import RL_VIDEO, evaluate_case, failed_rows, generate_cached
 from spark_bench.evaluation.executors import EXECUTORS, run_local, unpinned_note, usable_cores
-from spark_bench.evaluation.ray_cluster import run_ray
+from spark_bench.ray_executor import run_ray
 from spark_bench.evaluation.resume import case_fingerprints, scored_on_this_build
 from spark_bench.evaluation.store import ResultsStore, config_hash
 from spark_bench.evaluation.tasks import CaseTask, EvalOptions, RunIdentity

@@ -20,6 +20,8 @@ class EvalOptions:
     :param seed: sampling seed
     :param align: ``none`` or ``icp``
     :param rl_finetune_steps: fine-tuning steps per policy kind with ``rl`` (0: zero-shot only)
+    :param protocols: papers' metric protocols to score each case under as well
+        (:mod:`spark_bench.metrics.protocols`), stored in the row's ``metrics["protocols"]``; none by default
     """
 
     sim: bool = True
@@ -28,11 +30,16 @@ class EvalOptions:
     seed: int = 0
     align: str = "none"
     rl_finetune_steps: int = FINETUNE_STEPS
+    protocols: tuple[str, ...] = ()
 
     def identity(self) -> dict:
         out = asdict(self)
         if not self.rl:
             out.pop("rl_finetune_steps")
+        if not self.protocols:  # a run without protocols keeps the identity it had before they existed
+            out.pop("protocols")
+        else:
+            out["protocols"] = list(self.protocols)
         return out
 
 

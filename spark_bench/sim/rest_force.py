@@ -2,8 +2,8 @@
 
 Reproduced from ``princeton-vl/infinigen``, ``tests/sim/test_sim_export.py``,
 ``TestSimExports.test_sim_export``, its "Step 3: Verify initial constraint forces are zero" (read at commit
-198eada1, 2025-11-10; the step was deleted by commit 6f5d6802 the same day and is absent from the test at
-25a7d284, 2026-07, which keeps only "compiles"):
+198eada1, 2025-11-10; the step was deleted by commit 6f5d6802 the same day and is absent from the test,
+now ``tests/infinigen/sim/test_sim_export.py``, at 25a7d284, 2026-07-08, which keeps only "compiles"):
 
 - the exporter's MJCF is loaded (``MjModel.from_xml_path``) with a fresh ``MjData``: ``qpos = qpos0`` (the
   rest configuration), ``qvel = 0``, no control; gravity as the model says;
@@ -18,9 +18,11 @@ Applied here to spark-bench's compiled model of the object (:func:`spark_bench.s
 ``qpos0`` is the rest configuration), as Infinigen's test applied it to its exporter's MJCF. Being a signed
 sum, forces on two dofs can cancel (a pair of doors pressed shut in opposite senses passes); the details
 give the absolute sum too. A force at rest comes from what the converter made of the object: a part whose
-hulls overlap a neighbour's (a contact pushing it out), a part that gravity pulls against a stop (a lid
-resting on its box, a door against its limit: the limit or the contact holds it), or a joint's friction
-loss holding a part that gravity pulls along its joint. Which of these carries the force is reported
+hulls overlap a neighbour's (a contact pushing it out), a joint at rest outside its limit, or a joint's
+friction loss resisting gravity along the joint: holding a part that gravity pulls into its range (the
+converter sizes that friction to hold it), or, at its maximum, a part that gravity pulls into its rest stop
+(a lid lying shut: MuJoCo's limit acts only once the joint is past it, so at exactly the rest value the
+friction loss alone resists; ``benchmarks/results/rest_force_partnet_dev.md``). Which of these carries the force is reported
 (:func:`force_carriers`): ``qfrc_constraint = J^T f`` over the active constraint rows, each row's share
 ``J_i^T f_i`` attributed to its contact (the two bodies), joint limit, friction loss or equality.
 

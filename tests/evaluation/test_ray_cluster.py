@@ -116,7 +116,7 @@ def test_each_node_is_asked_for_the_run_s_files(two_node_cluster, tmp_path, monk
     """Before a run, every node says which of the run's files it does not see: a run whose benchmark is not on
     a path every node mounts stops with the nodes and paths named, before any case runs."""
     from spark_bench.errors import SparkBenchError
-    from spark_bench.evaluation.ray_cluster import connect_ray, missing_paths, require_paths
+    from spark_bench.ray_executor import connect_ray, missing_paths, require_paths
 
     monkeypatch.setenv("RAY_TMPDIR", two_node_cluster["env"]["RAY_TMPDIR"])
     monkeypatch.setenv("RAY_AUTH_MODE", "disabled")

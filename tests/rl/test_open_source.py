@@ -11,6 +11,7 @@ import shutil
 import numpy as np
 import pytest
 import trimesh
+from helpers_open import identity_matching
 
 from spark_bench.asset import write_object_folder
 from spark_bench.asset.model import Collision, Visual
@@ -48,10 +49,6 @@ def thin_handle_cabinet():
     drawer.visuals = [Visual(mesh=shell, rgba=drawer.visuals[0].rgba)]
     drawer.collisions = [Collision(kind="mesh", mesh=shell)]
     return asset
-
-
-def identity_matching(asset) -> dict:
-    return {"matching": [{"gt_joint": j.name, "pred_joint": j.name} for j in asset.movable_joints()]}
 
 
 @pytest.fixture(scope="module")
