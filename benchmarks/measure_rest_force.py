@@ -36,18 +36,29 @@ class NotCached(Exception):
 
 
 def refuse_coacd() -> None:
-    """Make every CoACD run that the cache cannot answer raise :class:`NotCached` (``--cached-only``: a quick
-    pass over the objects whose hulls are cached; the others are listed as not measured)."""
-    import spark_bench.sim.decompose as decompose
+    """Make every conversion whose meshes the CoACD cache cannot all answer raise :class:`NotCached` with the
+    number of meshes missing (``--cached-only``: a quick pass over the objects whose hulls are cached; the
+    others are listed as not measured). The cache is asked as :func:`spark_bench.sim.decompose.decompose_many`
+    asks it (each mesh in its planes' frame)."""
+    import numpy as np
 
-    run = decompose._run_jobs
+    import spark_bench.sim.hulls as hulls
+    from spark_bench.sim.decompose import flat_frame, load_cached, mesh_key
 
-    def cached_only(jobs, *args, **kwargs):
-        if jobs:
-            raise NotCached(len(jobs))
-        return run(jobs, *args, **kwargs)
+    run = hulls.decompose_many
 
-    decompose._run_jobs = cached_only
+    def cached_only(meshes, params, cache=None, **kwargs):
+        missing = 0
+        for vertices, faces in meshes:
+            vertices = np.asarray(vertices, np.float64)
+            turn = flat_frame(vertices, faces)
+            turned = vertices if turn is None else vertices @ turn.T
+            missing += cache is None or load_cached(mesh_key(turned, faces, params), cache) is None
+        if missing:
+            raise NotCached(int(missing))
+        return run(meshes, params, cache=cache, **kwargs)
+
+    hulls.decompose_many = cached_only
 
 
 def category_of(folder: Path) -> str:
@@ -146,8 +157,9 @@ def report(rows: list[dict], source: Path, started: str, seconds: float) -> str:
         "|---|---|",
         *[f"| {kind} | {count} |" for kind, count in Counter(cause_of(r) for r in failed).most_common()],
         "",
-        f"Active contacts at rest in the failing objects: {sum(r['rest_force']['contacts'] for r in failed)} "
-        "(the converter leaves a clearance between neighbouring hulls). How to read the causes:",
+        f"Failing objects with active contacts at rest: {sum(1 for r in failed if r['rest_force']['contacts'])} "
+        "(the converter leaves a clearance between neighbouring hulls; a contact at rest is an overlap it could "
+        "not clear). How to read the causes:",
         "",
         "- *friction_loss at its maximum*: gravity pulls the part into its rest stop (a lid lying shut, a part "
         "hanging at its lower limit) harder than the joint's friction loss holds. MuJoCo's joint limit acts only "

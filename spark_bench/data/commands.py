@@ -6,6 +6,7 @@ Heavy imports (trimesh, MuJoCo, the generator) happen inside each command, so ``
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 
@@ -39,6 +40,11 @@ def add_commands(subparsers) -> None:
                               f"others and report them as missing")
     _add_prepare_options(prepare)
     prepare.add_argument("--overwrite", action="store_true", help="rebuild cases that are already complete")
+    prepare.add_argument("--executor", choices=("local", "ray"), default="local",
+                         help="local: --workers processes; ray: one Ray task per object, on a cluster every node "
+                              "of which sees --src and --out (docs/cluster.md)")
+    prepare.add_argument("--ray-address", help="a Ray cluster's address (default: RAY_ADDRESS, else the cluster "
+                         "`ray start` runs on this machine, else a private local Ray of --workers CPUs)")
     prepare.set_defaults(func=run_prepare)
 
     build = sub.add_parser("build", help="build a named benchmark into the cache (e.g. synth-v1)")
@@ -112,8 +118,12 @@ def run_prepare(args) -> int:
         return _run_prepare_listed(args)
     if args.out is None:
         raise _usage("data prepare needs --out BENCH_DIR (or --bench NAME of a listed benchmark)")
+    where = _connect_ray(args) if args.executor == "ray" else None
     manifest = prepare_benchmark(args.src, args.out, ids=args.ids, options=_options(args), workers=args.workers,
-                                 progress=not args.no_progress, overwrite=args.overwrite)
+                                 progress=not args.no_progress, overwrite=args.overwrite, executor=args.executor,
+                                 ray_address=args.ray_address)
+    if where:
+        print(f"spark-bench: prepared on {where}", file=sys.stderr)
     print(f"{len(manifest['cases'])} cases in {args.out}, {len(manifest['failed'])} failed")
     for case_id, reason in manifest["failed"].items():
         print(f"  failed {case_id}: {reason}")
@@ -122,13 +132,21 @@ def run_prepare(args) -> int:
     return 1 if manifest["failed"] else 0
 
 
+def _connect_ray(args) -> str:
+    """Connect to the Ray of ``--ray-address`` (:func:`~spark_bench.ray_executor.connect_ray`; a bad address is
+    one line) before anything is read or written; returns which Ray it is."""
+    from spark_bench.ray_executor import connect_ray
+
+    return connect_ray(args.ray_address, args.workers)
+
+
 def _run_prepare_listed(args) -> int:
     """``data prepare --bench NAME``: the listed objects found under ``--src``; 0 when at least one listed
     object is a case of the benchmark, else 1 with the reason."""
-    import sys
-
     from spark_bench.data.benchmarks import benchmark_spec, prepare_listed
 
+    if args.executor == "ray":
+        raise _usage("--executor ray prepares a folder (--out), not a listed benchmark (--bench) yet")
     spec = benchmark_spec(args.bench)
     if not spec.is_listed:
         raise _usage(f"--bench {args.bench}: a generated benchmark; build it with `spark-bench data build {args.bench}`")

@@ -13,8 +13,10 @@ resumes where it stopped.
 
 from __future__ import annotations
 
+import multiprocessing
 import shutil
 from collections.abc import Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime
@@ -40,8 +42,6 @@ STAGES = ("load", "merge", "watertight", "normalize_write", "render")
 #: come from the watertight ``voxel.glb``). Options stored without the key are of builds made before
 #: ``source`` became the default, which rendered the watertight remesh.
 RENDER_MESHES = ("source", "watertight")
-#: Where :func:`prepare_benchmark` runs its objects: local processes, or one Ray task per object.
-EXECUTORS = ("local", "ray")
 
 
 @dataclass
@@ -356,8 +356,9 @@ def one_line(exc: BaseException) -> str:
     return " ".join(text.split())
 
 
-def _prepare_one(src: Path, case_dir: Path, options: PrepareOptions) -> CaseResult:
-    """Worker body: never raises (except on interrupt); failures come back as the reason."""
+def _prepare_one(task: tuple[Path, Path, PrepareOptions]) -> CaseResult:
+    """Worker body of ``(src, case_dir, options)``: never raises (but on interrupt); a failure is its reason."""
+    src, case_dir, options = task
     timer = StageTimer()
     try:
         prepare_case(src, case_dir, options, case_dir.name, timer)
@@ -365,10 +366,6 @@ def _prepare_one(src: Path, case_dir: Path, options: PrepareOptions) -> CaseResu
         return CaseResult(case_dir.name, one_line(exc), timer.wall)
     return CaseResult(case_dir.name, None, timer.wall)
 
-
-def _prepare_task(task: tuple[Path, Path, PrepareOptions]) -> CaseResult:
-    """:func:`_prepare_one` of ``(src, case_dir, options)`` as a Ray task (module-level: shipped by name)."""
-    return _prepare_one(*task)
 
 def write_manifest(bench: Benchmark, name: str, options: PrepareOptions, failed: dict[str, str],
                    source: str | None, created: str | None = None) -> dict:
@@ -431,12 +428,11 @@ def prepare_benchmark(src: str | Path, out: str | Path, ids: Sequence[str] | Non
     :param isolate: render in spawned processes even with one worker, so that this process opens no OpenGL
         context: a process that forks workers afterwards must not have rendered (``eval`` builds its
         benchmark and then forks; workers that render after such a fork hang in EGL's set-up)
-    :param executor: ``local`` (``workers`` processes) or ``ray``: a Ray task per object, on the cluster at
-        ``ray_address`` or as :func:`~spark_bench.ray_executor.connect_ray` finds one; every node must see
-        ``src`` and ``out`` (docs/cluster.md)
+    :param executor: ``local`` (``workers`` processes) or ``ray``: a Ray task per object on the cluster at
+        ``ray_address``, else as ``eval`` finds one; every node must see ``src`` and ``out`` (docs/cluster.md)
     """
-    if executor not in EXECUTORS:
-        raise SparkBenchError(f"unknown executor {executor!r}; choose from {', '.join(EXECUTORS)}")
+    if executor not in ("local", "ray"):
+        raise SparkBenchError(f"unknown executor {executor!r}; choose from local, ray")
     if executor == "ray":  # before anything is written: an address nothing answers at is one line
         connect_ray(ray_address, workers)
     options = options or PrepareOptions()
@@ -481,13 +477,14 @@ def _run(todo: dict[str, Path], bench: Benchmark, options: PrepareOptions, worke
         if not on_ray and not isolate and (workers <= 1 or len(todo) <= 1):
             for case_id, path in todo.items():
                 bar.set_postfix_str(case_id)
-                yield _prepare_one(path, bench.case_dir(case_id), options)
+                yield _prepare_one((path, bench.case_dir(case_id), options))
                 bar.update()
             return
         # absolute: a Ray task runs in a worker whose working folder is not this process's
         tasks = [(path.resolve(), bench.case_dir(case_id).resolve(), options) for case_id, path in todo.items()]
-        lost = lambda task, reason: CaseResult(task[1].name, reason)  # noqa: E731 (a task Ray could not finish)
-        for result in ray_map(_prepare_task, tasks, lost) if on_ray else _in_processes(tasks, workers):
+        results = ray_map(_prepare_one, tasks, lambda task, reason: CaseResult(task[1].name, reason)) if on_ray \
+            else _in_processes(tasks, workers)  # a task Ray could not finish: failed with the reason
+        for result in results:
             bar.set_postfix_str(result.case_id)
             bar.update()
             yield result
@@ -496,11 +493,8 @@ def _run(todo: dict[str, Path], bench: Benchmark, options: PrepareOptions, worke
 
 
 def _in_processes(tasks: list[tuple[Path, Path, PrepareOptions]], workers: int) -> Iterator[CaseResult]:
-    """Each :func:`_prepare_task` in a spawned worker process, each result as it ends."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
+    """Each :func:`_prepare_one` in a spawned worker process, each result as it ends."""
     # spawn: each worker opens its own OpenGL context, none inherited from a fork
     with ProcessPoolExecutor(max(1, workers), mp_context=multiprocessing.get_context("spawn")) as pool:
-        for future in as_completed([pool.submit(_prepare_task, task) for task in tasks]):
+        for future in as_completed([pool.submit(_prepare_one, task) for task in tasks]):
             yield future.result()

@@ -8,7 +8,7 @@ one bad case.
 Every worker runs the pinned CPU kernels (:mod:`spark_bench.kernels`): a pool's workers are forked from a
 pinned process, or, when this process runs other kernels (its NumPy loaded before ``spark_bench``),
 started afresh with the pins in their environment; Ray's workers get them in the job's runtime
-environment (:mod:`spark_bench.evaluation.ray_cluster`).
+environment (:mod:`spark_bench.ray_executor`).
 """
 
 from __future__ import annotations

@@ -23,13 +23,13 @@ from spark_bench.data.case import Benchmark
 from spark_bench.errors import SparkBenchError
 from spark_bench.evaluation.case_eval import RL_VIDEO, evaluate_case, failed_rows, generate_cached
 from spark_bench.evaluation.executors import EXECUTORS, run_local, unpinned_note, usable_cores
-from spark_bench.ray_executor import run_ray
 from spark_bench.evaluation.resume import case_fingerprints, scored_on_this_build
 from spark_bench.evaluation.store import ResultsStore, config_hash
 from spark_bench.evaluation.tasks import CaseTask, EvalOptions, RunIdentity
 from spark_bench.jsonio import plain
 from spark_bench.methods.base import MethodSpec, prepare_method
 from spark_bench.methods.registry import make_method
+from spark_bench.ray_executor import run_ray
 
 DEFAULT_BENCH = "synth-v1"
 

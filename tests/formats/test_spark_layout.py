@@ -44,15 +44,15 @@ def test_mesh_names_and_indices_follow_sparks_code():
     (("structure",), "urdf"),
     ((), "structure"),
 ])
-def test_diagnose_names_the_first_stage_without_its_output(tmp_path, gt0, stages, failed):
-    run = write_fake_run(tmp_path, "cab0", gt0, stages=stages, optimized=False)
+def test_diagnose_names_the_first_stage_without_its_output(tmp_path, gt, stages, failed):
+    run = write_fake_run(tmp_path, "cab0", gt, stages=stages, optimized=False)
     diagnosis = layout.diagnose(run)
     assert diagnosis.failed_stage == failed
     assert "axes" not in diagnosis.missing  # it edits metadata.json in place: nothing to check
 
 
-def test_diagnose_sees_one_missing_glb_of_a_run_that_exited_0(tmp_path, gt0):
-    run = write_fake_run(tmp_path, "cab0", gt0, delete=("inference/FT5_G1_0/part_02_cleaned.glb",))
+def test_diagnose_sees_one_missing_glb_of_a_run_that_exited_0(tmp_path, gt):
+    run = write_fake_run(tmp_path, "cab0", gt, delete=("inference/FT5_G1_0/part_02_cleaned.glb",))
     diagnosis = layout.diagnose(run)
     assert diagnosis.failed_stage == "clean"
     assert diagnosis.missing == {"clean": ["inference/FT5_G1_0/part_02_cleaned.glb"]}

@@ -20,8 +20,8 @@ ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "spark_bench"
 #: The order, lowest first; ``docs/architecture.md`` states it (``ORDER_LINE``).
 LAYERS = (
-    ("errors", "jsonio", "paths", "lazy", "timing", "kernels", "mujoco_gl", "convention", "ray_executor"),
-    ("versions",),
+    ("errors", "jsonio", "paths", "lazy", "timing", "kernels", "mujoco_gl", "convention"),
+    ("versions", "ray_executor"),
     ("asset",),
     ("data",),
     ("metrics", "sim", "formats"),
