@@ -46,6 +46,9 @@ def _value(row: dict, key: str):
 #: over its scored joints (``joints_scored`` of ``joints_total``: :mod:`spark_bench.opening.judge` leaves out
 #: those nobody can open), None when it has none, as the scripted opening score's.
 RL_RATES = {"rl_success_rate": "success_rate", "rl_zero_shot_success_rate": "zero_shot_success_rate"}
+#: The opening score under ManiSkill3's success rule (75 % of the range and the part nearly still; the opening
+#: score's ``success_rate_maniskill``, ``docs/protocols.md``), over the same joints as ``open_success_rate``.
+MANISKILL_RATE = "open_success_rate_maniskill"
 
 
 def _rate(rows: Sequence[dict], value) -> float | None:
@@ -59,6 +62,10 @@ def _rate(rows: Sequence[dict], value) -> float | None:
 
 def _rl_value(key: str):
     return lambda row: ((row.get("checks") or {}).get("rl") or {}).get(key)
+
+
+def _open_value(key: str):
+    return lambda row: ((row.get("checks") or {}).get("open") or {}).get(key)
 
 
 def joint_coverage(rows: Sequence[dict], check: str) -> dict | None:
@@ -150,7 +157,8 @@ def by_part_class(rows: Sequence[dict]) -> dict[str, dict]:
 def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (), rl: bool = False) -> dict:
     """The per-benchmark metrics of one run's rows (one variant), keys
     :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``, + :data:`RL_RATES`), then :data:`JOINT_MEAN`;
-    with ``sim`` also ``open_coverage``, with ``rl`` also ``rl_coverage`` (:func:`joint_coverage`); where
+    with ``sim`` also :data:`MANISKILL_RATE` (None for rows stored before it was recorded) and
+    ``open_coverage``, with ``rl`` also ``rl_coverage`` (:func:`joint_coverage`); where
     the predictions were aligned (``--align icp``), ``alignment_scale`` (:func:`alignment_scales`).
 
     :param rows: result rows of one run and variant (ok and failed), all of one metric convention
@@ -176,6 +184,7 @@ def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (),
     if aligned:
         out["alignment_scale"] = aligned
     if sim:
+        out[MANISKILL_RATE] = _rate(rows, _open_value("success_rate_maniskill"))
         out["open_coverage"] = joint_coverage(rows, "open")
     if rl:
         for key, result_key in RL_RATES.items():

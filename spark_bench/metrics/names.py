@@ -63,6 +63,7 @@ HEADLINE = (
     Headline("type_err", "TypeErr", False, "articulation", "type_err"),
     Headline("sim_pass_rate", "Sim pass", True, "sim"),
     Headline("open_success_rate", "Open success", True, "sim"),
+    Headline("open_success_rate_maniskill", "Open success (ManiSkill rule)", True, "sim", summary=False),
     Headline("rl_success_rate", "RL success", True, "sim", summary=False),
     Headline("rl_zero_shot_success_rate", "RL zero-shot", True, "sim", summary=False),
 )

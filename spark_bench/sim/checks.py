@@ -51,6 +51,7 @@ from spark_bench.sim.sweep import (
     SweptJoint,
     check_joint_sweep,
     part_radius,
+    stopped_by_contact,
     swept_joints,
     swept_joints_of_model,
 )
@@ -371,8 +372,8 @@ def _explain_sweep(sweep: CheckResult, prepared, model) -> None:
     tolerance = 0.5 * prepared.options.clearance * prepared.size
     first = None
     for name, joint in sweep.details["joints"].items():
-        if name not in sweep.details.get("failed", []) or not joint["blocked_by"]:
-            continue
+        if name not in sweep.details.get("failed", []) or not joint["blocked_by"] or not stopped_by_contact(joint):
+            continue  # a part its contacts do not hold back: their surfaces are not the question
         block = joint["blocked_by"][0]
         if block.get("body") not in prepared.asset.links or block["blocked_by_body"] not in prepared.asset.links:
             continue

@@ -5,7 +5,11 @@ its lower to its upper limit in 1.5 s, holds 0.5 s, returns in 1.5 s and holds 0
 swept part is fed forward (as a motor's gravity compensation would) and the servo's force is limited
 to a few times what friction and damping need, so a part blocked by geometry stays blocked instead of
 being pushed through the soft contacts; the contacts of a blocked part name the geoms that stopped it.
-A joint passes when it reaches ``SWEEP_REACH`` of its range out and back.
+The limit is never below the part's own weight (at its far edge, on a hinge): a light part's friction and
+damping ask for millinewtons, and a servo that weak is stopped by a grazing contact that could not hold the
+part in the world (a hand, or a robot, pushes at least that hard). A joint passes when it reaches
+``SWEEP_REACH`` of its range out and back; a part that stops short is explained by the forces on its joint
+where it stopped (:func:`spark_bench.sim.explain.stop_cause`): a contact only when it opposes the drive.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.sim.explain import stop_cause
 from spark_bench.sim.relief import joint_bodies
 from spark_bench.sim.results import CheckResult
 
@@ -28,6 +33,13 @@ SWEEP_FLOOR = 0.001
 RAMP_SECONDS, HOLD_SECONDS = 1.5, 0.5
 #: Servo force limit, as a multiple of the force friction and damping need at the sweep speed.
 FORCE_MARGIN = 5.0
+#: The least servo force limit, as a multiple of the swept part's weight (times its reach from the axis on a
+#: hinge: the weight held at its far edge). Measured on partnet_dev (benchmarks/results/sim_real.md): below it,
+#: sweeps of light parts stopped on contacts of 1-8 mN.
+MIN_DRIVE_WEIGHTS = 1.0
+#: A servo raised to the weight floor keeps its natural frequency below this many radians per time step
+#: (explicit integration of its damping is stable below 1).
+MAX_SERVO_OMEGA_DT = 0.5
 
 
 @dataclass
@@ -72,8 +84,36 @@ def add_sweep_actuators(spec, joints: list[SweptJoint]) -> None:
         act.forcerange = [-1.0, 1.0]
 
 
+def weight_drive(model, data, jid: int) -> float:
+    """The weight of everything joint ``jid`` moves, as a generalized force on it: N on a slide, N m on a
+    hinge (held at the part's far edge, :func:`part_radius`).
+
+    :param model: the compiled model
+    :param data: its data after ``mj_forward`` (the joint's axis in the world)
+    :param jid: the joint's id
+    """
+    mass = float(sum(model.body_mass[b] for b in joint_bodies(model, jid)))
+    return mass * float(np.linalg.norm(model.opt.gravity)) * part_radius(model, data, jid)
+
+
+def servo_limits(need: float, weight: float, inertia: float, span: float, dt: float) -> tuple[float, float]:
+    """A sweep servo's force limit and stiffness: :data:`FORCE_MARGIN` times what friction, damping and
+    inertia ``need``, at least :data:`MIN_DRIVE_WEIGHTS` times the part's ``weight``; the stiffness saturates the
+    servo 5 % of the ``span`` from its target, and where the weight floor raised the limit, no stiffer than
+    :data:`MAX_SERVO_OMEGA_DT` allows at time step ``dt`` (or than it was without the floor).
+
+    :returns: ``(force, kp)``
+    """
+    base = FORCE_MARGIN * need
+    force = max(base, MIN_DRIVE_WEIGHTS * weight)
+    kp = force / (0.05 * span)
+    if force > base:  # a light part: the floor must not make its servo too stiff to integrate
+        kp = min(kp, max(base / (0.05 * span), inertia * (MAX_SERVO_OMEGA_DT / dt) ** 2))
+    return force, kp
+
+
 def _tune_actuators(model, data, joints: list[SweptJoint]) -> None:
-    """Servo gains per joint from the joint-space inertia, friction and damping at rest."""
+    """Servo gains per joint from the joint-space inertia, friction and damping at rest, and the part's weight."""
     mujoco = mujoco_module()
     mujoco.mj_resetData(model, data)
     mujoco.mj_forward(model, data)
@@ -86,8 +126,7 @@ def _tune_actuators(model, data, joints: list[SweptJoint]) -> None:
         span = max(joint.upper - joint.lower, 1e-6)
         speed = span / RAMP_SECONDS
         need = model.dof_frictionloss[dof] + model.dof_damping[dof] * speed + inertia * speed / 0.25
-        force = FORCE_MARGIN * need
-        kp = force / (0.05 * span)
+        force, kp = servo_limits(need, weight_drive(model, data, jid), inertia, span, model.opt.timestep)
         kv = 2.0 * math.sqrt(kp * inertia)
         act = model.actuator(f"sweep_{joint.name}").id
         model.actuator_gainprm[act, 0] = kp
@@ -164,12 +203,19 @@ def sweep_joint(model, data, joints: list[SweptJoint], index: int, open_first: t
     reached, _ = _run_schedule(model, data, acts, out, qadr, dof)
     reach = (reached - joint.lower) / span if span > 0 else 1.0
     blocked = _blocking_contacts(model, data, moving) if reach < 0.98 else []
+    stopped_by = stop_cause(model, data, joint.name, f"sweep_{joint.name}") if reach < 0.98 else None
     back = dict(held)
     back[joint.name] = _ramp(joint.upper, joint.lower, ramp, hold)
     _, lowest = _run_schedule(model, data, acts, back, qadr, dof)
     returned = (reached - lowest) / (reached - joint.lower) if reached > joint.lower + 1e-12 else 1.0
-    return {"reached": round(float(np.clip(reach, 0, 1)), 4), "returned": round(float(np.clip(returned, 0, 1)), 4),
-            "finite": bool(np.all(np.isfinite(data.qpos))), "blocked_by": blocked, "opened_first": list(open_first)}
+    stopped_back_by = stop_cause(model, data, joint.name, f"sweep_{joint.name}") if returned < 0.98 else None
+    result = {"reached": round(float(np.clip(reach, 0, 1)), 4), "returned": round(float(np.clip(returned, 0, 1)), 4),
+              "finite": bool(np.all(np.isfinite(data.qpos))), "blocked_by": blocked, "opened_first": list(open_first)}
+    if stopped_by is not None:
+        result["stopped_by"] = stopped_by
+    if stopped_back_by is not None:
+        result["stopped_back_by"] = stopped_back_by
+    return result
 
 
 def _with_shortfall(result: dict, full: float) -> dict:
@@ -263,16 +309,31 @@ def check_joint_sweep(spec, joints: list[SweptJoint], size: float = 0.0) -> Chec
     details = {"joints": results, "failed": list(failed), "floor": round(floor, 6)}
     if failed:
         name, r = next(iter(failed.items()))
-        what = ", ".join(f"{b['geom']} by {b['blocked_by']}" for b in r["blocked_by"]) or "no contact"
-        if r["blocked_by"]:
-            first = r["blocked_by"][0]
-            joint = next(j for j in joints if j.name == name)
-            at = joint.lower + r["reached"] * (joint.upper - joint.lower)
-            where = f"{np.degrees(at):.0f} deg" if joint.rotational else f"{1000 * at:.0f} mm"
-            deep = 1000 * first.get("depth", 0.0)
-            what = (f"{first.get('body', '?')} runs into {first['blocked_by_body']} at {where}"
-                    + (f", {deep:.1f} mm deep" if deep >= 0.1 else "") + f": {what}")
-        details["reason"] = (f"joint {name} reached {r['reached']:.0%} and returned {r['returned']:.0%} "
-                             f"of its range (blocked: {what})")
+        details["reason"] = _failure_reason(name, r, joints)
     return CheckResult(not failed, worst, details)
+
+
+def stopped_by_contact(result: dict) -> bool:
+    """Whether a swept joint's stop (out, else back) is explained by contacts (or was not explained: an
+    older result)."""
+    cause = result.get("stopped_by") or result.get("stopped_back_by")
+    return cause is None or cause["cause"] == "contact"
+
+
+def _failure_reason(name: str, r: dict, joints: list[SweptJoint]) -> str:
+    """One line for a joint that failed the sweep: how far it went, and what stopped it."""
+    head = f"joint {name} reached {r['reached']:.0%} and returned {r['returned']:.0%} of its range"
+    if not stopped_by_contact(r):
+        cause = r.get("stopped_by") or r.get("stopped_back_by")
+        return f"{head} (not blocked by a contact: {cause['text']})"
+    what = ", ".join(f"{b['geom']} by {b['blocked_by']}" for b in r["blocked_by"]) or "no contact"
+    if r["blocked_by"]:
+        first = r["blocked_by"][0]
+        joint = next(j for j in joints if j.name == name)
+        at = joint.lower + r["reached"] * (joint.upper - joint.lower)
+        where = f"{np.degrees(at):.0f} deg" if joint.rotational else f"{1000 * at:.0f} mm"
+        deep = 1000 * first.get("depth", 0.0)
+        what = (f"{first.get('body', '?')} runs into {first['blocked_by_body']} at {where}"
+                + (f", {deep:.1f} mm deep" if deep >= 0.1 else "") + f": {what}")
+    return f"{head} (blocked: {what})"
 

@@ -189,7 +189,7 @@ def test_rows_of_older_conventions_left_out_and_noted(tmp_path):
     assert "per object (the mean over its joints), then averaged over objects" in md
     with ResultsStore(tmp_path / "old.sqlite") as s:
         s.put({**_row("old", "c1", axis_err=0.9), "convention": "spark-bench-conv-1"})
-        with pytest.raises(SparkBenchError, match=r"current metric definitions \(spark-bench-conv-6\).*"
+        with pytest.raises(SparkBenchError, match=r"current metric definitions \(spark-bench-conv-7\).*"
                                                   r"spark-bench-conv-1 \(1 rows\)"):
             build_leaderboard(s)
 
@@ -441,3 +441,29 @@ def test_the_scale_the_alignment_applied_is_shown_beside_the_errors(tmp_path):
     with ResultsStore(tmp_path / "plain.sqlite") as s:
         s.put(rows[4:])
         assert "ICP scale" not in render(build_leaderboard(s), "md")
+
+
+def test_the_maniskill_rule_is_shown_beside_the_opening_score_where_rows_record_it(tmp_path):
+    """Rows whose opening score also judged each episode by ManiSkill3's rule get a column after Open success
+    (over the same joints, a failed case counting as not opened); rows stored before it have none, and a board
+    of only such rows shows no such column."""
+    def opened(rate: float, maniskill: float | None) -> dict:
+        return {"open": {"success_rate": rate, **({} if maniskill is None else {"success_rate_maniskill": maniskill}),
+                         "joints": {"joint_0": {"success": rate > 0, "success_maniskill": bool(maniskill)}}}}
+
+    with ResultsStore(tmp_path / "r.sqlite") as store:
+        store.put([_row("A", "c1", open_success=1.0, checks=opened(1.0, 0.0)),
+                   _row("A", "c2", open_success=1.0, checks=opened(1.0, 1.0)),
+                   {**_row("A", "c3"), "status": "failed", "stage": "generate", "reason": "boom", "sim_pass": None}])
+        store.put([_row("B", c, checks=opened(1.0, None)) for c in ("c1", "c2")])  # stored before the rule
+        board = build_leaderboard(store, bench="b")
+        old = build_leaderboard(store, bench="b", labels=["B"])
+    by_name = {e.name: e for e in board.entries}
+    assert by_name["A"].metrics["open_success_rate"] == pytest.approx(2 / 3)
+    assert by_name["A"].metrics["open_success_rate_maniskill"] == pytest.approx(1 / 3)
+    assert by_name["B"].metrics["open_success_rate_maniskill"] is None
+    sim = board.tables()[2]
+    assert sim.metrics[-2:] == ("open_success_rate", "open_success_rate_maniskill")
+    md = to_markdown(board)
+    assert "Open success (ManiSkill rule)↑" in md and "nearly still" in md
+    assert "open_success_rate_maniskill" not in old.tables()[2].metrics
