@@ -139,9 +139,23 @@ def run_one(folder: Path, workers: int, home: Path | None, timeout: float, rende
     row["seconds"] = report.get("seconds", {})
     row["phantom"] = [f"{b['child']} in {b['parent']} ({b['joint']})" for b in compiled.get("phantom_blocks", [])]
     row["relief"] = sorted((compiled.get("relief") or {}).keys())
-    row["sweep"] = {name: {k: j.get(k) for k in ("reached", "returned", "blocked_by", "opened_first")}
-                    for name, j in report["checks"].get("joint_sweep", {}).get("joints", {}).items()}
+    sweep_check = report["checks"].get("joint_sweep", {})
+    failed = set(sweep_check.get("failed", []))
+    row["sweep"] = {name: {**{k: j.get(k) for k in ("reached", "returned", "blocked_by", "opened_first")},
+                           "passed": name not in failed, **stop_summary(j)}
+                    for name, j in sweep_check.get("joints", {}).items()}
     return row
+
+
+def stop_summary(joint: dict) -> dict:
+    """What held a swept joint that stopped short (``stopped_by``, else ``stopped_back_by``): the cause, the
+    drive's force and the contacts' share of it; empty for a joint that did not stop short (or a check from
+    before the stops were explained)."""
+    cause = joint.get("stopped_by") or joint.get("stopped_back_by")
+    if not cause:
+        return {}
+    return {"stop_cause": cause["cause"], "drive": cause["drive"], "contact": cause["opposing"].get("contact", 0.0),
+            "way": "out" if joint.get("stopped_by") else "back"}
 
 
 # ----- the sweep ----------------------------------------------------------------------------------
@@ -227,6 +241,44 @@ def verdict_changes(rows: dict[str, dict], other: dict[str, dict]) -> list[str]:
     return out
 
 
+def joint_changes(rows: dict[str, dict], other: dict[str, dict]) -> list[str]:
+    """The swept joints whose own sweep verdict differs between two labels (a joint's verdict can flip while its
+    object's stays: another check fails it)."""
+    out = []
+    for key in sorted(set(rows) & set(other)):
+        before, after = other[key].get("sweep") or {}, rows[key].get("sweep") or {}
+        for name in sorted(set(before) & set(after)):
+            a, b = before[name], after[name]
+            if "passed" in a and "passed" in b and a["passed"] != b["passed"]:
+                out.append(f"{key} {name}: {'pass' if a['passed'] else 'FAIL'} -> {'pass' if b['passed'] else 'FAIL'} "
+                           f"(reached {a['reached']:.0%} -> {b['reached']:.0%}, returned {a['returned']:.0%} -> "
+                           f"{b['returned']:.0%})")
+    return out
+
+
+def stop_lines(objects: dict[str, dict]) -> list[str]:
+    """The report's section on the joints that stop short: how many by cause, and each failing one with the
+    drive's force and what the contacts opposed (a contact weaker than the drive cannot be what holds it)."""
+    stops = [(key, name, j) for key, r in sorted(objects.items()) for name, j in (r.get("sweep") or {}).items()
+             if j.get("stop_cause")]
+    if not stops:
+        return []
+    causes = Counter(j["stop_cause"] for _, _, j in stops)
+    lines = ["", "## What holds the joints that stop short", "",
+             f"{len(stops)} swept joints stop short of 98 % of their range (out or back) in "
+             f"{len({key for key, _, _ in stops})} objects; by the cause the check names "
+             f"(`spark_bench.sim.explain.stop_cause`): " + ", ".join(f"{c} {n}" for c, n in causes.most_common())
+             + ". The failing ones (below 90 %), with the servo's force (N on a slide, N m on a hinge; at least the "
+             "part's weight) and what the contacts opposed:", "",
+             "| object | joint | way | reached / returned | cause | drive | contacts oppose |", "|---|---|---|---|---|---|---|"]
+    for key, name, j in stops:
+        if j.get("passed", True):
+            continue
+        lines.append(f"| {key} | {name} | {j['way']} | {j['reached']:.0%} / {j['returned']:.0%} | {j['stop_cause']} | "
+                     f"{j['drive']:.3g} | {j['contact']:.3g} |")
+    return lines
+
+
 def timing_lines(rows: list[dict]) -> list[str]:
     if not rows:
         return []
@@ -283,6 +335,7 @@ def markdown(rows: dict[str, dict], args, baseline: dict[str, dict] | None) -> s
             label = f" (result of `{r['from_label']}`)" if r.get("from_label") else ""
             lines.append(f"| {key}{label} | {r['category']} | {'yes' if r['openable'] else 'no'} | "
                          f"{failure_line(r).replace('|', '/')} | {verdict} | {fix} |")
+    lines += stop_lines(objects)
     if cases:
         lines += ["", "## Seconds per prepared case (gt: watertight R=200 remesh)", ""]
         lines += ["| case | category | verdict | wall s | CPU s | convert s | CoACD calls | hulls |",
@@ -302,6 +355,8 @@ def markdown(rows: dict[str, dict], args, baseline: dict[str, dict] | None) -> s
         lines += ["", f"## Verdicts against `{args.compare}`", "",
                   f"{len(set(rows) & set(baseline))} objects in both; changed: {len(changes)}", ""]
         lines += [f"- {c}" for c in changes]
+        joints = joint_changes(rows, baseline)
+        lines += ["", f"Swept joints whose own sweep verdict changed: {len(joints)}", "", *[f"- {c}" for c in joints]]
     return "\n".join(lines) + "\n"
 
 

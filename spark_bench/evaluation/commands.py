@@ -123,8 +123,9 @@ def run_eval_command(args) -> int:
 
     print(f"{summary.run.label} on {summary.run.bench}: {summary.n_cases} cases, {summary.n_failed} failed, "
           f"{summary.n_skipped} already done, {summary.seconds:.1f} s")
+    width = max((len(key) for key in summary.metrics), default=0)
     for key, value in summary.metrics.items():
-        print(f"  {key:>18}  {shown(key, value)}")
+        print(f"  {key:>{width}}  {shown(key, value)}")
     for case_id, reason in list(summary.failures.items())[:20]:
         print(f"  failed {case_id}: {reason}", file=sys.stderr)
     return 0

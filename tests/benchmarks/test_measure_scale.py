@@ -198,6 +198,8 @@ def test_resume_keeps_finished_rows_and_redoes_the_incomplete(tmp_path, monkeypa
     assert ms.main(common) == 0
     assert measured == ["a", "b", "c"]
     document = json.loads(out.read_text())
+    for row in document["rows"]:
+        row["measured_in"] = "an earlier pass"
     document["rows"][1] = _failed("b")  # an error row
     del document["rows"][2]["eval_warm"]  # a row measured before the warm eval
     out.write_text(json.dumps(document))
@@ -208,4 +210,7 @@ def test_resume_keeps_finished_rows_and_redoes_the_incomplete(tmp_path, monkeypa
     assert measured == ["b", "c"]
     rows = json.loads(out.read_text())["rows"]
     assert [r["id"] for r in rows] == ["a", "b", "c"] and all("error" not in r for r in rows)
-    assert "rows kept from an earlier pass" in report.read_text()
+    assert "rows kept from it: 1" in report.read_text()  # a
+    report.write_text(report.read_text() + ms.NOTES + "\nA person's note.\n")
+    assert ms.main(common + ["--report-only"]) == 0
+    assert report.read_text().endswith(ms.NOTES + "\nA person's note.\n")
