@@ -106,13 +106,10 @@ class SparkDoorEnv(SparkArticulationEnv):
     no revolute joint, raises :class:`~spark_bench.errors.InputError` at ``make``.
 
     **Success rules** (``success_rule=``): ``"spark"`` (the default) counts the door open once it passes
-    ``target_fraction`` of its range; ``"maniskill"`` is ManiSkill3's rule (``OpenCabinetDrawerEnv.evaluate``,
-    which its door task inherits): past ``target_fraction`` (0.75, ManiSkill's ``min_open_frac``) **and** the
-    door's link nearly still, its angular speed at most 1 rad/s and its centre of mass's speed at most 0.1 m/s
-    (world frame). The rule chosen drives ``info["is_success"]``, the ``success`` reward term and the sparse
-    reward; every ``info`` carries both rules, ``is_success_spark`` and ``is_success_maniskill``, and the
-    link's speeds (``link_angular_speed``, ``link_linear_speed``); ``env.unwrapped.evaluate()`` gives them at
-    the current state.
+    ``target_fraction`` of its range; ``"maniskill"`` (ManiSkill3's rule) also asks that the door's link be
+    nearly still (the limits: :meth:`~spark_bench.envs.base.SparkArticulationEnv.evaluate`). The rule chosen
+    drives ``info["is_success"]``, the ``success`` reward term and the sparse reward; every ``info`` carries
+    both rules and the link's speeds.
 
     **Info**: ``reach``, ``grasp``, ``progress``, ``success`` (the reward terms), ``is_success`` (the chosen
     rule), ``is_success_spark``, ``is_success_maniskill``, ``link_angular_speed``, ``link_linear_speed`` and

@@ -60,12 +60,9 @@ def _rate(rows: Sequence[dict], value) -> float | None:
     return sum(float(value(r)) for r in counted if r["status"] == "ok") / len(counted)
 
 
-def _rl_value(key: str):
-    return lambda row: ((row.get("checks") or {}).get("rl") or {}).get(key)
-
-
-def _open_value(key: str):
-    return lambda row: ((row.get("checks") or {}).get("open") or {}).get(key)
+def _check_value(check: str, key: str):
+    """A row's ``checks[check][key]`` (None where the check did not run or did not record it)."""
+    return lambda row: ((row.get("checks") or {}).get(check) or {}).get(key)
 
 
 def joint_coverage(rows: Sequence[dict], check: str) -> dict | None:
@@ -184,11 +181,11 @@ def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (),
     if aligned:
         out["alignment_scale"] = aligned
     if sim:
-        out[MANISKILL_RATE] = _rate(rows, _open_value("success_rate_maniskill"))
+        out[MANISKILL_RATE] = _rate(rows, _check_value("open", "success_rate_maniskill"))
         out["open_coverage"] = joint_coverage(rows, "open")
     if rl:
         for key, result_key in RL_RATES.items():
-            out[key] = _rate(rows, _rl_value(result_key))
+            out[key] = _rate(rows, _check_value("rl", result_key))
         out["rl_coverage"] = joint_coverage(rows, "rl")
     out[JOINT_MEAN] = mean_over_joints(joint_records(rows))
     return out

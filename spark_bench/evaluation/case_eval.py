@@ -121,24 +121,26 @@ def _mark_articulation(metrics: dict, valid: bool) -> dict:
             **{key: None for key in ARTICULATION_KEYS}}
 
 
-def _score(pred_folder: Path, gt_bench, options: EvalOptions, threads: int) -> dict:
+def _load_prediction(pred_folder: Path):
     from spark_bench.data.readers import load_object
+
+    return load_object(pred_folder)
+
+
+def _score(pred, gt_bench, options: EvalOptions, threads: int) -> dict:
     from spark_bench.metrics import compute_metrics
 
-    pred = load_object(pred_folder)
     return compute_metrics(pred, gt_bench, n_samples=options.n_samples, seed=options.seed, align=options.align,
                            workers=threads).to_dict()
 
 
-def _protocol_scores(stages: _Stages, pred_folder: Path, gt_bench, options: EvalOptions) -> dict[str, dict]:
+def _protocol_scores(stages: _Stages, pred, gt_bench, options: EvalOptions) -> dict[str, dict]:
     """``{protocol: ProtocolResult dict}`` of the prediction under each paper's protocol of ``options``; a
     protocol that fails records ``{"protocol", "error"}`` and never fails the case (its metrics stand).
     Each protocol applies its own paper's normalization to the prediction as stored and the case's ground
     truth as stored (the benchmark frame)."""
-    from spark_bench.data.readers import load_object
     from spark_bench.metrics.protocols import score
 
-    pred = load_object(pred_folder)
     out: dict[str, dict] = {}
     for name in options.protocols:
         try:
@@ -225,10 +227,12 @@ def evaluate_case(task: CaseTask) -> list[dict]:
                    shape_metrics_valid=generation.shape_metrics_valid)
         gt_folder = case.gt_dir
         gt_bench = stages("load_gt", case.load_gt)  # as stored: the benchmark frame (the scores bring it to metres)
-        metrics = stages("metrics", _score, generation.folder, gt_bench, task.options, task.threads)
+        # read once, scored by the metrics and by every paper's protocol (its time counts as the metrics')
+        pred = stages("metrics", _load_prediction, generation.folder)
+        metrics = stages("metrics", _score, pred, gt_bench, task.options, task.threads)
         metrics = _mark_articulation(metrics, generation.articulation_metrics_valid)
         if task.options.protocols:
-            metrics["protocols"] = _protocol_scores(stages, generation.folder, gt_bench, task.options)
+            metrics["protocols"] = _protocol_scores(stages, pred, gt_bench, task.options)
         row.update(metrics=metrics, **_metric_columns(metrics))
         checks: dict = {}
         # the prediction and the object the scores act on, loaded by the first score that asks and kept for the
@@ -251,7 +255,8 @@ def evaluate_case(task: CaseTask) -> list[dict]:
             vrow = {**_base_row(task, category), "variant": variant, "prediction_dir": str(folder),
                     "shape_metrics_valid": generation.shape_metrics_valid, "info": row["info"]}
             try:
-                vmetrics = stages(f"metrics[{variant}]", _score, Path(folder), gt_bench, task.options, task.threads)
+                vpred = stages(f"metrics[{variant}]", _load_prediction, Path(folder))
+                vmetrics = stages(f"metrics[{variant}]", _score, vpred, gt_bench, task.options, task.threads)
                 vmetrics = _mark_articulation(vmetrics, generation.articulation_metrics_valid)
                 vrow.update(metrics=vmetrics, status="ok", **_metric_columns(vmetrics))
             except StageError as exc:

@@ -84,16 +84,16 @@ def add_sweep_actuators(spec, joints: list[SweptJoint]) -> None:
         act.forcerange = [-1.0, 1.0]
 
 
-def weight_drive(model, data, jid: int) -> float:
+def weight_drive(model, jid: int, radius: float) -> float:
     """The weight of everything joint ``jid`` moves, as a generalized force on it: N on a slide, N m on a
-    hinge (held at the part's far edge, :func:`part_radius`).
+    hinge (held at the part's far edge).
 
     :param model: the compiled model
-    :param data: its data after ``mj_forward`` (the joint's axis in the world)
     :param jid: the joint's id
+    :param radius: :func:`part_radius` of the joint (1 for a slide)
     """
     mass = float(sum(model.body_mass[b] for b in joint_bodies(model, jid)))
-    return mass * float(np.linalg.norm(model.opt.gravity)) * part_radius(model, data, jid)
+    return mass * float(np.linalg.norm(model.opt.gravity)) * radius
 
 
 def servo_limits(need: float, weight: float, inertia: float, span: float, dt: float) -> tuple[float, float]:
@@ -112,11 +112,10 @@ def servo_limits(need: float, weight: float, inertia: float, span: float, dt: fl
     return force, kp
 
 
-def _tune_actuators(model, data, joints: list[SweptJoint]) -> None:
-    """Servo gains per joint from the joint-space inertia, friction and damping at rest, and the part's weight."""
+def _tune_actuators(model, data, joints: list[SweptJoint], radii: dict[str, float]) -> None:
+    """Servo gains per joint from the joint-space inertia, friction and damping at rest, and the part's weight
+    (``radii``: each joint's :func:`part_radius`, the data already at rest)."""
     mujoco = mujoco_module()
-    mujoco.mj_resetData(model, data)
-    mujoco.mj_forward(model, data)
     full = np.zeros((model.nv, model.nv))
     mujoco.mj_fullM(model, data, full)
     for joint in joints:
@@ -126,7 +125,7 @@ def _tune_actuators(model, data, joints: list[SweptJoint]) -> None:
         span = max(joint.upper - joint.lower, 1e-6)
         speed = span / RAMP_SECONDS
         need = model.dof_frictionloss[dof] + model.dof_damping[dof] * speed + inertia * speed / 0.25
-        force, kp = servo_limits(need, weight_drive(model, data, jid), inertia, span, model.opt.timestep)
+        force, kp = servo_limits(need, weight_drive(model, jid, radii[joint.name]), inertia, span, model.opt.timestep)
         kv = 2.0 * math.sqrt(kp * inertia)
         act = model.actuator(f"sweep_{joint.name}").id
         model.actuator_gainprm[act, 0] = kp
@@ -283,10 +282,11 @@ def check_joint_sweep(spec, joints: list[SweptJoint], size: float = 0.0) -> Chec
     add_sweep_actuators(check_spec, joints)
     model = check_spec.compile()
     data = mujoco.MjData(model)
-    _tune_actuators(model, data, joints)
     mujoco.mj_resetData(model, data)
     mujoco.mj_forward(model, data)
-    reach_m = {j.name: (j.upper - j.lower) * part_radius(model, data, model.joint(j.name).id) for j in joints}
+    radii = {j.name: part_radius(model, data, model.joint(j.name).id) for j in joints}
+    _tune_actuators(model, data, joints, radii)
+    reach_m = {j.name: (j.upper - j.lower) * radii[j.name] for j in joints}
     floor = SWEEP_FLOOR * size
     names = {j.name for j in joints}
     results = {}
