@@ -71,3 +71,14 @@ def l_shape() -> trimesh.Trimesh:
     """A closed L-shaped solid (two boxes unioned): non-convex, 0.2 m arms along +x and +y from the origin."""
     along_x = box_mesh((0.2, 0.05, 0.05), (0.1, 0.025, 0.025))
     return along_x.union(box_mesh((0.05, 0.2, 0.05), (0.025, 0.1, 0.025)))
+
+
+def v_shape() -> trimesh.Trimesh:
+    """A closed V-shaped solid (two 0.2 m arms at +-30 degrees from +x, unioned): non-convex, and not an
+    orthogonal polyhedron, so it goes to CoACD rather than being cut into exact boxes."""
+    arms = []
+    for degrees in (30.0, -30.0):
+        arm = box_mesh((0.2, 0.05, 0.05), (0.1, 0.0, 0.025))
+        arm.apply_transform(trimesh.transformations.rotation_matrix(np.radians(degrees), (0.0, 0.0, 1.0)))
+        arms.append(arm)
+    return arms[0].union(arms[1])

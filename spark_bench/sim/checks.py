@@ -333,7 +333,7 @@ def _compile_check(asset: ArticulatedAsset, prepared, convert_s: float) -> tuple
         "bodies": int(model.nbody - 1), "geoms": int(model.ngeom), "hulls": prepared.report.hulls,
         "hull_methods": prepared.report.methods, "coacd_calls": prepared.report.coacd.calls,
         "coacd_cache_hits": prepared.report.coacd.cache_hits, "coacd_turned": prepared.report.coacd.turned,
-        "convert_seconds": round(convert_s, 3),
+        "boxed": len(prepared.report.coacd.boxed), "convert_seconds": round(convert_s, 3),
         "relief": summarize_relief(prepared.relief), "excluded": sorted(f"{a}|{b}" for a, b in prepared.excluded),
         "phantom_blocks": [b.to_dict() for b in prepared.phantom],
         "coacd_failures": prepared.report.coacd_failures})

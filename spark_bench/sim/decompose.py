@@ -1,4 +1,8 @@
-"""CoACD convex decomposition with a content-hash cache and a process pool.
+"""Convex decomposition: orthogonal parts exactly into boxes, the rest by CoACD with a content-hash cache
+and a process pool.
+
+A part whose faces all lie on the planes of its own frame (:func:`flat_frame`) is decomposed exactly into
+boxes (:mod:`spark_bench.sim.boxes`) and never reaches CoACD or the cache.
 
 A decomposition is keyed by the SHA-256 of the mesh (vertices relative to their bounding-box center
 and in units of its largest extent, rounded to 1e-9, and faces) and of every CoACD parameter, so the
@@ -37,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from spark_bench.sim.boxes import box_decomposition
 from spark_bench.sim.file_cache import atomic_savez, entry_path, load_npz
 from spark_bench.sim.options import CoacdParams
 
@@ -53,14 +58,16 @@ Hull = tuple[np.ndarray, np.ndarray]  # (vertices (V, 3) float64, faces (F, 3) i
 class DecomposeStats:
     """What :func:`decompose_many` did: calls run, cache hits, CPU seconds spent in CoACD, and the
     meshes CoACD failed on (index in the input -> why: the worker's signal or exit status and the last
-    line it printed, or the time limit), which got their convex hull instead; and how many meshes were
-    decomposed turned into their own planes' frame (:func:`flat_frame`)."""
+    line it printed, or the time limit), which got their convex hull instead; how many meshes were
+    decomposed turned into their own planes' frame (:func:`flat_frame`); and which meshes (indices) were
+    orthogonal polyhedra, decomposed exactly into boxes without CoACD (:mod:`spark_bench.sim.boxes`)."""
 
     calls: int = 0
     cache_hits: int = 0
     coacd_cpu_s: float = 0.0
     failed: dict[int, str] = field(default_factory=dict)
     turned: int = 0
+    boxed: list[int] = field(default_factory=list)
 
 
 def mesh_key(vertices: np.ndarray, faces: np.ndarray, params: CoacdParams) -> str:
@@ -219,8 +226,11 @@ def flat_frame(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray | None:
 
 def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | None = None,
                    workers: int = 0, stats: DecomposeStats | None = None,
-                   progress: bool = False, timeout: float = JOB_TIMEOUT_S) -> list[list[Hull]]:
-    """Decompose each mesh into convex hulls with CoACD, reusing and filling the cache.
+                   progress: bool = False, timeout: float = JOB_TIMEOUT_S, exact_boxes: bool = True
+                   ) -> list[list[Hull]]:
+    """Decompose each mesh into convex hulls: an orthogonal polyhedron exactly into boxes
+    (:func:`~spark_bench.sim.boxes.box_decomposition`), any other mesh with CoACD, reusing and filling the
+    cache.
 
     :param meshes: ``(vertices, faces)`` per mesh, each a closed (watertight) or open triangle mesh
     :param params: CoACD parameters (part of the cache key)
@@ -229,6 +239,7 @@ def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | No
     :param stats: filled with the number of calls, cache hits and CoACD CPU seconds
     :param progress: show a progress bar for the calls that run
     :param timeout: seconds one CoACD call may take before its worker is killed as hung
+    :param exact_boxes: cut orthogonal polyhedra into boxes (False: every mesh goes to CoACD)
     :returns: per mesh, its hulls as ``(vertices, faces)`` in the mesh's own coordinates
     """
     stats = stats if stats is not None else DecomposeStats()
@@ -246,6 +257,11 @@ def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | No
 
     todo: dict[str, list[int]] = {}
     for index, (vertices, faces) in enumerate(meshes):
+        boxes = box_decomposition(normalized(vertices)[0], faces) if exact_boxes else None
+        if boxes is not None:  # exact, and cheaper than reading a cache entry
+            stats.boxed.append(index)
+            results[index] = placed(index, boxes)
+            continue
         key = mesh_key(vertices, faces, params)
         cached = load_cached(key, cache) if cache is not None else None
         if cached is not None:

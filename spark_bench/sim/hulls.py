@@ -6,8 +6,10 @@ Per link, the collision elements (``<collision>``; the visuals when there are no
 2. a non-convex element whose own convex hull stays within ``convex_tolerance`` of its surface (a
    panel, a box, a bevelled board: most PartNet-Mobility parts) is replaced by that hull, which is what
    CoACD would return for it, at no cost;
-3. otherwise its connected components are tried the same way, and what remains non-convex goes to
-   CoACD (its own manifold preprocessing makes the open, zero-thickness PartNet surfaces watertight).
+3. otherwise its connected components are tried the same way, and what remains non-convex is
+   decomposed: exactly into boxes where it is an orthogonal polyhedron (a drawer, an appliance's open
+   body), else by CoACD (its own manifold preprocessing makes the open, zero-thickness PartNet surfaces
+   watertight).
 
 Flat and thin hulls are thickened to ``min_thickness`` (a plane has no convex volume, which is why
 MuJoCo's importer fails on such objects); a link with more than ``hull_budget`` hulls has its
@@ -294,14 +296,16 @@ def object_collision_shapes(asset: ArticulatedAsset, options: ConvertOptions | N
             pending += [_Pending(link.name, part) for part in rest]
     decomposed = decompose_many([(p.mesh.vertices, p.mesh.faces) for p in pending], options.coacd,
                                 cache=cache if options.use_cache else None, workers=options.workers,
-                                stats=report.coacd, progress=progress)
+                                stats=report.coacd, progress=progress, exact_boxes=options.exact_boxes)
     report.coacd_failures += [f"{pending[index].link}: {why} (convex hull used instead)"
                               for index, why in sorted(report.coacd.failed.items())]
-    for item, hulls in zip(pending, decomposed):
+    boxed = set(report.coacd.boxed)
+    for index, (item, hulls) in enumerate(zip(pending, decomposed)):
+        method = "boxes" if index in boxed else "coacd"
         for v, _ in hulls:
             if len(v) >= 4:
                 hv, hf = geometry[item.link].hull(v)
-                shapes[item.link].append(CollisionShape("mesh", "coacd", vertices=hv, faces=hf))
+                shapes[item.link].append(CollisionShape("mesh", method, vertices=hv, faces=hf))
     erosion = 0.5 * options.clearance * size
     for name, link_shapes in shapes.items():
         if name in geometry:  # computed now (not cached, not only given shapes)

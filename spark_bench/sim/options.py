@@ -138,6 +138,8 @@ class ConvertOptions:
     :param hull_budget: most convex hulls of a link as large as the object; a smaller link gets
         ``hull_budget * sqrt(link size / object size)`` (at least 4); beyond it, hulls are merged
     :param max_hull_vertices: vertices kept per hull (MuJoCo and PyBullet are fastest with few)
+    :param exact_boxes: a non-convex part that is an orthogonal polyhedron is cut exactly into boxes
+        (:mod:`spark_bench.sim.boxes`) instead of going to CoACD (conv-8); False gives conv-7's CoACD hulls
     :param workers: parallel processes for CoACD (0: one per CPU core, 1: serial)
     :param use_cache: reuse CoACD results from the content-hash cache
     :param decompose_visuals: a link with no ``<collision>`` gets hulls from its visual meshes
@@ -168,6 +170,7 @@ class ConvertOptions:
     clearance: float = 0.001
     hull_budget: int = 48
     max_hull_vertices: int = 64
+    exact_boxes: bool = True
     workers: int = 0
     use_cache: bool = True
     decompose_visuals: bool = True

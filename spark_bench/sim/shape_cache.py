@@ -28,7 +28,7 @@ from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.shapes import CollisionShape
 
 #: Bumped whenever the same link and options would give other shapes.
-SHAPES_VERSION = "link-shapes-6"
+SHAPES_VERSION = "link-shapes-7"
 KINDS = ("box", "cylinder", "sphere", "mesh")
 
 
@@ -39,7 +39,7 @@ def link_key(meshes: Sequence[trimesh.Trimesh], ready: Sequence[CollisionShape],
     digest = hashlib.sha256(SHAPES_VERSION.encode())
     geometry = {k: v for k, v in asdict(options).items()
                 if k in ("coacd", "convex_tolerance", "min_thickness", "clearance", "hull_budget",
-                         "max_hull_vertices", "decompose_visuals", "max_part_faces")}
+                         "max_hull_vertices", "decompose_visuals", "max_part_faces", "exact_boxes")}
     digest.update(json.dumps(geometry, sort_keys=True).encode())
     for mesh in meshes:
         _hash_values(digest, np.asarray(mesh.vertices, np.float64) / size)

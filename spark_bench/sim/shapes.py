@@ -20,7 +20,7 @@ class CollisionShape:
     :param kind: ``box``, ``cylinder``, ``sphere`` (``origin`` and ``size`` as in
         :class:`~spark_bench.asset.model.Collision`) or ``mesh`` (``vertices``/``faces`` of a convex hull)
     :param method: where it came from: ``primitive``, ``convex`` (given convex mesh), ``hull`` (the
-        hull of a near-convex part) or ``coacd``
+        hull of a near-convex part), ``boxes`` (an orthogonal part's exact boxes) or ``coacd``
     """
 
     kind: str

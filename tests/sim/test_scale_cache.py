@@ -12,7 +12,7 @@ import trimesh
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from helpers_assets import tiny_cabinet  # noqa: E402
-from helpers_boxes import l_shape  # noqa: E402
+from helpers_boxes import v_shape  # noqa: E402
 
 from spark_bench.asset.ops import scale_asset  # noqa: E402
 from spark_bench.sim.decompose import DecomposeStats, decompose_many  # noqa: E402
@@ -32,8 +32,8 @@ def _normalized_points(hulls) -> np.ndarray:
 def test_coacd_hulls_scale_with_the_mesh():
     # decompose_many feeds CoACD the normalized mesh (rounded to 2^-30), so a scaled copy's hulls are the
     # same hulls, scaled: what makes a scale-invariant key right
-    ell = l_shape()
-    small, large = (decompose_many([(ell.vertices * s, ell.faces)], PARAMS, cache=None, workers=1)[0]
+    vee = v_shape()
+    small, large = (decompose_many([(vee.vertices * s, vee.faces)], PARAMS, cache=None, workers=1)[0]
                     for s in (0.013, 7.3))
     assert len(small) == len(large) >= 2
     np.testing.assert_allclose(_normalized_points(small), _normalized_points(large), atol=1e-6)
@@ -61,11 +61,11 @@ def test_a_scaled_copy_simplifies_and_welds_the_same(factor):
 
 
 def test_scaled_part_is_a_cache_hit_with_scaled_hulls(tmp_path):
-    ell = l_shape()
-    first = decompose_many([(ell.vertices, ell.faces)], PARAMS, cache=tmp_path, workers=1)[0]
+    vee = v_shape()
+    first = decompose_many([(vee.vertices, vee.faces)], PARAMS, cache=tmp_path, workers=1)[0]
     stats = DecomposeStats()
-    moved = ell.vertices * 3.7 + [1.0, -2.0, 0.5]
-    second = decompose_many([(moved, ell.faces)], PARAMS, cache=tmp_path, workers=1, stats=stats)[0]
+    moved = vee.vertices * 3.7 + [1.0, -2.0, 0.5]
+    second = decompose_many([(moved, vee.faces)], PARAMS, cache=tmp_path, workers=1, stats=stats)[0]
     assert stats.calls == 0 and stats.cache_hits == 1
     assert len(second) == len(first)
     for (a, _), (b, _) in zip(first, second):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
-from helpers_boxes import l_shape
+from helpers_boxes import l_shape, v_shape
 from scipy.spatial import ConvexHull
 
 from spark_bench.sim.decompose import DecomposeStats, decompose_many, load_cached, mesh_key
@@ -199,46 +199,46 @@ def test_mesh_key_is_translation_and_scale_invariant_and_parameter_sensitive():
     assert mesh_key(box.vertices, box.faces, CoacdParams(threshold=0.1)) != key
 
 
-def test_coacd_decomposes_l_shape_and_caches(tmp_path):
-    ell = l_shape()
-    moved = ell.copy()
+def test_coacd_decomposes_v_shape_and_caches(tmp_path):
+    vee = v_shape()
+    moved = vee.copy()
     moved.apply_translation((5.0, 0, 0))
     params = CoacdParams(mcts_iterations=20, mcts_nodes=8, resolution=500)
     stats = DecomposeStats()
-    first = decompose_many([(ell.vertices, ell.faces), (moved.vertices, moved.faces)], params,
+    first = decompose_many([(vee.vertices, vee.faces), (moved.vertices, moved.faces)], params,
                            cache=tmp_path, workers=1, stats=stats)
     assert stats.calls == 1 and not stats.failed  # the moved copy is the same part: decomposed once
-    assert len(first[0]) >= 2  # an L needs two hulls
+    assert len(first[0]) >= 2  # a V needs two hulls
     shift = np.mean(np.concatenate([v for v, _ in first[1]]), axis=0) - np.mean(
         np.concatenate([v for v, _ in first[0]]), axis=0)
     assert shift == pytest.approx([5.0, 0, 0], abs=1e-9)
     covered = sum(ConvexHull(v).volume for v, _ in first[0])
-    assert covered == pytest.approx(ell.volume, rel=0.25)
+    assert covered == pytest.approx(vee.volume, rel=0.25)
     again = DecomposeStats()
-    second = decompose_many([(ell.vertices, ell.faces)], params, cache=tmp_path, workers=1, stats=again)
+    second = decompose_many([(vee.vertices, vee.faces)], params, cache=tmp_path, workers=1, stats=again)
     assert again.calls == 0 and again.cache_hits == 1
     assert all(np.allclose(a[0], b[0]) for a, b in zip(first[0], second[0]))
 
 
 def test_torn_cache_entry_is_recomputed(tmp_path):
-    ell = l_shape()
+    vee = v_shape()
     params = CoacdParams(mcts_iterations=20, mcts_nodes=8, resolution=500)
-    decompose_many([(ell.vertices, ell.faces)], params, cache=tmp_path, workers=1)
+    decompose_many([(vee.vertices, vee.faces)], params, cache=tmp_path, workers=1)
     (entry,) = tmp_path.rglob("*.npz")
     entry.write_bytes(entry.read_bytes()[: entry.stat().st_size // 2])  # a copy cut short
     stats = DecomposeStats()
-    hulls = decompose_many([(ell.vertices, ell.faces)], params, cache=tmp_path, workers=1, stats=stats)
+    hulls = decompose_many([(vee.vertices, vee.faces)], params, cache=tmp_path, workers=1, stats=stats)
     assert stats.calls == 1 and stats.cache_hits == 0 and len(hulls[0]) >= 2
     assert load_cached(entry.stem, tmp_path) is not None  # overwritten with a whole entry
 
 
 def test_coacd_crash_costs_only_its_mesh_and_says_why():
     ball = trimesh.creation.icosphere(subdivisions=2, radius=0.1)
-    ell = l_shape()
-    assert len(ball.faces) > len(ell.faces)  # the largest mesh runs first: the others come after it
+    vee = v_shape()
+    assert len(ball.faces) > len(vee.faces)  # the largest mesh runs first: the others come after it
     broken = (ball.vertices, ball.faces + 10 ** 9)  # faces far out of range: CoACD segfaults on it
     stats = DecomposeStats()
-    hulls = decompose_many([(ell.vertices, ell.faces), broken, (ell.vertices + 1.0, ell.faces[:, ::-1])],
+    hulls = decompose_many([(vee.vertices, vee.faces), broken, (vee.vertices + 1.0, vee.faces[:, ::-1])],
                            CoacdParams(mcts_iterations=20, mcts_nodes=8), workers=1, stats=stats)
     assert list(stats.failed) == [1]
     assert stats.failed[1].startswith("CoACD worker killed by SIG")  # SIGSEGV or SIGABRT
@@ -247,8 +247,8 @@ def test_coacd_crash_costs_only_its_mesh_and_says_why():
 
 
 def test_hung_coacd_call_is_killed_with_a_reason():
-    ell = l_shape()
+    vee = v_shape()
     stats = DecomposeStats()
-    hulls = decompose_many([(ell.vertices, ell.faces)], CoacdParams(), workers=1, stats=stats, timeout=0.0)
+    hulls = decompose_many([(vee.vertices, vee.faces)], CoacdParams(), workers=1, stats=stats, timeout=0.0)
     assert stats.failed == {0: "CoACD ran over 0 s (taken as hung; worker killed)"}
     assert len(hulls[0]) == 1  # its convex hull stands in
