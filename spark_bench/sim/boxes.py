@@ -19,6 +19,9 @@ edges) are fine: parity needs a closed surface, not a manifold triangulation.
 from __future__ import annotations
 
 import numpy as np
+import trimesh
+
+from spark_bench.asset.mesh import signed_volume
 
 #: Coordinates closer than this (in units of the part's largest side) lie on one plane.
 PLANE_TOLERANCE = 1e-7
@@ -46,10 +49,9 @@ def grid_boundary_area(inside: np.ndarray, planes: list[np.ndarray]) -> float:
     return total
 
 
-def mesh_area(vertices: np.ndarray, faces: np.ndarray) -> float:
-    """The surface area of a triangle mesh."""
-    corners = vertices[faces]
-    return float(np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum() / 2)
+def triangle_areas(corners: np.ndarray) -> np.ndarray:
+    """The area of each triangle of an ``(F, 3, 3)`` array of corners."""
+    return 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
 
 
 def face_axes(vertices: np.ndarray, faces: np.ndarray, tolerance: float) -> np.ndarray | None:
@@ -59,8 +61,7 @@ def face_axes(vertices: np.ndarray, faces: np.ndarray, tolerance: float) -> np.n
     corners = vertices[faces]  # (F, 3 corners, 3 axes)
     spread = corners.max(axis=1) - corners.min(axis=1)  # (F, 3)
     flat = spread <= tolerance
-    area = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
-    empty = (flat.sum(axis=1) >= 2) | (area <= tolerance ** 2)
+    empty = (flat.sum(axis=1) >= 2) | (triangle_areas(corners) <= tolerance ** 2)
     if not np.all(flat.any(axis=1) | empty):
         return None
     return np.where(empty, -1, np.argmax(flat, axis=1))
@@ -127,12 +128,6 @@ def merge_cells(inside: np.ndarray) -> list[tuple[tuple[int, int, int], tuple[in
     return boxes
 
 
-def mesh_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
-    """The volume a closed triangle mesh encloses (its sign says the winding)."""
-    corners = vertices[faces]
-    return float(np.einsum("ij,ij->i", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])).sum() / 6.0)
-
-
 def box_corners(low: np.ndarray, high: np.ndarray) -> np.ndarray:
     """The eight corners of the box ``[low, high]``, numbered by bits (x: 1, y: 2, z: 4)."""
     bits = (np.arange(8)[:, None] >> np.arange(3)) & 1
@@ -170,9 +165,9 @@ def box_decomposition(vertices: np.ndarray, faces: np.ndarray, tolerance: float 
     boxes = [box_corners(np.array([planes[a][lo[a]] for a in range(3)]),
                          np.array([planes[a][hi[a]] for a in range(3)])) for lo, hi in merge_cells(inside)]
     volume = sum(float(np.prod(b[7] - b[0])) for b in boxes)
-    if abs(volume - abs(mesh_volume(vertices, faces))) > 1e-6 * max(volume, tolerance):
+    if abs(volume - abs(signed_volume(trimesh.Trimesh(vertices, faces, process=False)))) > 1e-6 * max(volume, tolerance):
         return None  # the mesh is not the closed surface of the cells (a hole, a flipped face)
     area = grid_boundary_area(inside, planes)
-    if abs(area - mesh_area(vertices, faces)) > 1e-6 * max(area, tolerance):
+    if abs(area - float(triangle_areas(vertices[faces]).sum())) > 1e-6 * max(area, tolerance):
         return None  # faces inside the volume or on top of one another
     return [(b, BOX_FACES.copy()) for b in boxes]

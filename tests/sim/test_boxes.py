@@ -5,7 +5,8 @@ import pytest
 import trimesh
 from helpers_boxes import l_shape, v_shape
 
-from spark_bench.sim.boxes import box_decomposition, merge_cells, mesh_volume
+from spark_bench.asset.mesh import signed_volume
+from spark_bench.sim.boxes import box_decomposition, merge_cells
 from spark_bench.sim.decompose import DecomposeStats, decompose_many
 from spark_bench.sim.options import CoacdParams
 
@@ -53,10 +54,10 @@ def test_an_open_drawer_is_cut_into_boxes_that_tile_it_exactly():
     boxes = box_decomposition(drawer.vertices, drawer.faces)
     assert boxes is not None
     assert np.array_equal(_raster(boxes, spacing, inside.shape), inside.astype(int))  # each cell once
-    assert sum(np.prod(np.ptp(c, axis=0)) for c, _ in boxes) == pytest.approx(abs(mesh_volume(drawer.vertices, drawer.faces)))
+    assert sum(np.prod(np.ptp(c, axis=0)) for c, _ in boxes) == pytest.approx(abs(signed_volume(drawer)))
     assert len(boxes) <= 5  # the bottom and four walls
     for corners, faces in boxes:  # each box a closed, outward surface
-        assert mesh_volume(corners, faces) == pytest.approx(np.prod(np.ptp(corners, axis=0)))
+        assert signed_volume(trimesh.Trimesh(corners, faces, process=False)) == pytest.approx(np.prod(np.ptp(corners, axis=0)))
 
 
 def test_a_boolean_union_with_t_junctions_is_cut_exactly():
