@@ -294,12 +294,13 @@ def object_collision_shapes(asset: ArticulatedAsset, options: ConvertOptions | N
             hulls, rest = _sort_element(welded, geo)
             shapes[link.name] += [CollisionShape("mesh", "hull", vertices=v, faces=f) for v, f in hulls]
             pending += [_Pending(link.name, part) for part in rest]
+    boxed_before = len(report.coacd.boxed)  # a report may be shared: this call's boxed indices come after
     decomposed = decompose_many([(p.mesh.vertices, p.mesh.faces) for p in pending], options.coacd,
                                 cache=cache if options.use_cache else None, workers=options.workers,
                                 stats=report.coacd, progress=progress, exact_boxes=options.exact_boxes)
     report.coacd_failures += [f"{pending[index].link}: {why} (convex hull used instead)"
                               for index, why in sorted(report.coacd.failed.items())]
-    boxed = set(report.coacd.boxed)
+    boxed = set(report.coacd.boxed[boxed_before:])
     for index, (item, hulls) in enumerate(zip(pending, decomposed)):
         method = "boxes" if index in boxed else "coacd"
         for v, _ in hulls:
