@@ -5,8 +5,9 @@ parts of the ``synth`` generator) has an exact convex decomposition that needs n
 its faces cut space into a grid, each grid cell is wholly inside or wholly outside, and the inside cells
 merge into boxes. CoACD approximates such a part by Monte-Carlo search instead, with hulls that bulge past
 its surface. Measured on the main job (``docs/conventions-history.md``, conv-8): 77 of its 121 CoACD calls
-were orthogonal parts and took 311 of their 348 CPU seconds, and in 21 of the 50 predictions their hulls
-overlapped a moving part's at rest, which switched that pair's contacts off. The boxes are exact (their union
+were orthogonal parts, and cutting them into boxes took CoACD's CPU time in the sim stage from 348 to 37
+seconds; in 21 of the 50 predictions their hulls had overlapped a moving part's at rest, which switched
+that pair's contacts off. The boxes are exact (their union
 is the part, to float rounding), take milliseconds, and depend on no thread count or random seed.
 
 The grid's cells are classified by ray parity along each of the three axes; the three classifications

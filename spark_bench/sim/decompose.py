@@ -248,7 +248,8 @@ def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | No
     stats.turned += sum(turn is not None for turn in turns)
     meshes = [(np.asarray(v, np.float64) if turn is None else np.asarray(v, np.float64) @ turn.T, f)
               for (v, f), turn in zip(meshes, turns)]  # CoACD sees each mesh in its own planes' frame
-    frames = [_frame(v) for v, _ in meshes]
+    units = [normalized(v) for v, _ in meshes]  # what the boxes and CoACD see: each mesh normalized once
+    frames = [(center, extent) for _, center, extent in units]
 
     def placed(index: int, hulls: list[Hull]) -> list[Hull]:  # normalized hulls -> the mesh's coordinates
         center, extent = frames[index]
@@ -257,7 +258,7 @@ def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | No
 
     todo: dict[str, list[int]] = {}
     for index, (vertices, faces) in enumerate(meshes):
-        boxes = box_decomposition(normalized(vertices)[0], faces) if exact_boxes else None
+        boxes = box_decomposition(units[index][0], faces) if exact_boxes else None
         if boxes is not None:  # exact, and cheaper than reading a cache entry
             stats.boxed.append(index)
             results[index] = placed(index, boxes)
@@ -270,7 +271,7 @@ def decompose_many(meshes: Sequence[Hull], params: CoacdParams, cache: Path | No
         else:
             todo.setdefault(key, []).append(index)  # identical parts decompose once
     jobs = sorted(todo.items(), key=lambda item: -len(meshes[item[1][0]][1]))
-    outputs, errors = _run_jobs([(normalized(np.asarray(meshes[idx[0]][0], float))[0], meshes[idx[0]][1])
+    outputs, errors = _run_jobs([(units[idx[0]][0], meshes[idx[0]][1])
                                  for _, idx in jobs], params, workers, progress, timeout)
     for job, ((key, indices), output) in enumerate(zip(jobs, outputs)):
         stats.calls += 1
