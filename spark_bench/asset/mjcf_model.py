@@ -21,7 +21,9 @@ import numpy as np
 import trimesh
 
 from spark_bench.asset.joint_type import JointType
+from spark_bench.asset.mjcf_names import ElementNames, element_names
 from spark_bench.asset.model import ArticulatedAsset, Collision, Joint, Link, Visual
+from spark_bench.asset.opening_direction import orient_joints
 from spark_bench.errors import InputError
 
 #: MuJoCo's viewer shows geom groups 0, 1 and 2 and hides 3 to 5 (``mjvOption.geomgroup``); robot
@@ -43,6 +45,8 @@ class Compiled:
     :param eulerseq: ``compiler eulerseq``
     :param collides: per geom, whether the file lets it collide (``contype`` or ``conaffinity`` non-zero:
         MuJoCo simulates it), as written, before :func:`for_kinematics` turned every geom off
+    :param names: the name of every body, joint and geom (:mod:`spark_bench.asset.mjcf_names`: the author's, or
+        one saying where it is)
     """
 
     model: object
@@ -50,6 +54,12 @@ class Compiled:
     degree: bool
     eulerseq: str
     collides: np.ndarray | None = None
+    names: ElementNames | None = None
+
+    def name(self, kind: str, index: int) -> str:
+        """The name of element ``index`` of ``kind`` (``body``, ``joint`` or ``geom``)."""
+        names = self.names or element_names(self.model)
+        return {"body": names.bodies, "joint": names.joints, "geom": names.geoms}[kind][index]
 
 
 @dataclass
@@ -135,14 +145,14 @@ def check_finite(compiled: Compiled, path: Path) -> None:
     model, data = compiled.model, compiled.data
     for j in range(model.njnt):
         if not (np.all(np.isfinite(data.xanchor[j])) and np.all(np.isfinite(data.xaxis[j]))):
-            raise InputError(path, f"joint {name_of(model, 'jnt', j)!r}: its axis or position is not finite "
+            raise InputError(path, f"joint {compiled.name('joint', j)!r}: its axis or position is not finite "
                                    f"(axis {data.xaxis[j].tolist()}, anchor {data.xanchor[j].tolist()})")
     for b in range(model.nbody):
         if not (np.all(np.isfinite(data.xpos[b])) and np.all(np.isfinite(data.xmat[b]))):
-            raise InputError(path, f"body {name_of(model, 'body', b)!r}: its pose is not finite")
+            raise InputError(path, f"body {compiled.name('body', b)!r}: its pose is not finite")
     for g in range(model.ngeom):
         if not (np.all(np.isfinite(data.geom_xpos[g])) and np.all(np.isfinite(model.geom_size[g]))):
-            raise InputError(path, f"geom {name_of(model, 'geom', g)!r}: its pose or size is not finite")
+            raise InputError(path, f"geom {compiled.name('geom', g)!r}: its pose or size is not finite")
     if not np.all(np.isfinite(model.mesh_vert)):
         raise InputError(path, "a mesh has a vertex that is not finite")
 
@@ -174,14 +184,9 @@ def compile_model(path: Path) -> Compiled:
     collides = np.zeros(model.ngeom, dtype=bool)
     for geom, flag in written:
         collides[geom.id] = flag
-    compiled = Compiled(model, data, degree, eulerseq, collides)
+    compiled = Compiled(model, data, degree, eulerseq, collides, element_names(model))
     check_finite(compiled, path)
     return compiled
-
-
-def name_of(model, kind: str, index: int) -> str:
-    """An element's MuJoCo name, or ``<kind> <index>`` when it has none."""
-    return getattr(model, kind)(index).name or f"{kind} {index}"
 
 
 def primitive(kind: int, size: np.ndarray, mujoco) -> trimesh.Trimesh | None:
@@ -246,7 +251,7 @@ def visual_geometry(compiled: Compiled, run_dir: Path) -> BodyGeometry:
     out = BodyGeometry()
     for g in range(model.ngeom):
         body = int(model.geom_bodyid[g])
-        where = f"geom {name_of(model, 'geom', g)!r} (body {name_of(model, 'body', body)!r})"
+        where = f"geom {compiled.name('geom', g)!r} (body {compiled.name('body', body)!r})"
         if int(model.geom_group[g]) not in VISUAL_GROUPS:
             out.skipped.append(f"{where}: group {int(model.geom_group[g])}, not shown (collision)")
             continue
@@ -264,7 +269,8 @@ def visual_geometry(compiled: Compiled, run_dir: Path) -> BodyGeometry:
 def collision_shapes(compiled: Compiled) -> dict[int, list[Collision]]:
     """Every body's colliding geoms (:attr:`Compiled.collides`) in the world frame at rest, as MuJoCo simulates
     them: a box, sphere or cylinder as that primitive, a mesh as its convex hull (MuJoCo collides with a
-    mesh's hull), a capsule or ellipsoid as a convex mesh; planes and height fields (a floor) left out."""
+    mesh's hull), a capsule or ellipsoid as a convex mesh; planes and height fields (a floor) left out. Each
+    shape's ``source`` is its geom's name (:mod:`spark_bench.asset.mjcf_names`)."""
     from spark_bench.mujoco_gl import mujoco_module
 
     mujoco = mujoco_module()
@@ -277,12 +283,12 @@ def collision_shapes(compiled: Compiled) -> dict[int, list[Collision]]:
         kind = kinds.get(int(model.geom_type[g]))
         if kind is not None:
             full = {"box": 2.0 * size, "sphere": size[:1], "cylinder": np.array([size[0], 2.0 * size[1]])}[kind]
-            shape = Collision(kind, origin=world, size=full)
+            shape = Collision(kind, origin=world, size=full, source=compiled.name("geom", int(g)))
         else:
             mesh, _ = geom_mesh(compiled, int(g), Path("."), mujoco)
             if mesh is None or len(mesh.vertices) < 4:
                 continue
-            shape = Collision("mesh", mesh=mesh.convex_hull, source=name_of(model, "geom", int(g)))
+            shape = Collision("mesh", mesh=mesh.convex_hull, source=compiled.name("geom", int(g)))
         out.setdefault(int(model.geom_bodyid[g]), []).append(shape)
     return out
 
@@ -327,17 +333,17 @@ def joint_kind(model, j: int) -> str:
     return "revolute" if model.jnt_limited[j] else "continuous"
 
 
-def chain(compiled: Compiled, body: int, movable: list[int], parent: tuple[str, np.ndarray], link: str,
-          first: int) -> tuple[list[Joint], list[Link], np.ndarray]:
+def chain(compiled: Compiled, body: int, movable: list[int], parent: tuple[str, np.ndarray], link: str
+          ) -> tuple[list[Joint], list[Link], np.ndarray]:
     """The joints hanging ``link`` (MuJoCo body ``body``) from its parent's link: one per hinge or slide of
     the body, in MuJoCo's order, through links without geometry when there are several; each joint's
-    frame at its anchor, turned like the body, its axis the body-frame axis.
+    frame at its anchor, turned like the body, its axis the body-frame axis; each joint named as the file
+    names it (:mod:`spark_bench.asset.mjcf_names`).
 
     :param movable: the body's hinge and slide joints
     :param parent: the parent link's name and its 4x4 frame at rest
     :param link: the body's link
-    :param first: the number of the first joint (``joint_<first>``)
-    :returns: the joints, the helper links, and ``link``'s frame at rest
+    :returns: the joints, the helper links (``<link>_helper_<i>``), and ``link``'s frame at rest
     """
     model, data = compiled.model, compiled.data
     rotation = np.asarray(data.xmat[body], dtype=float).reshape(3, 3)
@@ -349,21 +355,35 @@ def chain(compiled: Compiled, body: int, movable: list[int], parent: tuple[str, 
         kind = joint_kind(model, j)
         lower, upper, has_limits = joint_limits(compiled, j, kind)
         axis = rotation.T @ np.asarray(data.xaxis[j], dtype=float)
-        joints.append(Joint(f"joint_{first + i}", kind, parent_link, child, np.linalg.inv(parent_frame) @ frame,
+        joints.append(Joint(compiled.name("joint", j), kind, parent_link, child, np.linalg.inv(parent_frame) @ frame,
                             axis / np.linalg.norm(axis), lower, upper, has_limits=has_limits))
         if child != link:
-            helpers.append(Link(child, label=f"{name_of(model, 'body', body)} (joint {i})"))
+            helpers.append(Link(child, label=f"{compiled.name('body', body)} (joint {i})"))
         parent_link, parent_frame = child, frame
     return joints, helpers, frame
 
 
+def fixed_joint_name(compiled: Compiled, held: list[int], link: str, taken: dict) -> str:
+    """The name of the fixed joint that holds ``link`` at rest: the name the file gives the first of its free or
+    ball joints ``held`` that it names, else ``<link>:fixed`` (numbered where ``taken`` already holds it)."""
+    written = [j for j in held if compiled.model.jnt(j).name]
+    base = compiled.name("joint", written[0]) if written else f"{link}:fixed"
+    name, k = base, 2
+    while name in taken:
+        name, k = f"{base}_{k}", k + 1
+    return name
+
+
 def build_asset(compiled: Compiled, geometry: BodyGeometry, name: str,
                 collisions: dict[int, list[Collision]] | None = None) -> tuple[ArticulatedAsset, list[dict]]:
-    """The object: link ``base`` for MuJoCo's world body, ``link_<k>`` per other kept body (in MuJoCo's
-    order), its frame the body's at rest; a body with one hinge or slide hangs from its parent's link by
-    a revolute (continuous when unlimited) or prismatic joint at the joint's anchor, one with several by a
-    chain of them (:func:`chain`, MuJoCo applying a body's joints in order from its parent); a body with
-    no joint, a free or a ball joint is fixed at its rest pose.
+    """The object: one link per kept body (in MuJoCo's order), named as the file names the body (``worldbody``
+    for MuJoCo's world body; :mod:`spark_bench.asset.mjcf_names`), its frame the body's at rest; a body with one hinge
+    or slide hangs from its parent's link by a revolute (continuous when unlimited) or prismatic joint at the
+    joint's anchor, named as the file names it, one with several by a chain of them (:func:`chain`, MuJoCo
+    applying a body's joints in order from its parent); a body with no joint, a free or a ball joint is fixed at
+    its rest pose. Each joint then opens toward its upper limit (:func:`~spark_bench.asset.opening_direction.
+    orient_joints`: a range written about ``qpos0`` that rests at its upper limit, or whose geometry opens toward
+    the lower one, is read about the opposite axis), what was read kept in ``meta["opening_direction"]``.
 
     :param collisions: the bodies' collision shapes in the world frame (:func:`collision_shapes`), kept in
         their links, and the joints' damping and friction loss where the file sets them (the model as
@@ -375,44 +395,49 @@ def build_asset(compiled: Compiled, geometry: BodyGeometry, name: str,
     jnt = mujoco_module().mjtJoint
     model, data = compiled.model, compiled.data
     bodies = kept_bodies(model, geometry)
-    link_of = {b: "base" if b == 0 else f"link_{k - 1}" for k, b in enumerate(bodies)}
+    link_of = {b: compiled.name("body", b) for b in bodies}
     frame_of = {0: np.eye(4)}
     links: dict[str, Link] = {}
     joints: dict[str, Joint] = {}
-    records = []
+    hung_of: dict[int, list[tuple[int, Joint]]] = {}
+    held_of: dict[int, list[str]] = {}
     for body in bodies:
         ids = range(int(model.body_jntadr[body]), int(model.body_jntadr[body] + model.body_jntnum[body]))
         movable = [j for j in ids if int(model.jnt_type[j]) in (int(jnt.mjJNT_HINGE), int(jnt.mjJNT_SLIDE))]
-        held = [jnt(int(model.jnt_type[j])).name.removeprefix("mjJNT_").lower() for j in ids if j not in movable]
+        held = [j for j in ids if j not in movable]
+        held_of[body] = [jnt(int(model.jnt_type[j])).name.removeprefix("mjJNT_").lower() for j in held]
         link, hung = link_of[body], []
         if body:
             up = int(model.body_parentid[body])
             rest = pose(np.asarray(data.xmat[body], dtype=float).reshape(3, 3), np.asarray(data.xpos[body]))
-            hung, helpers, frame = chain(compiled, body, movable, (link_of[up], frame_of[up]), link, len(joints))
+            hung, helpers, frame = chain(compiled, body, movable, (link_of[up], frame_of[up]), link)
             if not movable:
-                hung, frame = [Joint(f"joint_{len(joints)}", "fixed", link_of[up], link,
-                                     np.linalg.inv(frame_of[up]) @ rest)], rest
+                weld = fixed_joint_name(compiled, held, link, joints)
+                hung, frame = [Joint(weld, "fixed", link_of[up], link, np.linalg.inv(frame_of[up]) @ rest)], rest
             joints.update({j.name: j for j in hung})
             links.update({h.name: h for h in helpers})
             frame_of[body] = frame
+        hung_of[body] = list(zip(movable, hung))
         to_link = np.linalg.inv(frame_of[body])
         visuals = [Visual(trimesh.Trimesh(mesh.vertices @ to_link[:3, :3].T + to_link[:3, 3], mesh.faces,
                                           process=False), rgba=rgba, source=source)
                    for mesh, rgba, source in geometry.meshes.get(body, [])]
-        links[link] = Link(link, visuals, label=name_of(model, "body", body))
+        links[link] = Link(link, visuals, label=link)
         if collisions is not None:
             links[link].collisions = [_moved(shape, to_link) for shape in collisions.get(body, [])]
-            for j, ours in zip(movable, hung):
+            for j, ours in hung_of[body]:
                 dof = int(model.jnt_dofadr[j])
                 ours.damping = float(model.dof_damping[dof]) or None
                 ours.friction = float(model.dof_frictionloss[dof]) or None
-        records.append({"body": name_of(model, "body", body), "link": link, "fixed": held, "joints": [
-            {"name": name_of(model, "jnt", j), "joint": ours.name, "type": ours.type, "lower": ours.lower,
-             "upper": ours.upper} for j, ours in zip(movable, hung) if ours.type != JointType.FIXED]})
-    dropped = [name_of(model, "body", b) for b in range(1, model.nbody) if b not in set(bodies)]
+    asset = ArticulatedAsset(name=name, links=links, joints=joints)
+    asset.meta["opening_direction"] = [o.to_dict() for o in orient_joints(asset)]
+    records = [{"body": link_of[body], "link": link_of[body], "fixed": held_of[body], "joints": [
+        {"name": ours.name, "type": ours.type, "lower": ours.lower, "upper": ours.upper}
+        for _, ours in hung_of[body] if ours.type != JointType.FIXED]} for body in bodies]
+    dropped = [compiled.name("body", b) for b in range(1, model.nbody) if b not in set(bodies)]
     if dropped:
         records.append({"dropped_bodies": dropped, "why": "no visual geom in their subtree"})
-    return ArticulatedAsset(name=name, links=links, joints=joints), records
+    return asset, records
 
 
 def _moved(shape: Collision, transform: np.ndarray) -> Collision:

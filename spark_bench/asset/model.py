@@ -193,6 +193,9 @@ class ArticulatedAsset:
     :param category: object category (``StorageFurniture``, ``Oven``...), from ``meta.json``
     :param source: where it was read from (a folder or file), for messages
     :param meta: any further metadata (``meta.json`` content, provenance)
+    :param warnings: what reading the source left out or could not resolve without it mattering to the
+        geometry or the joints (a material's shader file that is not there, a sublayer that holds none of
+        the articulation), one line each naming the file and the element; reports show them
     """
 
     name: str
@@ -201,6 +204,7 @@ class ArticulatedAsset:
     category: str = ""
     source: str = ""
     meta: dict = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     # ----- structure -------------------------------------------------------------------------
     @property

@@ -1,36 +1,60 @@
 """A USD stage's UsdPhysics articulation as an :class:`~spark_bench.asset.model.ArticulatedAsset`, read with
 ``usd-core`` (no Isaac Sim).
 
-What is read, and the facts of the format it relies on (UsdPhysics schema, ``pxr/usd/usdPhysics``):
+Three writers' layouts are read as they ship: spark-bench's own export (:mod:`spark_bench.sim.export_usd`),
+Infinigen-Sim's (``princeton-vl/infinigen`` ``usd_exporter.py``: flat links, ``visual/`` and ``collision/``
+scopes, joints in ``/Asset/Joints``) and Isaac Sim's URDF importer's (``isaac-sim/urdf-importer-extension``
+``UrdfImporter.cpp``, GenSim2's ``mobility.usd``: binary crate 0.7.0, ``PhysxSchema`` alongside UsdPhysics, a
+``PhysicsDriveAPI`` on every joint, one joint prim under each parent link, ``root_joint`` to the world,
+``Looks`` with MDL shaders); the URDF -> USD converter's nested layout too. What is read, and the facts of the
+format it relies on (UsdPhysics schema, ``pxr/usd/usdPhysics``):
 
+- opening the stage (:mod:`.usd_stage`): usd-core's messages are kept out of the terminal (the crate deprecation
+  of Isaac's 0.7.0 files recorded as ``meta["usd"]["crate_version"]``); ``metersPerUnit`` and
+  ``kilogramsPerUnit`` must be positive and finite; a material's, shader's or texture's file that does not
+  resolve (Isaac's ``OmniPBR.mdl``) is a warning (``asset.warnings``), never a refusal; a sublayer, reference or
+  payload that cannot be composed (missing, not USD, a cycle) is a warning, or an error where what it held is
+  needed: an arc on a rigid body or below it, on a joint, on (or above) a prim a joint names as its body that
+  is no rigid body, or above a rigid body without geometry; and any error the reading runs into names the arcs
+  that could not be composed;
 - units and frame: the stage's ``metersPerUnit`` scales every length (limits of prismatic joints included);
   ``upAxis`` Y is turned to spark-bench's Z up (+90 degrees about X); ``kilogramsPerUnit`` scales masses;
 - bodies: every prim with ``RigidBodyAPI``; its geometry is the ``UsdGeom.Mesh`` (and Cube, Sphere,
   Cylinder, Capsule) prims below it, down to the next rigid body (the URDF -> USD converter nests child
   links under their parents; Infinigen-Sim writes them side by side); a prim with ``CollisionAPI`` is a
   collision shape, any other (purpose not ``guide``) a visual; ``MassAPI``'s ``physics:mass`` where
-  authored is kept in the link's ``annotations["mass"]`` (kg);
+  authored is kept in the link's ``annotations["mass"]`` (kg); materials and ``PhysxSchema`` attributes are
+  not read;
+- names: a link or joint is named as its prim (``spark:name`` where spark-bench wrote one); prims whose names
+  repeat are named by their paths from the first segment that tells them apart, ``/`` written ``:`` (link
+  names become file names);
 - joints: ``PhysicsRevoluteJoint``, ``PhysicsPrismaticJoint`` and ``PhysicsFixedJoint``, ``body0`` the
   parent, ``body1`` the child; the frame of the joint on each body is ``localPos``/``localRot`` in that
   body's space; the axis is the token X, Y or Z of that frame (so its direction is carried by the local
   rotations); revolute limits are **degrees**, prismatic limits stage units; a revolute joint without
-  limits is continuous; a joint with no rigid body on one side welds to the world (a fixed base);
+  limits is continuous, and so is one whose only drive is the position drive Isaac Sim's URDF importer puts on
+  every joint it writes (``PhysxJointAPI`` applied, targets 0: how the importer writes a URDF ``continuous``
+  joint, "continuous and revolute are identical except for setting limits"); a joint with no rigid body on one
+  side welds to the world (a fixed base, Isaac's and Infinigen's ``root_joint``);
 - the articulation: the root is the body no joint hangs from (the one carrying ``ArticulationRootAPI``
   when several are);
 - the child's link frame is its joint frame at the pose as authored, so forward kinematics at the authored
-  joint value puts every mesh where the stage draws it; a joint whose range ends at 0 (``[-a, 0]``: how
-  Infinigen-Sim writes a joint about a negative axis) is read as ``[0, a]`` about the opposite axis (the
-  same motion), so that its rest, spark-bench's lower limit, is the pose as authored.
+  joint value puts every mesh where the stage draws it; which way each joint opens is read from where the
+  authored pose sits in its range (:mod:`spark_bench.asset.opening_direction`: a range ending at 0, ``[-a, 0]``,
+  as Infinigen-Sim writes a joint about a negative axis and Isaac's importer a PartNet-Mobility door, is read as
+  ``[0, a]`` about the opposite axis, the same motion, so that its rest, spark-bench's lower limit, is the pose
+  as authored).
 
 What it cannot map is an :class:`~spark_bench.errors.InputError` naming the prim: a D6 (generic
 ``PhysicsJoint``), spherical or distance joint; a joint drive that actuates (a stiffness or a target
-velocity) on a joint without limits; a prismatic joint
-without limits; an instanced prim (its geometry lives in a prototype the articulation does not own); a mesh
-with no points or faces, or a referenced file that does not resolve.
+velocity) on a joint without limits, other than Isaac's importer's; a prismatic joint without limits; an
+instanced prim (its geometry lives in a prototype the articulation does not own); a mesh with no points or
+faces; an arc whose content is needed (above).
 """
 
 from __future__ import annotations
 
+import logging
 import math
 from pathlib import Path
 
@@ -39,20 +63,25 @@ import trimesh
 
 from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset, Collision, Joint, Link, Visual
+from spark_bench.asset.opening_direction import orient_joints
+from spark_bench.asset.usd_joints import body_target, joint_kind, joint_limits, prim_names, written_name
+from spark_bench.asset.usd_stage import (
+    StageReading,
+    needed_arcs,
+    pxr_modules,
+    quiet_usd,
+    read_stage,
+    usd_core_warnings,
+)
 from spark_bench.errors import InputError
 
+logger = logging.getLogger(__name__)
 AXES = {"X": np.array([1.0, 0, 0]), "Y": np.array([0, 1.0, 0]), "Z": np.array([0, 0, 1.0])}
 #: Y-up stages are turned +90 degrees about X: their +Y becomes +Z.
 Y_UP_TO_Z_UP = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
 GRAY = (0.7, 0.7, 0.7, 1.0)
-
-
-def _pxr():
-    try:
-        from pxr import Gf, Usd, UsdGeom, UsdPhysics, UsdUtils
-    except ImportError:  # declared in pyproject; a trimmed install may lack it
-        raise InputError(None, "reading USD needs usd-core (pip install usd-core)") from None
-    return Gf, Usd, UsdGeom, UsdPhysics, UsdUtils
+#: ``(file, warning)`` pairs already logged in this process: an object is read once per episode.
+_LOGGED: set[tuple[str, str]] = set()
 
 
 class StageFrame:
@@ -67,7 +96,7 @@ class StageFrame:
 
     def matrix(self, prim) -> np.ndarray:
         """The prim's local-to-world 4x4 (column vectors), in metres, Z up (scale kept)."""
-        _, Usd, UsdGeom, _, _ = _pxr()
+        _, Usd, UsdGeom, _, _ = pxr_modules()
         gf = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
         matrix = np.array(gf, dtype=float).T
         out = np.eye(4)
@@ -85,27 +114,6 @@ class StageFrame:
         out = np.eye(4)
         out[:3, :3], out[:3, 3] = rotation, matrix[:3, 3]
         return out
-
-
-def open_stage(path: Path):
-    """The stage of ``path``, after checking that every file it references resolves.
-
-    :raises InputError: unreadable, or a referenced layer or asset is missing
-    """
-    _, Usd, _, _, UsdUtils = _pxr()
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(path, "no such USD file")
-    try:
-        stage = Usd.Stage.Open(str(path))
-    except Exception as exc:  # pxr raises Tf errors of its own type
-        raise InputError(path, f"cannot open USD: {' '.join(str(exc).split())[:300]}") from None
-    if stage is None:
-        raise InputError(path, "cannot open USD")
-    _, _, unresolved = UsdUtils.ComputeAllDependencies(str(path))
-    if unresolved:
-        raise InputError(path, f"referenced file(s) not found: {', '.join(sorted(map(str, unresolved))[:5])}")
-    return stage
 
 
 def _check_instances(stage, path: Path) -> None:
@@ -206,81 +214,6 @@ def _joint_frame(joint, side: int, prim, frame: StageFrame) -> np.ndarray:
     return out
 
 
-def _name(prim, used: set[str]) -> str:
-    """The prim's name as spark-bench wrote it (``spark:name``) or its USD name, unique in ``used``."""
-    attribute = prim.GetAttribute("spark:name")
-    base = str(attribute.Get()) if attribute and attribute.HasAuthoredValue() else prim.GetName()
-    name, k = base, 1
-    while name in used:
-        name, k = f"{base}_{k}", k + 1
-    used.add(name)
-    return name
-
-
-def _target(joint, side: int, bodies: dict, path: Path):
-    """The rigid body prim on ``side`` of a joint, or None (the world)."""
-    rel = joint.GetBody0Rel() if side == 0 else joint.GetBody1Rel()
-    targets = rel.GetTargets()
-    if not targets:
-        return None
-    if len(targets) > 1:
-        raise InputError(path, f"joint {joint.GetPath()}: body{side} names {len(targets)} prims")
-    return bodies.get(targets[0])  # a target that is no rigid body is a static anchor: the world
-
-
-def _kind(prim, path: Path) -> str:
-    """Our joint type of a UsdPhysics joint prim; an error naming the prim for one we cannot map."""
-    from pxr import UsdPhysics
-
-    if prim.IsA(UsdPhysics.RevoluteJoint):
-        return "revolute"
-    if prim.IsA(UsdPhysics.PrismaticJoint):
-        return "prismatic"
-    if prim.IsA(UsdPhysics.FixedJoint):
-        return "fixed"
-    kind = prim.GetTypeName() or "PhysicsJoint"
-    what = "a D6 joint (generic PhysicsJoint)" if kind == "PhysicsJoint" else f"a {kind}"
-    raise InputError(path, f"joint {prim.GetPath()} is {what}: only revolute, prismatic and fixed joints "
-                           "make an articulated object")
-
-
-def _limits(prim, kind: str, frame: StageFrame, path: Path) -> tuple[str, float, float, bool]:
-    """``(type, lower, upper, has_limits)`` in radians or metres."""
-    from pxr import UsdPhysics
-
-    if kind == JointType.FIXED:
-        return kind, 0.0, 0.0, True
-    usd = UsdPhysics.RevoluteJoint(prim) if kind == JointType.REVOLUTE else UsdPhysics.PrismaticJoint(prim)
-    lower, upper = usd.GetLowerLimitAttr().Get(), usd.GetUpperLimitAttr().Get()
-    bounded = lower is not None and upper is not None and math.isfinite(lower) and math.isfinite(upper)
-    if not bounded:
-        motor = _motor_drive(prim)
-        if motor:
-            raise InputError(path, f"joint {prim.GetPath()} has a drive ({motor}) but no limits: a driven "
-                                   "joint without range is a motor, not a part's articulation")
-        if kind == JointType.PRISMATIC:
-            raise InputError(path, f"joint {prim.GetPath()}: a prismatic joint without limits")
-        return "continuous", 0.0, 2.0 * math.pi, False
-    if upper < lower:
-        raise InputError(path, f"joint {prim.GetPath()}: upper limit {upper} below lower {lower}")
-    scale = math.pi / 180.0 if kind == JointType.REVOLUTE else frame.meters
-    return kind, float(lower) * scale, float(upper) * scale, True
-
-
-def _motor_drive(prim) -> str:
-    """The first drive of a joint that actuates it (a stiffness or a target velocity), "" for none: a drive of
-    stiffness 0 and no target velocity is a damper (how spark-bench and the URDF importers write damping)."""
-    from pxr import UsdPhysics
-
-    for schema in prim.GetAppliedSchemas():
-        if not schema.startswith("PhysicsDriveAPI:"):
-            continue
-        drive = UsdPhysics.DriveAPI(prim, schema.split(":", 1)[1])
-        if (drive.GetStiffnessAttr().Get() or 0.0) != 0.0 or (drive.GetTargetVelocityAttr().Get() or 0.0) != 0.0:
-            return schema
-    return ""
-
-
 def _articulation(stage, path: Path):
     """``(bodies by path, joint prims)`` of the stage."""
     from pxr import UsdPhysics
@@ -294,30 +227,52 @@ def _articulation(stage, path: Path):
         flag = UsdPhysics.Joint(prim).GetJointEnabledAttr().Get()
         if flag is False:
             continue
-        _kind(prim, path)
+        joint_kind(prim, path)
         enabled.append(prim)
     return bodies, enabled
 
 
 def read_usd(path: str | Path) -> ArticulatedAsset:
-    """Read the articulation of a USD file (see the module docstring).
+    """Read the articulation of a USD file (see the module docstring); usd-core's own messages stay out of the
+    terminal, what was left out is ``asset.warnings`` (each also logged once per process).
 
     :param path: a ``.usd``, ``.usda``, ``.usdc`` or ``.usdz`` file
     :raises InputError: naming the file and the prim for everything it cannot map
     """
-    _, _, UsdGeom, UsdPhysics, _ = _pxr()
     path = Path(path)
-    stage = open_stage(path)
+    with quiet_usd() as diagnostics:
+        reading = read_stage(path)
+        try:
+            asset = _read_articulation(path, reading)
+        except InputError as exc:
+            if not reading.broken or any(f"@{arc.target}@" in exc.problem for arc in reading.broken):
+                raise
+            arcs = "; ".join(arc.describe() for arc in reading.broken[:3])
+            raise InputError(path, f"{exc.problem} (the stage was composed without what these held: {arcs})") from None
+    asset.warnings.extend(usd_core_warnings(diagnostics))
+    for warning in asset.warnings:
+        if (str(path), warning) not in _LOGGED:
+            _LOGGED.add((str(path), warning))
+            logger.warning("%s: %s", path, warning)
+    return asset
+
+
+def _read_articulation(path: Path, reading: StageReading) -> ArticulatedAsset:
+    """The articulation of an opened stage: its bodies hung from one root by their joints, then assembled."""
+    from pxr import UsdPhysics
+
+    stage = reading.stage
     _check_instances(stage, path)
-    up = str(UsdGeom.GetStageUpAxis(stage))
-    frame = StageFrame(float(UsdGeom.GetStageMetersPerUnit(stage)), Y_UP_TO_Z_UP if up == "Y" else np.eye(3))
+    frame = StageFrame(reading.meters, Y_UP_TO_Z_UP if reading.up == "Y" else np.eye(3))
     bodies, joint_prims = _articulation(stage, path)
-    used: set[str] = set()
-    names = {p: _name(prim, used) for p, prim in bodies.items()}
+    needed = needed_arcs(reading.broken, bodies, joint_prims, stage)
+    if needed:
+        arc, why = needed[0]
+        raise InputError(path, f"{arc.describe()}: it holds part of {why}, which the articulation needs")
     hanging: dict = {}  # child body path -> (joint prim, parent body prim or None)
     for prim in joint_prims:
         joint = UsdPhysics.Joint(prim)
-        parent, child = _target(joint, 0, bodies, path), _target(joint, 1, bodies, path)
+        parent, child = body_target(joint, 0, bodies, path), body_target(joint, 1, bodies, path)
         if child is None:
             if parent is None:
                 raise InputError(path, f"joint {prim.GetPath()} joins no rigid body")
@@ -328,7 +283,8 @@ def read_usd(path: str | Path) -> ArticulatedAsset:
             raise InputError(path, f"body {child.GetPath()} is body1 of two joints ({first}, {prim.GetPath()}): "
                                    "not a tree")
         hanging[child.GetPath()] = (prim, parent)
-    welded = [p for p, (prim, parent) in hanging.items() if parent is None and _kind(prim, path) == JointType.FIXED]
+    welded = [p for p, (prim, parent) in hanging.items()
+              if parent is None and joint_kind(prim, path) == JointType.FIXED]
     for p in welded:  # a fixed base: the body is the articulation's root
         del hanging[p]
     world_joints = [p for p, (_, parent) in hanging.items() if parent is None]
@@ -337,14 +293,49 @@ def read_usd(path: str | Path) -> ArticulatedAsset:
         raise InputError(path, "the rigid bodies do not form one articulation hanging from one root: "
                                + (f"joint {hanging[world_joints[0]][0].GetPath()} moves a body against the world"
                                   if world_joints else f"unconnected bodies {[str(r) for r in roots[:4]]}"))
-    asset = _assemble(path, stage, frame, bodies, names, hanging, roots[0])
-    asset.meta["usd"] = {"up_axis": up, "meters_per_unit": frame.meters,
-                         "kilograms_per_unit": float(UsdPhysics.GetStageKilogramsPerUnit(stage))}
+    asset, continuous, drawn = _assemble(path, reading, frame, bodies, hanging, roots[0])
+    asset.warnings.extend([arc.describe() + ": what it holds is not read" for arc in reading.broken])
+    asset.warnings.extend(reading.warnings)
+    opening = orient_joints(asset, drawn)
+    asset.meta["usd"] = {"up_axis": reading.up, "meters_per_unit": reading.meters,
+                         "kilograms_per_unit": reading.kilograms}
+    if reading.crate_version:
+        asset.meta["usd"]["crate_version"] = reading.crate_version
+    if continuous:
+        asset.meta["usd"]["continuous"] = continuous
+    asset.meta["opening_direction"] = [o.to_dict() for o in opening]
     return asset
 
 
-def _assemble(path: Path, stage, frame: StageFrame, bodies: dict, names: dict, hanging: dict, root) -> ArticulatedAsset:
-    """The asset: link frames (the world for the root; a child's joint frame as authored), geometry, joints."""
+def drawn_value(kind: str, side0: np.ndarray, side1: np.ndarray, axis: np.ndarray, lower: float, upper: float) -> float:
+    """A joint's value in the pose the stage draws: the turn about (or the slide along) ``axis`` from its frame on
+    body 0 to its frame on body 1 as the bodies are placed (0 where they meet, as Isaac Sim's importer and
+    Infinigen-Sim write them; the lower limit in spark-bench's own export, whose bodies are placed at rest). An
+    angle is taken in the turn nearest the range.
+
+    :param kind: the joint's type
+    :param side0: the joint's world frame on body 0 (4x4)
+    :param side1: its world frame on body 1 (4x4)
+    :param axis: the unit axis in those frames
+    :param lower: the lower limit (radians or metres)
+    :param upper: the upper limit
+    """
+    relative = np.linalg.inv(side0) @ side1
+    if kind == JointType.PRISMATIC:
+        return float(relative[:3, 3] @ axis)
+    turn = relative[:3, :3]
+    skew = 0.5 * (turn - turn.T)
+    sine = float(axis @ np.array([skew[2, 1], skew[0, 2], skew[1, 0]]))
+    angle = math.atan2(sine, 0.5 * (float(np.trace(turn)) - 1.0))
+    turns = [angle + 2.0 * math.pi * k for k in range(-2, 3)]  # the one in the range, else the nearest to it
+    return min(turns, key=lambda a: (max(lower - a, a - upper, 0.0), abs(a)))
+
+
+def _assemble(path: Path, reading: StageReading, frame: StageFrame, bodies: dict, hanging: dict, root
+              ) -> tuple[ArticulatedAsset, dict[str, str], dict[str, float]]:
+    """The asset (link frames: the world for the root, a child's joint frame as authored; geometry; joints, each
+    with its value 0 where its two frames meet), per joint read as continuous despite a drive why, and each limited
+    joint's value in the pose the stage draws (:func:`drawn_value`)."""
     from pxr import UsdPhysics
 
     link_frames = {root: np.eye(4)}  # the asset's world: the root link is where the stage puts it
@@ -356,37 +347,41 @@ def _assemble(path: Path, stage, frame: StageFrame, bodies: dict, names: dict, h
         for child in ready:
             prim, _ = pending.pop(child)
             joint = UsdPhysics.Joint(prim)
-            if _kind(prim, path) == JointType.FIXED:
+            if joint_kind(prim, path) == JointType.FIXED:
                 link_frames[child] = frame.pose(bodies[child])
             else:
                 link_frames[child] = _joint_frame(joint, 1, bodies[child], frame)
             order.append(child)
-    links, joints, used = {}, {}, set()
+    names = prim_names([bodies[p] for p in order])
+    links = {}
     for p in order:
         link = _body_geometry(bodies[p], set(bodies), frame, link_frames[p], path)
         link.name, link.label = names[p], bodies[p].GetName()
         mass = UsdPhysics.MassAPI(bodies[p]).GetMassAttr().Get() if bodies[p].HasAPI(UsdPhysics.MassAPI) else None
         if mass:
-            link.annotations["mass"] = float(mass) * float(UsdPhysics.GetStageKilogramsPerUnit(stage))
+            link.annotations["mass"] = float(mass) * reading.kilograms
         links[link.name] = link
+    joint_names = prim_names([hanging[p][0] for p in order[1:]])
+    joints, continuous, drawn = {}, {}, {}
     for p in order[1:]:
         prim, parent = hanging[p]
-        kind, lower, upper, has_limits = _limits(prim, _kind(prim, path), frame, path)
+        kind, lower, upper, has_limits, note = joint_limits(prim, joint_kind(prim, path), frame.meters, path)
         parent_frame = link_frames[parent.GetPath()]
         if kind == JointType.FIXED:
             origin, axis = np.linalg.inv(parent_frame) @ link_frames[p], np.array([1.0, 0, 0])
         else:
-            origin = np.linalg.inv(parent_frame) @ _joint_frame(UsdPhysics.Joint(prim), 0, parent, frame)
-            token = str((UsdPhysics.RevoluteJoint if kind != JointType.PRISMATIC else UsdPhysics.PrismaticJoint)(prim)
+            side0 = _joint_frame(UsdPhysics.Joint(prim), 0, parent, frame)
+            origin = np.linalg.inv(parent_frame) @ side0
+            token = str((UsdPhysics.PrismaticJoint if kind == JointType.PRISMATIC else UsdPhysics.RevoluteJoint)(prim)
                         .GetAxisAttr().Get())
             axis = AXES[token]
-        if kind != JointType.FIXED and has_limits and lower < 0.0 and abs(upper) <= 1e-12:
-            # a range ending at 0 (Infinigen-Sim negates the range of a joint about a negative axis): the same
-            # motion about the opposite axis, so that its rest (the lower limit) is the pose as authored
-            axis, lower, upper = -axis, -upper, -lower
-        name = _name(prim, used)
+            if has_limits:
+                drawn[joint_names[prim.GetPath()]] = drawn_value(kind, side0, link_frames[p], axis, lower, upper)
+        name = joint_names[prim.GetPath()]
         joints[name] = Joint(name, kind, names[parent.GetPath()], names[p], origin, axis, lower, upper,
                              has_limits=has_limits)
-    default = stage.GetDefaultPrim()
-    name = _name(default, set()) if default else path.stem
-    return ArticulatedAsset(name=name, links=links, joints=joints, source=str(path))
+        if note:
+            continuous[name] = note
+    default = reading.stage.GetDefaultPrim()
+    name = written_name(default) if default else path.stem
+    return ArticulatedAsset(name=name, links=links, joints=joints, source=str(path)), continuous, drawn

@@ -24,6 +24,7 @@ FORMAT = "usd"
 RUN_FILE_SUFFIXES = FORMAT_RUN_FILES[FORMAT]
 INFINIGEN = "princeton-vl/infinigen"
 CONVERTER = "newton-physics/urdf-usd-converter"
+ISAAC_IMPORTER = "isaac-sim/urdf-importer-extension"
 USD = "PixarAnimationStudios/OpenUSD"
 
 FACTS = [
@@ -48,9 +49,24 @@ FACTS = [
              "visuals; MassAPI physics:mass kept where authored",
      "source": f"{INFINIGEN} usd_exporter.py _add_mesh (visual/, collision/ with CollisionAPI); {CONVERTER} "
                "urdf_usd_converter/_impl/link.py apply_inertial (MassAPI)"},
+    {"fact": "Isaac Sim's URDF importer: one joint prim under each parent link, root_joint (fixed, no body0) to "
+             "the world, PhysxSchema (PhysxArticulationAPI, PhysxJointAPI) beside UsdPhysics, a PhysicsDriveAPI "
+             "position drive on every joint (a URDF continuous joint: an unlimited revolute joint with that drive, "
+             "read as continuous), limits in degrees with negative ranges, visuals/ and collisions/ under each "
+             "link, Looks/ with MDL shaders (OmniPBR.mdl, resolved from Isaac's library: a warning); binary crate "
+             "0.7.0 (usd-core reads it; its deprecation message is not shown)",
+     "source": f"{ISAAC_IMPORTER} source/extensions/omni.importer.urdf/plugins/import/UrdfImporter.cpp "
+               "(AddSingleJoint, addJoint, addLinksAndJoints); GenSim2/GenSim2 assets/articulated_objs/*/*/mobility/"},
+    {"fact": "which way a joint opens: read from where the stage draws it in its range (a range ending at the drawn "
+             "pose opens toward its other end; drawn inside the range: the limit where the part leaves the rest "
+             "of the object), the joint turned to open toward its upper limit",
+     "source": "spark-bench (spark_bench.asset.opening_direction)"},
     {"fact": "refused, naming the prim: D6 (generic PhysicsJoint), spherical and distance joints; a drive that "
-             "actuates (stiffness or target velocity) on a joint without limits; an unlimited prismatic joint; "
-             "instanced prims; meshes without points or faces; references that do not resolve",
+             "actuates (stiffness or target velocity) on a joint without limits, other than Isaac's importer's; an "
+             "unlimited prismatic joint; instanced prims; meshes without points or faces; metersPerUnit or "
+             "kilogramsPerUnit not a positive finite number; a sublayer, reference or payload that cannot be "
+             "composed where the articulation needs what it holds (elsewhere a warning); look-only files "
+             "(materials, shaders, textures) that do not resolve are a warning",
      "source": "spark-bench (what an articulated object's joints and parts can be)"},
 ]
 
@@ -75,9 +91,17 @@ def check_inside(stage_file: Path, run_dir: Path) -> list[str]:
     """
     from pxr import UsdUtils
 
+    from spark_bench.asset.usd_stage import quiet_usd
     from spark_bench.formats.urdf import OUTSIDE_HINT
 
-    layers, assets, _ = UsdUtils.ComputeAllDependencies(str(stage_file))
+    with quiet_usd():  # what does not resolve is read_usd's to answer (a warning or an error naming it)
+        try:
+            layers, assets, _ = UsdUtils.ComputeAllDependencies(str(stage_file))
+        except Exception:  # pxr raises Tf errors of its own type (a sublayer that is not USD): the layers composed
+            from pxr import Usd
+
+            stage = Usd.Stage.Open(str(stage_file))
+            layers, assets = (stage.GetUsedLayers() if stage is not None else []), []
     files = [Path(layer.realPath) for layer in layers if layer.realPath] + [Path(a) for a in assets]
     out = []
     for file in files:
@@ -106,6 +130,7 @@ def read_run(run_dir: Path) -> ForeignObject:
               "masses": {name: link.annotations["mass"] for name, link in asset.links.items()
                          if "mass" in link.annotations},
               "not_read": ["materials and textures (display colours only)", "drives' stiffness and damping",
-                           "collision shapes (the metrics use visuals)"]}
+                           "collision shapes (the metrics use visuals)", *asset.warnings],
+              "opening_direction": asset.meta.get("opening_direction", [])}
     return ForeignObject(asset, record, articulated=bool(asset.movable_joints()),
                          open_questions=("yaw", "scale", "front"))

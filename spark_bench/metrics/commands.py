@@ -61,11 +61,18 @@ def run_metrics(args: argparse.Namespace) -> int:
         return _print_protocols(protocols, pred, gt, args.seed, args.json)
     result = compute_metrics(pred, gt, n_samples=args.samples, seed=args.seed, align=args.align,
                              n_match_samples=args.match_samples)
+    warnings = read_warnings(pred, gt)
     if args.json:
-        print(json.dumps(result.to_dict(), allow_nan=False))
-    else:
+        print(json.dumps({**result.to_dict(), **({"warnings": warnings} if warnings else {})}, allow_nan=False))
+    else:  # the readers log each warning on stderr as they read
         print(format_table(result))
     return 0
+
+
+def read_warnings(pred, gt) -> dict[str, list[str]]:
+    """What reading each object left out (``ArticulatedAsset.warnings``: a material's shader file not found, a
+    sublayer not composed), by side; empty when there is nothing to say."""
+    return {side: list(asset.warnings) for side, asset in (("pred", pred), ("gt", gt)) if asset.warnings}
 
 
 def _print_protocols(names: list[str], pred, gt, seed: int, as_json: bool) -> int:

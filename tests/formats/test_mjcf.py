@@ -266,7 +266,7 @@ def test_physx_anything_round_trip_against_the_ground_truth(bench, gt, tmp_path)
     assert record["layout"] == "PhysX-Anything" and record["compiler"]["angle"] == "radian"
     assert record["files"] == ["basic.xml", *(f"objs/{k}/{k}.obj" for k in range(len(parts.names)))]
     assert "desert.png (texture)" in record["not_read"]
-    assert record["skipped_geoms"] == ["geom 'floor' (body 'world'): a plane, not a part's surface (a floor, "
+    assert record["skipped_geoms"] == ["geom 'floor' (body 'worldbody'): a plane, not a part's surface (a floor, "
                                        "a terrain)"]
     base = next(b for b in record["bodies"] if b["body"] == "base")
     assert base["fixed"] == ["free"] and base["joints"] == []
@@ -398,9 +398,15 @@ def test_mujoco_applies_the_compiler_settings_and_default_classes(tmp_path):
     slide, hinge, spin = by_label["drawer"], by_label["lid"], by_label["knob"]
     assert slide.type == "prismatic" and slide.upper == pytest.approx(0.3)  # from the class
     assert np.allclose(frames[slide.name][1], turn @ [0, 1, 0])
-    assert hinge.type == "revolute" and np.allclose(frames[hinge.name][1], turn @ [1, 0, 0])
+    # the lid rests inside its range, [-40, 50] degrees about ref; toward 50 it swings into the frame, so it opens
+    # toward -40: read about the opposite axis over [-50, 40] (spark_bench.asset.opening_direction)
+    assert hinge.type == "revolute" and np.allclose(frames[hinge.name][1], -(turn @ [1, 0, 0]))
     assert np.allclose(frames[hinge.name][0], frame_at + turn @ [0, 0.1, 0.3])
-    assert (hinge.lower, hinge.upper) == pytest.approx((math.radians(-40), math.radians(50)))  # about ref
+    assert (hinge.lower, hinge.upper) == pytest.approx((math.radians(-50), math.radians(40)))  # about ref
+    opened = {o["joint"]: o for o in asset.meta["opening_direction"]}
+    assert (opened["hinge"]["opens_toward"], opened["hinge"]["rule"]) == ("lower", "geometry")
+    assert opened["hinge"]["inside_at_lower_upper"][1] > opened["hinge"]["inside_at_lower_upper"][0] + 0.3
+    assert {hinge.name, slide.name, spin.name} == {"hinge", "slide", "spin"}  # the author's names
     assert spin.type == "continuous"
     drawer = next(n for n, link in asset.links.items() if link.label == "drawer")
     plate = asset.link_meshes()[drawer]
@@ -408,7 +414,7 @@ def test_mujoco_applies_the_compiler_settings_and_default_classes(tmp_path):
     assert np.abs(plate.bounds - [corners.min(0), corners.max(0)]).max() < 1e-6
     assert asset.links[drawer].visuals[0].rgba == pytest.approx((0.2, 0.4, 0.6, 1.0))
     assert record["compiler"] == {"angle": "degree", "eulerseq": "zyx", "meshdir": "shapes"}
-    assert [s.split(":")[0] for s in record["skipped_geoms"]] == ["geom 'ground' (body 'world')",
+    assert [s.split(":")[0] for s in record["skipped_geoms"]] == ["geom 'ground' (body 'worldbody')",
                                                                   "geom 'hull' (body 'frame')"]
     assert record["bodies"][-1] == {"dropped_bodies": ["empty"], "why": "no visual geom in their subtree"}
     assert "empty" not in {link.label for link in asset.links.values()}

@@ -54,7 +54,10 @@ on one body become a chain through links without geometry. The visuals are the g
 (MuJoCo's viewer's default; group 3 is the collision convention), planes and height fields left out
 (PhysX-Anything's floor); a body whose subtree has none (a flex's nodes) is left out. MJCF's world is
 Z up (gravity ``0 0 -9.81``; all three methods build Z-up models): no rotation; the turn about Z, the
-front and the scale stay open.
+front and the scale stay open. Links and joints keep the file's names (:mod:`spark_bench.asset.mjcf_names`:
+``worldbody`` for the world body, ``<body>:hinge<k>`` and the like for an element without one), and each joint
+opens toward its upper limit as read from where ``qpos0`` sits in its range
+(:mod:`spark_bench.asset.opening_direction`; the record's ``opening_direction``).
 
 **Checks before MuJoCo opens a file** (:mod:`.files`): an ``<include>``, mesh, texture or other asset
 path leaving the run folder, a missing include or asset, an include cycle, a file that is not
@@ -98,6 +101,11 @@ FACTS = [
              "joints fixed at rest; several joints on a body: a chain through links without geometry; MJCF "
              "world Z up: no rotation, yaw, front and scale open",
      "source": "spark-bench (the reader's choices; MuJoCo's mjvOption.geomgroup default 1 1 1 0 0 0)"},
+    {"fact": "names: bodies and joints keep the file's names (the world body: worldbody; unnamed: <body>:body<k>, "
+             "<body>:hinge<k>, <body>:slide<k>, <body>:geom<k>); a joint whose qpos0 sits at its upper limit, or "
+             "inside its range with the part leaving the object toward the lower one, is read about the opposite "
+             "axis with its range negated (it opens toward its upper limit)",
+     "source": "spark-bench (spark_bench.asset.mjcf_names, spark_bench.asset.opening_direction)"},
 ]
 
 
@@ -130,6 +138,7 @@ def read_run(run_dir: Path) -> ForeignObject:
                            **{k: v for k, v in files.compiler.items() if k not in ("angle", "eulerseq")}},
               "gravity": [float(v) for v in compiled.model.opt.gravity],
               "bodies": bodies, "skipped_geoms": geometry.skipped,
+              "opening_direction": asset.meta.get("opening_direction", []),
               "not_read": [*(f"{p} (an older export)" for p in others),
                            *(f"{p} (texture)" for p in relative(files.textures, run_dir)),
                            *([f"{flexes} flex(es): deformable parts are not read"] if flexes else [])]}
