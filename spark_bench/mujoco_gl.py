@@ -6,10 +6,14 @@ CoACD workers do not load MuJoCo."""
 from __future__ import annotations
 
 import os
+import sys
 
 
 def mujoco_module():
     """The ``mujoco`` module, imported after ``os.environ.setdefault("MUJOCO_GL", "egl")``."""
+    loaded = sys.modules.get("mujoco")
+    if loaded is not None:  # hot loops (ray casts) call this: the backend was chosen at the first import
+        return loaded
     os.environ.setdefault("MUJOCO_GL", "egl")
     import mujoco
 

@@ -7,7 +7,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
-from helpers_boxes import box_mesh, box_visual
+import trimesh
+from helpers_boxes import box_between, box_mesh, box_visual
 
 from spark_bench.asset.model import ArticulatedAsset, Collision, Joint, Link, Visual
 from spark_bench.asset.transforms import make_transform
@@ -96,3 +97,19 @@ def object_with_door_meshes(folder: Path, files: dict[str, bytes | None], collis
                           for n in files)
     urdf.write_text(text[:start] + f'<link name="door">{meshes}</link>' + text[end:])
     return folder
+
+
+def open_cabinet(door_axis=(0.0, 0.0, 1.0)) -> ArticulatedAsset:
+    """A 40 x 60 x 80 cm cabinet body of 2 cm boards, open at the front (-x), and a door closing the opening,
+    hinged on its left edge about ``door_axis``. The body is one mesh, the boards' union, and nothing has a
+    ``<collision>``: as a prediction carries its parts."""
+    boards = [box_between((0.18, -0.3, 0.0), (0.2, 0.3, 0.8)),  # back
+              box_between((-0.2, -0.3, 0.0), (0.2, -0.28, 0.8)), box_between((-0.2, 0.28, 0.0), (0.2, 0.3, 0.8)),
+              box_between((-0.2, -0.3, 0.0), (0.2, 0.3, 0.02)), box_between((-0.2, -0.3, 0.78), (0.2, 0.3, 0.8))]
+    body = trimesh.boolean.union(boards)
+    links = {"base": Link("base"), "body": Link("body", [Visual(body)], label="cabinet_body"),
+             "door": Link("door", [Visual(box_between((-0.01, 0.0, 0.0), (0.01, 0.6, 0.8)))], label="door")}
+    joints = {"root": Joint("root", "fixed", "base", "body"),
+              "door_joint": Joint("door_joint", "revolute", "body", "door", make_transform(translation=(-0.21, -0.3, 0.0)),
+                                  np.asarray(door_axis, float), 0.0, np.pi / 2)}
+    return ArticulatedAsset("open_cabinet", links, joints, category="StorageFurniture")

@@ -33,6 +33,7 @@ The sweep is in :mod:`spark_bench.sim.sweep`; the result types in :mod:`spark_be
 
 from __future__ import annotations
 
+import math
 import tempfile
 import time
 from dataclasses import dataclass
@@ -46,6 +47,7 @@ from spark_bench.sim.converter import load_source, unloadable_mesh_files
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.relief import joint_bodies, summarize_relief
 from spark_bench.sim.rest_force import REST_FORCE_CHECK, check_rest_force
+from spark_bench.sim.rest_trim import summarize_trim
 from spark_bench.sim.results import CheckReport, CheckResult
 from spark_bench.sim.sweep import (
     SweptJoint,
@@ -79,20 +81,45 @@ def check_mesh_files(asset: ArticulatedAsset) -> CheckResult:
     return CheckResult(not bad, float(len(bad)), details)
 
 
+def _carries_collision(model) -> np.ndarray:
+    """Per body: whether it or a body below it has a geom that collides (by its contact bits or an explicit pair)."""
+    carries = np.zeros(model.nbody, bool)
+    colliding = {g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]}
+    colliding |= {int(g) for g in model.pair_geom1} | {int(g) for g in model.pair_geom2}
+    for g in colliding:
+        carries[model.geom_bodyid[g]] = True
+    for b in range(model.nbody - 1, 0, -1):
+        carries[model.body_parentid[b]] |= carries[b]
+    return carries
+
+
 def check_mass_inertia(model) -> CheckResult:
     """Every body with a degree of freedom has positive mass and principal moments that satisfy the
-    triangle inequality (MuJoCo's own test, with its tolerance)."""
+    triangle inequality (MuJoCo's own test, with its tolerance), and carries collision geometry, itself or
+    through the bodies below it (a door whose meshes were all left out has nothing to weigh or to touch; a
+    ``*_helper`` link between two joints carries the part below it). The value is the smallest mass of a
+    moving body, or of any body where nothing moves."""
     moving = [b for b in range(1, model.nbody) if model.body_dofnum[b] > 0 or model.body_weldid[b] != 0]
     bad = []
     for b in moving:
         a, bb, c = np.sort(model.body_inertia[b])
         if not (model.body_mass[b] > 0 and a > 0 and a + bb >= c * (1 - 1e-6)):
             bad.append(model.body(b).name)
-    smallest = float(min((model.body_mass[b] for b in moving), default=float("nan")))
+    carries = _carries_collision(model)
+    empty = [model.body(b).name for b in range(1, model.nbody) if model.body_dofnum[b] > 0 and not carries[b]]
+    weighed = moving or list(range(1, model.nbody))
+    smallest = float(min((model.body_mass[b] for b in weighed), default=float("nan")))
     details = {"moving_bodies": len(moving)}
+    reasons = []
     if bad:
-        details["reason"] = f"invalid mass or inertia: {bad}"
-    return CheckResult(not bad, smallest, details)
+        reasons.append(f"invalid mass or inertia: {bad}")
+    if empty:
+        reasons.append(f"moving part(s) without collision geometry (their mass is a placeholder): {empty}")
+    if not math.isfinite(smallest):
+        reasons.append("the model has no body to weigh")
+    if reasons:
+        details["reason"] = "; ".join(reasons)
+    return CheckResult(not reasons, smallest, details)
 
 
 def _warnings(data) -> dict[str, int]:
@@ -264,7 +291,7 @@ def run_checks(src, options: ConvertOptions | None = None, render: Path | None =
         return run_model_checks(Path(src), render)
     clock = time.perf_counter()
     asset = load_source(src)
-    report = CheckReport(asset.name)
+    report = CheckReport(asset.name, warnings=list(getattr(asset, "warnings", [])))
     seconds = report.seconds
     seconds["load"] = time.perf_counter() - clock
     report.checks["mesh_files"] = files = check_mesh_files(asset)
@@ -335,6 +362,7 @@ def _compile_check(asset: ArticulatedAsset, prepared, convert_s: float) -> tuple
         "coacd_cache_hits": prepared.report.coacd.cache_hits, "coacd_turned": prepared.report.coacd.turned,
         "boxed": len(prepared.report.coacd.boxed), "convert_seconds": round(convert_s, 3),
         "relief": summarize_relief(prepared.relief), "excluded": sorted(f"{a}|{b}" for a, b in prepared.excluded),
+        "rest_trim": summarize_trim(prepared.trim),
         "phantom_blocks": [b.to_dict() for b in prepared.phantom],
         "coacd_failures": prepared.report.coacd_failures})
 

@@ -1,11 +1,12 @@
-"""Which collision pairs are on: parent-child overlaps at rest, MuJoCo's ``filterparent``.
+"""Which collision pairs are on: every pair but the excluded parent-child pairs, MuJoCo's ``filterparent``.
 
-Every pair of links collides, as real parts do, except a parent and its child whose hulls overlap at
-rest by more than ``ConvertOptions.exclude_overlap`` of the object's size: that overlap is by
-construction (a cap around a bottle neck, a button sunk into its panel), and a contact there would push
-the parts apart from the first step. "Parent" skips links without geometry (``*_helper`` links). A parent-child pair whose hulls block the
-child's joint where the parent's surface does not (a button pressed into the hull that covers its
-hole) is excluded too (:mod:`spark_bench.sim.phantom`).
+Every pair of links collides, as real parts do, a part with its own parent included. A parent and its child are
+excluded only where their hulls meet (at rest, or along the child's joint) while the child's own path is free of
+the parent's surface (:mod:`spark_bench.sim.phantom`: a button in the hull that covers its hole, a door whose hulls
+overlap its frame's at rest), or where their hulls overlap at rest by construction and no cut parts them (a knob's
+shaft through its panel: :mod:`spark_bench.sim.rest_trim`, which cuts apart the hulls of every other pair that
+overlaps at rest). A part that moves into its parent (a door turned the wrong way) keeps colliding with it. "Parent"
+skips links without geometry (``*_helper`` links).
 
 MuJoCo drops contacts between a body and its parent when both move (``filterparent``); such pairs that
 should collide get explicit ``<pair>`` elements instead of a global flag, so a spec extended with a
@@ -15,7 +16,6 @@ gripper keeps MuJoCo's usual filtering for the gripper's own bodies.
 from __future__ import annotations
 
 from spark_bench.asset.model import ArticulatedAsset
-from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.prepared import PreparedObject
 
 
@@ -33,22 +33,6 @@ def geometric_parents(prepared: PreparedObject) -> dict[str, str]:
             ancestor = parent_of.get(ancestor)
         if ancestor is not None:
             out[link] = ancestor
-    return out
-
-
-def rest_overlaps(model, data, pairs: set[tuple[str, str]]) -> dict[tuple[str, str], float]:
-    """Deepest penetration (positive, m) per ``(parent, child)`` body pair at the model's rest pose."""
-    mujoco = mujoco_module()
-
-    mujoco.mj_resetData(model, data)
-    mujoco.mj_forward(model, data)
-    out: dict[tuple[str, str], float] = {}
-    for contact in data.contact[: data.ncon]:
-        a = model.body(model.geom_bodyid[contact.geom1]).name
-        b = model.body(model.geom_bodyid[contact.geom2]).name
-        pair = (a, b) if (a, b) in pairs else (b, a) if (b, a) in pairs else None
-        if pair is not None and contact.dist < 0:
-            out[pair] = max(out.get(pair, 0.0), -float(contact.dist))
     return out
 
 
@@ -75,9 +59,9 @@ def filtered_by_mujoco(asset: ArticulatedAsset, a: str, b: str) -> bool:
 
 
 def add_contact_filters(spec, prepared: PreparedObject) -> None:
-    """Add ``<exclude>`` for the parent-child pairs that overlap at rest (``prepared.excluded``) and
-    explicit ``<pair>`` elements between the collision geoms of the other parent-child pairs that
-    MuJoCo's ``filterparent`` would drop."""
+    """Add ``<exclude>`` for the parent-child pairs excluded (``prepared.excluded``: no cut parts their hulls at rest,
+    or only their hulls block the child's joint) and explicit ``<pair>`` elements between the collision geoms of the
+    other parent-child pairs that MuJoCo's ``filterparent`` would drop."""
     for parent, child in sorted(prepared.excluded):
         spec.add_exclude(bodyname1=parent, bodyname2=child)
     friction = [prepared.options.friction] * 2 + [0.005, 0.0001, 0.0001]

@@ -60,6 +60,7 @@ def convert(src: Path | str | ArticulatedAsset, out_dir: Path | str, options: Co
     from spark_bench.sim.mjcf import build_spec, prepare
     from spark_bench.sim.pybullet_io import write_pybullet_urdf
     from spark_bench.sim.relief import summarize_relief
+    from spark_bench.sim.rest_trim import summarize_trim
 
     start = time.perf_counter()
     asset = load_source(src)
@@ -97,6 +98,7 @@ def convert(src: Path | str | ArticulatedAsset, out_dir: Path | str, options: Co
         "cached_links": prepared.report.cached_links, "merged_hulls": prepared.report.merged,
         "excluded": {f"{a}|{b}": round(d, 6) for (a, b), d in prepared.excluded.items()},
         "relief": summarize_relief(prepared.relief),
+        "rest_trim": summarize_trim(prepared.trim),
         "phantom_blocks": [b.to_dict() for b in prepared.phantom],
         "mass": {name: round(p.mass, 6) for name, p in prepared.mass.items()},
         "seconds": {"load": round(loaded - start, 3), "collision_and_physics": round(prepared_at - loaded, 3),

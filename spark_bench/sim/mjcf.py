@@ -9,8 +9,10 @@ Layout of the spec (names are those of the asset, so code on top of it can find 
 - per body, one visual mesh geom ``<link>_visual`` in default class ``visual`` (no contacts, group 2)
   and convex collision geoms ``<link>_collision_<k>`` in class ``collision`` (group 3);
 - explicit inertials from the hulls and a density (:mod:`spark_bench.sim.physical`);
-- ``<exclude>`` only for parent-child body pairs whose hulls overlap at rest (by construction: a
-  handle modelled into its door's frame, a lid sunk into its box); every other pair collides.
+- every pair of bodies collides: the hulls of a part and its parent that overlap at rest are cut apart
+  (:mod:`spark_bench.sim.rest_trim`); ``<exclude>`` only for a parent-child pair whose overlap no cut
+  resolves (by construction: a cap over a bottle neck) or whose hulls block the child's joint where the
+  surfaces do not (:mod:`spark_bench.sim.phantom`).
   MuJoCo's ``filterparent`` never applies between a body welded to the world and its children, so a
   drawer collides with its carcass; between two moving bodies it does, so non-overlapping moving
   parent-child pairs get explicit ``<pair>`` elements.
@@ -30,7 +32,7 @@ from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.errors import InputError
 from spark_bench.mujoco_gl import mujoco_module
-from spark_bench.sim.contacts import add_contact_filters, geometric_parents, rest_overlaps
+from spark_bench.sim.contacts import add_contact_filters, geometric_parents
 from spark_bench.sim.hulls import object_collision_shapes, object_size
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.physical import (
@@ -87,11 +89,15 @@ def prepare(asset: ArticulatedAsset, options: ConvertOptions | None = None,
 
 
 def _resolve_contacts(prepared: PreparedObject) -> None:
-    """Decide the excluded pairs (overlap at rest), then bevel hinge edges (:mod:`.relief`), then
-    recompute masses and joint dynamics from the final hulls."""
+    """Decide which parent-child pairs collide and make their hulls fit: cut apart the hulls that overlap at rest
+    (:mod:`.rest_trim`; a pair no cut resolves, or with no single joint to judge it by, is excluded); exclude a
+    pair whose hulls meet (at rest before the cuts, or on the child's path) while the child's own path is free of
+    the parent's surface (:mod:`.phantom`); bevel hinge edges (:mod:`.relief`); then recompute masses and joint
+    dynamics from the final hulls."""
     from spark_bench.paths import cache_dir
-    from spark_bench.sim.phantom import find_phantom_blocks
+    from spark_bench.sim.phantom import find_phantom_blocks, phantom_candidates
     from spark_bench.sim.relief import relieve
+    from spark_bench.sim.rest_trim import rest_overlaps, trim_rest_overlaps
     from spark_bench.sim.shape_cache import contacts_as_cached, load_contacts, object_key, store_contacts
 
     mujoco = mujoco_module()
@@ -99,7 +105,7 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     key = object_key(prepared) if cache is not None else None
     cached = load_contacts(cache, key, prepared.size) if cache is not None else None
     if cached is not None:
-        prepared.shapes, prepared.excluded, prepared.relief, prepared.phantom = cached
+        prepared.shapes, prepared.excluded, prepared.trim, prepared.relief, prepared.phantom = cached
         _update_physics(prepared)
         return
 
@@ -112,15 +118,22 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
                 spec.add_exclude(bodyname1=parent, bodyname2=child)
         return spec.compile()
 
-    model = probe_model(False)
-    pairs = {(parent, child) for child, parent in geometric_parents(prepared).items()}
-    overlaps = rest_overlaps(model, mujoco.MjData(model), pairs)
-    limit = prepared.options.exclude_overlap * prepared.size
-    prepared.excluded = {pair: depth for pair, depth in overlaps.items() if depth > limit}
     gap = 0.5 * prepared.options.clearance * prepared.size
+    limit = prepared.options.trim_overlap * prepared.size
+    prepared.excluded = {}
+    model = probe_model(True)
+    pairs = {(parent, child) for child, parent in geometric_parents(prepared).items()}
+    at_rest: dict[tuple[str, str], float] = {}
+    for o in rest_overlaps(model, mujoco.MjData(model), pairs):
+        at_rest[(o.parent, o.child)] = max(at_rest.get((o.parent, o.child), 0.0), o.depth)
+    judged = {(parent, child) for parent, child, _ in phantom_candidates(prepared)}
+    prepared.excluded = {pair: depth for pair, depth in at_rest.items() if pair not in judged and depth > limit}
+    prepared.trim, unresolved = trim_rest_overlaps(prepared, lambda: probe_model(True), limit, gap)
+    prepared.excluded.update(unresolved)
+    # the paths judged on the cut hulls (nearer the surfaces they wrap), with what overlapped before the cuts
+    prepared.phantom = find_phantom_blocks(prepared, probe_model(True), gap, at_rest)
+    prepared.excluded.update({(b.parent, b.child): at_rest.get((b.parent, b.child), 0.0) for b in prepared.phantom})
     prepared.relief = relieve(prepared, lambda: probe_model(True), gap)
-    prepared.phantom = find_phantom_blocks(prepared, probe_model(True), gap)
-    prepared.excluded.update({(b.parent, b.child): overlaps.get((b.parent, b.child), 0.0) for b in prepared.phantom})
     if cache is not None and not prepared.report.coacd.failed:
         store_contacts(cache, key, prepared)
     # the model is built from what the cache gives back, stored or not (see as_cached), and its masses from

@@ -155,8 +155,10 @@ class ConvertOptions:
     :param joint_frictionloss: dry friction, as a fraction of the part's weight (slides) or of its
         weight times its size (hinges); a URDF ``<dynamics friction>`` wins
     :param friction: geom sliding friction coefficient
-    :param exclude_overlap: a parent-child pair whose hulls overlap at rest by more than this fraction
-        of the object's size does not collide (the overlap is by construction, not a real contact)
+    :param trim_overlap: a hull of a part and a hull of its parent that overlap at rest by more than this
+        fraction of the object's size are cut apart (a hull's bulge, not a real contact:
+        :mod:`spark_bench.sim.rest_trim`); a pair no cut resolves (an overlap by construction) does not collide
+        at all; shallower overlaps collide as they are
 
     Placement
     :param base_pos: position of the root link in the world
@@ -180,7 +182,7 @@ class ConvertOptions:
     joint_armature: float = 0.05
     joint_frictionloss: float = 0.02
     friction: float = 0.6
-    exclude_overlap: float = 0.002
+    trim_overlap: float = 0.0
     base_pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
     base_quat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
 

@@ -27,7 +27,10 @@ class PreparedObject:
     :param dynamics: joint parameters per movable joint
     :param size: the object's bounding-box diagonal at rest (every relative tolerance refers to it)
     :param report: how the collision shapes were made
-    :param excluded: parent-child body pairs that do not collide, with their overlap depth at rest
+    :param excluded: parent-child body pairs that do not collide, with their overlap depth at rest: hulls
+        that overlap by construction (no rest-trimming cut resolves them) or block where the surfaces do not
+        (``phantom``)
+    :param trim: rest-trimming cuts made (:class:`~spark_bench.sim.rest_trim.TrimCut`)
     :param relief: hinge-relief cuts made (:class:`~spark_bench.sim.relief.ReliefCut`)
     :param visuals: per link, its merged visual mesh ``(vertices, faces, rgba)`` or None, filled on
         first use by :meth:`visual` (merging and cleaning a 300k-face watertight remesh costs seconds;
@@ -44,6 +47,7 @@ class PreparedObject:
     size: float
     report: CollisionReport
     excluded: dict[tuple[str, str], float] = field(default_factory=dict)
+    trim: list = field(default_factory=list)
     relief: list = field(default_factory=list)
     visuals: dict = field(default_factory=dict)
     phantom: list = field(default_factory=list)

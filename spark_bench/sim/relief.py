@@ -9,8 +9,8 @@ wall half a metre from its hinge) happens far from the axis.
 So for every revolute joint the moving part is swept kinematically over its range; each penetration
 whose contact lies within ``zone`` of the axis (a fraction of the part's radius about it) and is at most
 ``max_depth`` deep is removed by cutting the moving hull with the plane of the neighbour's surface
-(a convex hull cut by a plane stays convex). Cuts that would remove more than half of a hull are not
-made: that is a blocking, and the sweep check reports it.
+(a convex hull cut by a plane stays convex). Cuts that would remove more than half of a hull, one by one or
+together, are not made: that is a blocking, and the sweep check reports it.
 
 A contact whose normal lies along the hinge axis (cosine at least :data:`AXIAL_COS`) is relieved wherever it
 is, provided the moving part already touches that neighbour along the axis at rest and at every sample
@@ -179,6 +179,9 @@ def relieve(prepared, compile_model, gap: float) -> list[ReliefCut]:
 
     done: list[ReliefCut] = []
     refused: set[tuple[str, int]] = set()
+    # what each hull was before any relief: cuts together may take at most MAX_REMOVED of it (a door turned the
+    # wrong way meets its body near the hinge at every sample, and sample by sample small cuts add up)
+    original = {(link, k): shape.volume() for link, shapes in prepared.shapes.items() for k, shape in enumerate(shapes)}
     for _ in range(PASSES):
         model = compile_model()
         data = mujoco.MjData(model)
@@ -194,12 +197,21 @@ def relieve(prepared, compile_model, gap: float) -> list[ReliefCut]:
             if result is None:
                 continue
             new, removed = result
-            if removed > MAX_REMOVED:
+            if removed > MAX_REMOVED or new.volume() < (1.0 - MAX_REMOVED) * original[(link, index)]:
                 refused.add((link, index))
                 continue
             prepared.shapes[link][index] = new
             done.append(ReliefCut(joint, link, f"{link}_collision_{index}", other, depth, removed))
     return done
+
+
+def as_mesh(shape: CollisionShape) -> CollisionShape:
+    """``shape`` as a mesh hull (a primitive becomes its polyhedron), so that a plane can cut it."""
+    if shape.kind == "mesh":
+        return shape
+    mesh = shape.to_trimesh()
+    return CollisionShape("mesh", shape.method, vertices=np.asarray(mesh.vertices, float),
+                          faces=np.asarray(mesh.faces, np.int64))
 
 
 def summarize_relief(cuts) -> dict:

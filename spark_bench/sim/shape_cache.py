@@ -129,11 +129,11 @@ def object_key(prepared) -> str:
     units of the object's size: the decisions are relative to it), and the options that decide
     exclusions and relief. The ``contacts-N`` tag is bumped whenever the rules (rest overlaps, hinge
     relief, phantom blockings) or what is stored change (12: the shapes stored are those used, as the link
-    cache gives them back, :func:`as_cached`)."""
-    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-12".encode())
+    cache gives them back, :func:`as_cached`; 17: conv-9: a pair excluded only where the part's own path is free of its parent's surface, the hulls of the others cut apart at rest)."""
+    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-17".encode())
     options = prepared.options
     size = prepared.size
-    digest.update(json.dumps([options.exclude_overlap, options.clearance, list(options.base_quat)]).encode())
+    digest.update(json.dumps([options.trim_overlap, options.clearance, list(options.base_quat)]).encode())
     for joint in prepared.asset.joints.values():
         digest.update(json.dumps([joint.name, joint.type, joint.parent, joint.child]).encode())
         origin = np.array(joint.origin, np.float64, copy=True)
@@ -154,7 +154,7 @@ def contacts_as_cached(prepared) -> None:
     size = prepared.size
     prepared.shapes = {name: as_cached(shapes, size) for name, shapes in prepared.shapes.items()}
     prepared.excluded = {pair: as_cached_length(d, size) for pair, d in prepared.excluded.items()}
-    for cut in prepared.relief:
+    for cut in prepared.relief + prepared.trim:
         cut.depth = as_cached_length(cut.depth, size)
     for block in prepared.phantom:
         block.depth = as_cached_length(block.depth, size)
@@ -162,11 +162,12 @@ def contacts_as_cached(prepared) -> None:
 
 
 def store_contacts(cache: Path, key: str, prepared) -> None:
-    """Store the resolved shapes, exclusions and relief cuts of ``prepared`` under ``key`` (lengths in
+    """Store the resolved shapes, exclusions, rest-trimming and relief cuts of ``prepared`` under ``key`` (lengths in
     units of the object's size)."""
     size = prepared.size
     entry = {"excluded": [[a, b, d / size] for (a, b), d in prepared.excluded.items()],
              "relief": [{**c.__dict__, "depth": c.depth / size} for c in prepared.relief],
+             "trim": [{**c.__dict__, "depth": c.depth / size} for c in prepared.trim],
              "phantom": [{**b.__dict__, "depth": b.depth / size, "surface_depth": b.surface_depth / size}
                          for b in prepared.phantom],
              "links": {}}
@@ -178,10 +179,11 @@ def store_contacts(cache: Path, key: str, prepared) -> None:
 
 
 def load_contacts(cache: Path, key: str, size: float):
-    """``(shapes, excluded, relief, phantom)`` stored under ``key``, scaled back by ``size`` (the
+    """``(shapes, excluded, trim, relief, phantom)`` stored under ``key``, scaled back by ``size`` (the
     object's), or None."""
     from spark_bench.sim.phantom import PhantomBlock
     from spark_bench.sim.relief import ReliefCut
+    from spark_bench.sim.rest_trim import TrimCut
 
     path = entry_path(Path(cache) / "objects", key, ".json")
     if not path.is_file():
@@ -196,8 +198,9 @@ def load_contacts(cache: Path, key: str, size: float):
             shapes[name] = loaded
         excluded = {(a, b): float(d) * size for a, b, d in entry["excluded"]}
         relief = [ReliefCut(**{**c, "depth": c["depth"] * size}) for c in entry["relief"]]
+        trim = [TrimCut(**{**c, "depth": c["depth"] * size}) for c in entry["trim"]]
         phantom = [PhantomBlock(**{**b, "depth": b["depth"] * size, "surface_depth": b["surface_depth"] * size})
                    for b in entry["phantom"]]
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    return shapes, excluded, relief, phantom
+    return shapes, excluded, trim, relief, phantom

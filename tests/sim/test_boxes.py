@@ -3,14 +3,13 @@
 import numpy as np
 import pytest
 import trimesh
-from helpers_boxes import box_between, l_shape, v_shape
+from helpers_assets import open_cabinet
+from helpers_boxes import l_shape, v_shape
 
 from spark_bench.asset.mesh import signed_volume
-from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
-from spark_bench.asset.transforms import make_transform
+from spark_bench.sim import run_checks
 from spark_bench.sim.boxes import box_decomposition, merge_cells
 from spark_bench.sim.decompose import DecomposeStats, decompose_many
-from spark_bench.sim import run_checks
 from spark_bench.sim.options import CoacdParams, ConvertOptions
 
 # cell centres of each face of a unit cell, and its two triangles, per (axis, side)
@@ -126,22 +125,6 @@ def test_without_exact_boxes_an_orthogonal_part_goes_to_coacd():
     hulls = decompose_many([(ell.vertices, ell.faces)], CoacdParams(mcts_iterations=20, mcts_nodes=8), workers=1,
                            stats=stats, exact_boxes=False)
     assert stats.boxed == [] and stats.calls == 1 and len(hulls[0]) >= 2
-
-
-def open_cabinet(door_axis=(0.0, 0.0, 1.0)) -> ArticulatedAsset:
-    """A 40 x 60 x 80 cm cabinet body of 2 cm boards, open at the front (-x), and a door closing the opening,
-    hinged on its left edge about ``door_axis``. The body is one mesh, the boards' union, and nothing has a
-    ``<collision>``: as a prediction carries its parts."""
-    boards = [box_between((0.18, -0.3, 0.0), (0.2, 0.3, 0.8)),  # back
-              box_between((-0.2, -0.3, 0.0), (0.2, -0.28, 0.8)), box_between((-0.2, 0.28, 0.0), (0.2, 0.3, 0.8)),
-              box_between((-0.2, -0.3, 0.0), (0.2, 0.3, 0.02)), box_between((-0.2, -0.3, 0.78), (0.2, 0.3, 0.8))]
-    body = trimesh.boolean.union(boards)
-    links = {"base": Link("base"), "body": Link("body", [Visual(body)], label="cabinet_body"),
-             "door": Link("door", [Visual(box_between((-0.01, 0.0, 0.0), (0.01, 0.6, 0.8)))], label="door")}
-    joints = {"root": Joint("root", "fixed", "base", "body"),
-              "door_joint": Joint("door_joint", "revolute", "body", "door", make_transform(translation=(-0.21, -0.3, 0.0)),
-                                  np.asarray(door_axis, float), 0.0, np.pi / 2)}
-    return ArticulatedAsset("open_cabinet", links, joints, category="StorageFurniture")
 
 
 def test_a_boxed_body_collides_with_its_door_and_blocks_a_door_hinged_the_wrong_way():

@@ -1,0 +1,382 @@
+"""Do the sim checks catch a wrong joint? Broken twins of real and synth objects, checked like any asset.
+
+For every object (default: the 75 of ``../shared/partnet_dev``, its halves from ``partnet_dev_split.json``, the 7
+of ``../shared/real_objects``; ``--cases BENCH`` adds a prepared benchmark's ground truths, e.g. synth-v1's), this
+script runs ``spark-bench check`` on the object as it is (the *intact* object) and on broken twins of each of its
+drawers, doors and lids (a part labelled ``drawer``, ``door`` or ``lid`` in ``semantics.txt``, as ``sim_real``
+counts them), one per kind of break (:mod:`benchmarks.broken_twins`): the axis reversed, the pivot moved to the
+part's far edge, a slide turned 90 degrees about the up axis, the joint type swapped.
+
+A twin counts only where it is a clean break (:mod:`benchmarks.clean_break`: its part passes through the object's
+own surfaces before 90 % of its range, and the intact part's path does not) and its intact object passes every
+check (else a failure says nothing of the break). Every twin left out is listed with its reason. A clean twin is
+*caught* when its check fails, and caught *on its part* when the failure names the broken joint or its part.
+
+Each object runs in a child process (``--jobs`` at once) and its result is stored as
+``<store>/<label>/<set>__<id>.json``: an interrupted run resumes, and ``--compare LABEL`` adds an earlier run's catch rates
+and every verdict that differs from it. The report is ``benchmarks/results/check_validity.md`` and ``.json``.
+
+Run: ``nice -n 10 python -m benchmarks.measure_check_validity [--half tune|holdout|all] [--cases BENCH]
+[--ids 7310 ...] [--jobs 2] [--label after] [--compare before] [--home DIR]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared"
+PARTNET_DEV = SHARED / "partnet_dev"
+REAL_OBJECTS = SHARED / "real_objects"
+RESULTS = ROOT / "benchmarks" / "results" / "check_validity"
+#: Parts whose joints are broken: drawers, doors and lids, as ``sim_real`` counts them (``semantics.txt``).
+OPENABLE = re.compile(r"(^|_)(drawer|door|lid)$")
+#: The sets of objects, in report order.
+SETS = ("partnet_dev tune", "partnet_dev holdout", "real_objects", "synth-v1")
+
+
+# ----- one object (in a child process) ------------------------------------------------------------
+def broken_joints(asset) -> list[str]:
+    """The revolute and prismatic joints of ``asset`` whose own part is a drawer, door or lid."""
+    from benchmarks.broken_twins import applicable_kinds
+
+    out = []
+    for joint in asset.movable_joints():
+        labels = [asset.links[name].label for name in asset.part_of_joint(joint.name)]
+        if applicable_kinds(joint) and any(OPENABLE.search(label or "") for label in labels):
+            out.append(joint.name)
+    return out
+
+
+def verdict_of(asset) -> dict:
+    """``spark-bench check`` of ``asset`` (in memory, one CoACD process): passed, failed checks, their reasons."""
+    from spark_bench.sim.checks import run_checks
+    from spark_bench.sim.options import ConvertOptions
+
+    start = time.process_time()
+    report = run_checks(asset, ConvertOptions(workers=1))
+    failed = [name for name, check in report.checks.items() if not check.passed]
+    sweep = report.checks.get("joint_sweep")
+    return {"passed": not failed, "failed": failed,
+            "reasons": {name: str(report.checks[name].details.get("reason", "")) for name in failed},
+            "sweep_failed": list(sweep.details.get("failed", [])) if sweep is not None else [],
+            "cpu_s": round(time.process_time() - start, 2)}
+
+
+def names_part(verdict: dict, joint: str, part: str) -> bool:
+    """Whether a failing verdict names the broken joint or its part."""
+    if joint in verdict["sweep_failed"]:
+        return True
+    pattern = re.compile(rf"\b({re.escape(joint)}|{re.escape(part)})\b")
+    return any(pattern.search(reason) for reason in verdict["reasons"].values())
+
+
+def twin_entry(asset, joint: str, kind: str, intact_passed: bool) -> dict:
+    """One twin: how it was made, whether it is a clean break, and (clean, intact passing) its verdict."""
+    from benchmarks.broken_twins import make_twin
+    from benchmarks.clean_break import judge_break
+
+    entry: dict = {"joint": joint, "kind": kind}
+    signs = (1, -1) if kind == "slide_turned" else (1,)
+    for sign in signs:
+        try:
+            twin = make_twin(asset, joint, kind, sign)
+        except ValueError as exc:
+            entry.update(status="not applicable", reason=str(exc))
+            return entry
+        judgement = judge_break(asset, twin.asset, joint)
+        entry.update(part=twin.part, description=twin.description, judgement=judgement.to_dict())
+        if judgement.clean:
+            break
+    if not entry["judgement"]["clean"]:
+        entry.update(status="not clean", reason=entry["judgement"]["reason"])
+        return entry
+    if not intact_passed:
+        entry.update(status="intact fails", reason="the intact object fails a check: a failure says nothing")
+        return entry
+    try:
+        verdict = verdict_of(twin.asset)
+    except Exception as exc:  # one twin must not end the object's run
+        entry.update(status="error", reason=f"{type(exc).__name__}: {exc}")
+        return entry
+    entry.update(status="caught" if not verdict["passed"] else "missed", verdict=verdict,
+                 names_part=(not verdict["passed"]) and names_part(verdict, joint, twin.part))
+    return entry
+
+
+def measure_object(folder: Path, kinds: tuple[str, ...]) -> dict:
+    """The intact verdict and every twin of one object folder."""
+    from benchmarks.broken_twins import applicable_kinds
+    from spark_bench.data import load_object
+
+    asset = load_object(folder)
+    joints = broken_joints(asset)
+    if not joints:  # nothing to break: not an object of this benchmark
+        return {"object": folder.name, "category": asset.category, "intact": None, "twins": []}
+    intact = verdict_of(asset)
+    twins = []
+    for joint in joints:
+        for kind in applicable_kinds(asset.joints[joint]):
+            if kind in kinds:
+                twins.append(twin_entry(asset, joint, kind, intact["passed"]))
+    return {"object": folder.name, "category": asset.category, "intact": intact, "twins": twins}
+
+
+# ----- the run ------------------------------------------------------------------------------------
+def object_sets(args) -> list[tuple[str, str, Path]]:
+    """``(set, id, folder)`` of every object to measure."""
+    from benchmarks.partnet_dev_split import read_halves
+
+    out = []
+    ids = set(args.ids) if args.ids else None
+    if PARTNET_DEV.is_dir() and args.half != "none":
+        halves = read_halves()
+        for half in ("tune", "holdout") if args.half == "all" else (args.half,):
+            out += [(f"partnet_dev {half}", i, PARTNET_DEV / i) for i in halves[half]]
+    if REAL_OBJECTS.is_dir() and args.real:
+        out += [("real_objects", p.name, p) for p in sorted(REAL_OBJECTS.iterdir()) if (p / "mobility.urdf").is_file()]
+    for bench in args.cases:
+        name = Path(bench).name
+        out += [(name, c.name, c / "gt") for c in sorted((Path(bench) / "cases").iterdir())
+                if (c / "gt" / "mobility.urdf").is_file()]
+    return [row for row in out if ids is None or row[1] in ids]
+
+
+def cpu_seconds() -> float:
+    """CPU seconds of this process and its finished children (CoACD workers)."""
+    return sum(u.ru_utime + u.ru_stime for u in (resource.getrusage(resource.RUSAGE_SELF),
+                                                  resource.getrusage(resource.RUSAGE_CHILDREN)))
+
+
+def run_all(objects: list[tuple[str, str, Path]], store: Path, args) -> dict[str, dict]:
+    """Measure every object in child processes (``args.jobs`` at once), reusing stored results."""
+    from tqdm import tqdm
+
+    store.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, SPARK_BENCH_HOME=str(args.home))
+    rows: dict[str, dict] = {}
+    todo = []
+    for set_name, object_id, folder in objects:
+        path = store / f"{set_name.replace(' ', '_')}__{object_id}.json"
+        if path.is_file() and not args.fresh:
+            rows[path.stem] = {**json.loads(path.read_text()), "object": object_id}
+        else:
+            todo.append((set_name, object_id, folder, path))
+    running: list = []
+    bar = tqdm(total=len(todo), desc="objects", unit="object")
+    while todo or running:
+        while todo and len(running) < args.jobs:
+            set_name, object_id, folder, path = todo.pop(0)
+            command = [sys.executable, "-m", "benchmarks.measure_check_validity", "--one", str(folder),
+                       "--out", str(path), "--kinds", *args.kinds]
+            proc = subprocess.Popen(command, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                    text=True)
+            running.append((proc, set_name, object_id, path, time.monotonic()))
+        time.sleep(0.5)
+        for item in list(running):
+            proc, set_name, object_id, path, started = item
+            timed_out = time.monotonic() - started > args.timeout
+            if proc.poll() is None and not timed_out:
+                continue
+            if timed_out:
+                proc.kill()
+            output = proc.communicate()[0] or ""
+            running.remove(item)
+            bar.update(1)
+            if path.is_file():
+                row = json.loads(path.read_text())
+            else:
+                row = {"object": object_id, "error": "timed out" if timed_out else output.strip().splitlines()[-1:]}
+            row.update(set=set_name, object=object_id, wall_s=round(time.monotonic() - started, 1))
+            path.write_text(json.dumps(row, indent=1))
+            rows[path.stem] = row
+            caught = Counter(t["status"] for t in row.get("twins", []))
+            intact = row.get("intact")
+            said = "no drawer, door or lid" if intact is None else "pass" if intact["passed"] else "FAIL"
+            bar.write(f"{set_name:20s} {object_id:>16s} intact {said}  {dict(caught)}")
+    bar.close()
+    return rows
+
+
+# ----- the report ---------------------------------------------------------------------------------
+def summarize(rows: dict[str, dict], kinds: tuple[str, ...]) -> dict:
+    """Per set: intact objects passing, and per kind the twins built, left out (by why), clean, caught."""
+    out: dict[str, dict] = {}
+    for row in rows.values():
+        entry = out.setdefault(row["set"], {"objects": 0, "intact_passed": 0, "errors": 0, "cpu_s": 0.0,
+                                            "kinds": {k: Counter() for k in kinds}})
+        if row.get("intact", 0) is None:  # no drawer, door or lid
+            continue
+        entry["objects"] += 1
+        if "error" in row:
+            entry["errors"] += 1
+            continue
+        entry["intact_passed"] += bool(row["intact"]["passed"])
+        entry["cpu_s"] += row.get("cpu_s", 0.0)
+        for twin in row["twins"]:
+            counts = entry["kinds"].setdefault(twin["kind"], Counter())
+            counts["built" if twin["status"] != "not applicable" else "not applicable"] += 1
+            counts[twin["status"]] += 1
+            if twin["status"] in ("caught", "missed"):
+                counts["clean"] += 1
+            if twin.get("names_part"):
+                counts["named"] += 1
+    return out
+
+
+def rate(part: int, whole: int) -> str:
+    return f"{part}/{whole} ({100.0 * part / whole:.0f} %)" if whole else "n/a"
+
+
+def markdown(summary: dict, rows: dict[str, dict], args) -> str:
+    lines = ["# Sim checks against broken twins (check validity)", "",
+             f"Written by `benchmarks/measure_check_validity.py` ({time.strftime('%Y-%m-%d')}, label `{args.label}`): "
+             "`spark-bench check` on each object as it is and on its broken twins "
+             "(`benchmarks/broken_twins.py`); a twin counts where it is a clean break "
+             "(`benchmarks/clean_break.py`) and its intact object passes every check.", "",
+             "## Catch rate per kind of break", "",
+             "Caught: the check fails; on its part: the failure names the broken joint or its part. Coverage: the "
+             "clean twins of objects whose intact form passes, out of the twins built.", "",
+             "| set | intact objects passing | kind | twins built | left out (not clean / intact fails / error) "
+             "| clean twins | caught | caught on its part |", "|---|---|---|---|---|---|---|---|"]
+    for set_name in [s for s in SETS if s in summary] + sorted(set(summary) - set(SETS)):
+        entry = summary[set_name]
+        intact = rate(entry["intact_passed"], entry["objects"] - entry["errors"])
+        for kind, counts in entry["kinds"].items():
+            if not counts.get("built"):
+                continue
+            left = f"{counts['not clean']} / {counts['intact fails']} / {counts['error']}"
+            lines.append(f"| {set_name} | {intact} | {kind} | {counts['built']} | {left} | {counts['clean']} "
+                         f"| {rate(counts['caught'], counts['clean'])} | {rate(counts['named'], counts['clean'])} |")
+    lines += ["", "## Intact objects that fail a check", "",
+              "Their twins are left out (`intact fails`).", "", "| set | object | category | failed checks |",
+              "|---|---|---|---|"]
+    for row in sorted(rows.values(), key=lambda r: (r["set"], r["object"])):
+        if "error" in row:
+            lines.append(f"| {row['set']} | {row['object']} | | error: {row['error']} |")
+        elif row["intact"] is not None and not row["intact"]["passed"]:
+            lines.append(f"| {row['set']} | {row['object']} | {row['category']} | {', '.join(row['intact']['failed'])} |")
+    lines += ["", "## Missed twins", "", "| set | object | joint | kind | twin | clean break |", "|---|---|---|---|---|---|"]
+    for row in sorted(rows.values(), key=lambda r: (r["set"], r["object"])):
+        for twin in row.get("twins", []):
+            if twin["status"] == "missed":
+                lines.append(f"| {row['set']} | {row['object']} | {twin['joint']} | {twin['kind']} | "
+                             f"{twin['description']} | {twin['judgement']['reason']} |")
+    lines += ["", "## Every twin", "",
+              "| set | object | joint | kind | status | why / what the check said |", "|---|---|---|---|---|---|"]
+    for row in sorted(rows.values(), key=lambda r: (r["set"], r["object"])):
+        for twin in row.get("twins", []):
+            if twin["status"] in ("caught", "missed"):
+                verdict = twin["verdict"]
+                said = "; ".join(f"{k}: {v}" for k, v in verdict["reasons"].items()) or "passes every check"
+            else:
+                said = twin.get("reason", "")
+            said = said.replace("|", "/")
+            lines.append(f"| {row['set']} | {row['object']} | {twin['joint']} | {twin['kind']} | {twin['status']} "
+                         f"| {said[:400]} |")
+    return "\n".join(lines) + "\n"
+
+
+def verdict_changes(rows: dict[str, dict], before_dir: Path) -> list[str]:
+    """Twins and intact objects whose verdict differs from the run stored in ``before_dir``."""
+    out = []
+    for key, row in sorted(rows.items()):
+        path = before_dir / f"{key}.json"
+        if not path.is_file() or "error" in row:
+            continue
+        old = json.loads(path.read_text())
+        if "error" in old or old["intact"] is None or row["intact"] is None:
+            continue
+        if old["intact"]["passed"] != row["intact"]["passed"]:
+            out.append(f"{key} intact: {'pass' if old['intact']['passed'] else 'FAIL'} -> "
+                       f"{'pass' if row['intact']['passed'] else 'FAIL'} {row['intact']['failed']}")
+        previous = {(t["joint"], t["kind"]): t["status"] for t in old["twins"]}
+        for twin in row["twins"]:
+            was = previous.get((twin["joint"], twin["kind"]))
+            if was is not None and was != twin["status"]:
+                out.append(f"{key} {twin['joint']} {twin['kind']}: {was} -> {twin['status']}")
+    return out
+
+
+def stored_rows(folder: Path, keys) -> dict[str, dict]:
+    """The rows of another run stored in ``folder`` for the same objects."""
+    paths = {key: folder / f"{key}.json" for key in keys}
+    return {key: json.loads(path.read_text()) for key, path in paths.items() if path.is_file()}
+
+
+def comparison(rows: dict[str, dict], summary: dict, args) -> str:
+    """Catch rates of the run labelled ``args.compare`` beside this run's, and every verdict that differs."""
+    before = summarize(stored_rows(args.store / args.compare, rows), tuple(args.kinds))
+    lines = ["", f"## Compared with `{args.compare}`", "",
+             f"The same objects and twins as stored by the run labelled `{args.compare}`.", "",
+             f"| set | kind | caught ({args.compare}) | caught ({args.label}) |", "|---|---|---|---|"]
+    for set_name in [s for s in SETS if s in summary]:
+        for kind, counts in summary[set_name]["kinds"].items():
+            old = before.get(set_name, {}).get("kinds", {}).get(kind, Counter())
+            if counts.get("built"):
+                lines.append(f"| {set_name} | {kind} | {rate(old['caught'], old['clean'])} "
+                             f"| {rate(counts['caught'], counts['clean'])} |")
+    lines += ["", "Verdicts that differ:", ""]
+    lines += [f"- {line}" for line in verdict_changes(rows, args.store / args.compare) or ["none"]]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    from benchmarks.broken_twins import KINDS
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--half", choices=("tune", "holdout", "all", "none"), default="all",
+                        help="which half of partnet_dev (none: skip it)")
+    parser.add_argument("--no-real", dest="real", action="store_false", help="skip ../shared/real_objects")
+    parser.add_argument("--cases", nargs="*", type=Path, default=[], help="prepared benchmarks: their cases/*/gt")
+    parser.add_argument("--ids", nargs="*", default=None, help="only these object or case ids")
+    parser.add_argument("--kinds", nargs="*", default=list(KINDS), choices=KINDS, help="kinds of break")
+    parser.add_argument("--jobs", type=int, default=2, help="objects measured at once")
+    parser.add_argument("--home", type=Path, default=Path(tempfile.gettempdir()) / "spark_check_validity_home",
+                        help="$SPARK_BENCH_HOME of the checks (their CoACD cache)")
+    parser.add_argument("--store", type=Path, default=Path(tempfile.gettempdir()) / "spark_check_validity",
+                        help="per-object results, under STORE/LABEL/")
+    parser.add_argument("--label", default="current", help="name of this run's results")
+    parser.add_argument("--compare", default=None,
+                        help="report this label's catch rates and changed verdicts beside this run's")
+    parser.add_argument("--fresh", action="store_true", help="measure objects that have a stored result again")
+    parser.add_argument("--timeout", type=float, default=3600.0, help="seconds one object may take")
+    parser.add_argument("--out", type=Path, default=RESULTS, help="report path without suffix ('-': none)")
+    parser.add_argument("--one", type=Path, default=None, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.one is not None:  # the child: one object, its result written to --out
+        row = measure_object(args.one, tuple(args.kinds))
+        row["cpu_s"] = round(cpu_seconds(), 1)
+        Path(args.out).write_text(json.dumps(row, indent=1))
+        return 0
+    objects = object_sets(args)
+    if not objects:
+        print("nothing to measure (shared objects absent?)")
+        return 0
+    rows = run_all(objects, args.store / args.label, args)
+    summary = summarize(rows, tuple(args.kinds))
+    text = markdown(summary, rows, args)
+    if args.compare:
+        text += comparison(rows, summary, args)
+    print(text.split("## Intact objects")[0])
+    if str(args.out) != "-":
+        Path(f"{args.out}.md").write_text(text)
+        plain = {name: {**entry, "kinds": {k: dict(c) for k, c in entry["kinds"].items()}}
+                 for name, entry in summary.items()}
+        Path(f"{args.out}.json").write_text(json.dumps({"label": args.label, "summary": plain,
+                                                        "objects": rows}, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
