@@ -11,6 +11,9 @@
   joints scored out of all of them, and what left the others out. An opening score's case value is
   itself over the case's scored joints (:mod:`spark_bench.opening.judge`): a case whose every drawer and door
   is left out gives none.
+- The PhysX sim pass (``eval --engine physx|all``, each row's ``checks["sim_physx"]``): a rate as the others,
+  over the cases with a PhysX verdict, beside its coverage (``physx_coverage``: :func:`physx_coverage`); rows
+  of runs without PhysX have neither.
 
 Rows scored under different metric conventions (the ``convention`` column) are never averaged together.
 """
@@ -49,6 +52,12 @@ RL_RATES = {"rl_success_rate": "success_rate", "rl_zero_shot_success_rate": "zer
 #: The opening score under ManiSkill3's success rule (75 % of the range and the part nearly still; the opening
 #: score's ``success_rate_maniskill``, ``docs/protocols.md``), over the same joints as ``open_success_rate``.
 MANISKILL_RATE = "open_success_rate_maniskill"
+#: The sim pass in PhysX (``eval --engine physx|all``: :mod:`spark_bench.sim.physx`, stored in each row's
+#: ``checks[PHYSX_CHECK]``) and its coverage: the summary keys.
+PHYSX_RATE = "sim_pass_rate_physx"
+PHYSX_COVERAGE = "physx_coverage"
+#: The key of a row's ``checks`` that holds the PhysX checks' report.
+PHYSX_CHECK = "sim_physx"
 
 
 def _rate(rows: Sequence[dict], value) -> float | None:
@@ -94,6 +103,18 @@ def joint_coverage(rows: Sequence[dict], check: str) -> dict | None:
                 scored_by[effector] = scored_by.get(effector, 0) + 1
     return {"joints_scored": scored, "joints_total": total, "left_out_kinds": dict(sorted(kinds.items())),
             "scored_by": dict(sorted(scored_by.items())), "cases": len(results)}
+
+
+def physx_coverage(rows: Sequence[dict]) -> dict | None:
+    """How many cases of a run have a PhysX verdict: ``{"with_verdict", "cases"}``, ``cases`` every row of the run
+    (a failed case has none; nor has a case whose worker had no SAPIEN, ``skipped``); None when no row has one
+    (a run without ``--engine physx|all``, or rows stored before it).
+
+    :param rows: result rows of one run and variant
+    """
+    verdict = _check_value(PHYSX_CHECK, "passed")
+    counted = sum(r["status"] == "ok" and verdict(r) is not None for r in rows)
+    return {"with_verdict": counted, "cases": len(rows)} if counted else None
 
 
 def alignment_scales(rows: Sequence[dict]) -> dict | None:
@@ -151,7 +172,8 @@ def by_part_class(rows: Sequence[dict]) -> dict[str, dict]:
     return mean_by_part_class(joint_records(rows))
 
 
-def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (), rl: bool = False) -> dict:
+def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (), rl: bool = False,
+              physx: bool = False) -> dict:
     """The per-benchmark metrics of one run's rows (one variant), keys
     :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``, + :data:`RL_RATES`), then :data:`JOINT_MEAN`;
     with ``sim`` also :data:`MANISKILL_RATE` (None for rows stored before it was recorded) and
@@ -163,6 +185,8 @@ def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (),
     :param extra: further keys: ``cd_open``
     :param rl: add the RL transfer rates (each None when no case was scored: no ``--rl``, or no drawer or
         door anywhere; a failed case counts as not opened)
+    :param physx: add :data:`PHYSX_RATE` after ``sim_pass_rate`` and :data:`PHYSX_COVERAGE` (:func:`physx_coverage`),
+        each None where no row has a PhysX verdict; without it the summary is the one runs without PhysX have
     :raises SparkBenchError: for rows of several metric conventions
     """
     check_convention(rows)
@@ -174,6 +198,8 @@ def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (),
     for key in ARTICULATION_KEYS:
         out[key] = _mean(_value(r, key) for r in ok if articulation_valid(r))
     out["sim_pass_rate"] = _rate(rows, lambda r: r.get("sim_pass")) if sim else None
+    if physx:
+        out[PHYSX_RATE] = _rate(rows, _check_value(PHYSX_CHECK, "passed")) if sim else None
     out["open_success_rate"] = _rate(rows, lambda r: r.get("open_success")) if sim else None
     if "cd_open" in extra:
         out["cd_open"] = _mean(_value(r, "cd_open") for r in shape_ok)
@@ -183,6 +209,8 @@ def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (),
     if sim:
         out[MANISKILL_RATE] = _rate(rows, _check_value("open", "success_rate_maniskill"))
         out["open_coverage"] = joint_coverage(rows, "open")
+    if physx:
+        out[PHYSX_COVERAGE] = physx_coverage(rows) if sim else None
     if rl:
         for key, result_key in RL_RATES.items():
             out[key] = _rate(rows, _check_value("rl", result_key))

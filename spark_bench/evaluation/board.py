@@ -9,7 +9,13 @@ import math
 from dataclasses import dataclass, field, replace
 
 from spark_bench.convention import CONVENTION_VERSION
-from spark_bench.evaluation.aggregate import MANISKILL_RATE, RL_RATES, by_part_class
+from spark_bench.evaluation.aggregate import (
+    MANISKILL_RATE,
+    PHYSX_COVERAGE,
+    PHYSX_RATE,
+    RL_RATES,
+    by_part_class,
+)
 from spark_bench.metrics.names import (
     ARTICULATION_KEYS,
     HEADLINE_KEYS,
@@ -29,6 +35,9 @@ LATEX_HEADERS = {key: header(key, r"$\uparrow$", r"$\downarrow$") for key in HEA
 #: The coverage beside each opening rate (:func:`spark_bench.evaluation.aggregate.joint_coverage`): the rate's
 #: key -> its coverage key and the count column's header.
 COVERAGE = {"open_success_rate": ("open_coverage", "Open joints"), "rl_success_rate": ("rl_coverage", "RL joints")}
+#: The header of the count beside the PhysX sim pass: the cases with a PhysX verdict, of the run's
+#: (:func:`spark_bench.evaluation.aggregate.physx_coverage`, :func:`fmt_physx_coverage`).
+PHYSX_HEADER = "PhysX cases"
 #: The header of the scale ``--align icp`` applied (:func:`fmt_scale`), shown where any entry was aligned.
 SCALE_HEADER = "ICP scale"
 #: The paper's colours for best (Palette5) and second best (Palette4).
@@ -101,7 +110,8 @@ class Table:
         if self.joints:
             return ["Joints"]
         scale = [SCALE_HEADER] if self.aligned else []
-        return ["Cases", "Failed", *(COVERAGE[m][1] for m in self.metrics if m in COVERAGE), *scale]
+        physx = [PHYSX_HEADER] if PHYSX_RATE in self.metrics else []
+        return ["Cases", "Failed", *physx, *(COVERAGE[m][1] for m in self.metrics if m in COVERAGE), *scale]
 
     def count_cells(self, entry: Entry) -> list[str]:
         """The count cells of ``entry``, see :meth:`count_headers`."""
@@ -109,7 +119,8 @@ class Table:
             return [str(entry.metrics.get("n_joints", 0))]
         covered = [fmt_coverage(entry.metrics.get(COVERAGE[m][0])) for m in self.metrics if m in COVERAGE]
         scale = [fmt_scale(entry.metrics.get("alignment_scale"))] if self.aligned else []
-        return [str(entry.n_cases), str(entry.n_failed), *covered, *scale]
+        physx = [fmt_physx_coverage(entry.metrics.get(PHYSX_COVERAGE))] if PHYSX_RATE in self.metrics else []
+        return [str(entry.n_cases), str(entry.n_failed), *physx, *covered, *scale]
 
     @property
     def aligned(self) -> bool:
@@ -152,6 +163,8 @@ class Leaderboard:
     def tables(self, entries: list[Entry] | None = None) -> list[Table]:
         entries = self.entries if entries is None else entries
         sim_keys = list(RATE_KEYS)
+        if self.has_physx(entries):  # beside MuJoCo's sim pass; absent from boards of runs without PhysX
+            sim_keys.insert(sim_keys.index("sim_pass_rate") + 1, PHYSX_RATE)
         if any(e.metrics.get(MANISKILL_RATE) is not None for e in entries):
             sim_keys.append(MANISKILL_RATE)  # beside spark-bench's own rule, over the same joints
         if self.has_rl(entries):
@@ -159,6 +172,10 @@ class Leaderboard:
         return [Table("shape", "Shape reconstruction", SHAPE_KEYS, entries),
                 Table("articulation", "URDF parameter estimation", ARTICULATION_KEYS, entries),
                 Table("sim", "Sim-readiness", tuple(sim_keys), entries)]
+
+    def has_physx(self, entries: list[Entry] | None = None) -> bool:
+        """Whether any entry has a PhysX sim pass (``eval --engine physx|all``)."""
+        return any(e.metrics.get(PHYSX_RATE) is not None for e in (self.entries if entries is None else entries))
 
     def has_rl(self, entries: list[Entry] | None = None) -> bool:
         """Whether any entry has an RL transfer score (``eval --rl``)."""
@@ -182,8 +199,8 @@ class Leaderboard:
     def notes(self) -> list[str]:
         """What every rendering says under its tables: how the articulation errors are averaged, what the
         open-success column measures, the metric convention and the rows of other conventions left out."""
-        notes = [ARTICULATION_NOTE, OPEN_SUCCESS_NOTE, *([RL_NOTE] if self.has_rl() else []),
-                 f"Metric convention: {self.convention}."]
+        notes = [ARTICULATION_NOTE, OPEN_SUCCESS_NOTE, *([PHYSX_NOTE] if self.has_physx() else []),
+                 *([RL_NOTE] if self.has_rl() else []), f"Metric convention: {self.convention}."]
         if self.left_out:
             scored = ", ".join(f"{n} under {c or 'no convention'}" for c, n in sorted(self.left_out.items()))
             notes.append(f"Not shown: {sum(self.left_out.values())} result rows scored under older metric "
@@ -290,6 +307,20 @@ def fmt_coverage(coverage: dict | None) -> str:
     return f"{coverage['joints_scored']}/{coverage['joints_total']}" + (f" ({cup} by cup)" if cup else "")
 
 
+def fmt_physx_coverage(coverage: dict | None) -> str:
+    """The PhysX sim pass's coverage for a table: ``with_verdict/cases`` (``48/50``), ``n/a`` for a run without
+    PhysX.
+
+    :param coverage: :func:`spark_bench.evaluation.aggregate.physx_coverage`'s result
+    """
+    return f"{coverage['with_verdict']}/{coverage['cases']}" if coverage else "n/a"
+
+
+def physx_coverage_line(coverage: dict | None) -> str:
+    """The PhysX sim pass's coverage in words: ``48/50 cases with a PhysX verdict``."""
+    return f"{fmt_physx_coverage(coverage)} cases with a PhysX verdict" if coverage else "n/a"
+
+
 def fmt_scale(scales: dict | None) -> str:
     """The scales ``--align icp`` applied to a run's predictions: ``1.00 (0.90-1.10)``, the median and the
     range over its aligned cases; ``none`` for a run scored without alignment.
@@ -338,6 +369,10 @@ OPEN_SUCCESS_NOTE = ("Open success: the scripted opener, planned from the predic
                      "(RL joints likewise for the RL columns). Open success (ManiSkill rule): the same episodes "
                      "judged as ManiSkill3's OpenCabinetDrawer-v1 judges success (75 % of the range and the part "
                      "nearly still, |v| <= 0.1 m/s and |w| <= 1 rad/s), shown where the rows record it.")
+#: What the PhysX column measures, under every rendering of tables that show it.
+PHYSX_NOTE = ("Sim pass (PhysX): the same sim-readiness checks on the same collision hulls and masses, run in PhysX "
+              "(SAPIEN 3 on the CPU) by `eval --engine physx|all`; a failed case counts as not passed, and PhysX "
+              "cases says how many of the run's cases have a PhysX verdict. Sim pass is MuJoCo's.")
 #: What the RL columns measure, under every rendering of tables that show them.
 RL_NOTE = ("RL success: the shipped generalist opening policy (spark_bench.rl.generalist), fine-tuned for a few "
            "thousand steps on the predicted object and told the predicted joint, opening each ground-truth drawer "

@@ -4,7 +4,10 @@
 rows, so it runs in a process pool or as a Ray task. A failing stage fails the case with a one-line reason;
 the run goes on. The ground truth is loaded once, as stored (``gt_bench``: the benchmark frame), for the
 metrics; the opening scores bring it to metres themselves. Every row records where it ran and the package
-versions and CPU kernels its verdicts were made with (:func:`spark_bench.versions.verdict_versions`).
+versions and CPU kernels its verdicts were made with (:func:`spark_bench.versions.verdict_versions`). The sim
+checks run in the engines the run asks for (``eval --engine``): MuJoCo's verdict is the row's ``sim_pass`` and
+``checks["sim"]``; PhysX's, where asked, ``checks["sim_physx"]`` (its report, ``passed`` and the SAPIEN release),
+and a row of a run without PhysX has no such key.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from spark_bench.convention import CONVENTION_VERSION
 from spark_bench.data.case import BenchmarkCase
 from spark_bench.data.readers import read_json
 from spark_bench.errors import InputError, SparkBenchError
+from spark_bench.evaluation.aggregate import PHYSX_CHECK
 from spark_bench.evaluation.store import now
 from spark_bench.evaluation.tasks import CaseTask, EvalOptions
 from spark_bench.jsonio import to_json_text
@@ -159,6 +163,20 @@ def _sim_checks(pred_folder: Path) -> dict:
     return out
 
 
+def _physx_checks(pred_folder: Path) -> dict:
+    """The PhysX checks of the prediction (:func:`spark_bench.sim.physx.engines.run_physx_checks`: the hulls and
+    masses MuJoCo's checks made, from the shape cache), with the SAPIEN release they ran on."""
+    from importlib import metadata
+
+    from spark_bench.sim.physx.engines import run_physx_checks
+
+    report = run_physx_checks(pred_folder)
+    out = report.to_dict()
+    out["passed"] = bool(report.passed)
+    out["sapien"] = metadata.version("sapien")
+    return out
+
+
 def _load_pairing(pred_folder: Path, gt_folder: Path, metrics: dict, gt_bench):
     from spark_bench.opening.pairing import load_pairing
 
@@ -189,18 +207,23 @@ def _success_rate(result: dict) -> float | None:
 def _check_stage(stages: _Stages, name: str, fn: Callable, *args) -> dict:
     """A sim-readiness stage; it never fails the case (the metrics stand on their own).
 
-    An exception in the checks of the prediction (``sim``) means it is not sim-ready (``passed``
-    False, ``error`` says why). The opening stages act on the ground truth: an exception there is not
-    the method's doing, so it is recorded without a success rate. A stage whose module is not installed
-    is skipped.
+    An exception in the checks of the prediction (``sim``, and ``sim_physx`` in PhysX) means it is not
+    sim-ready (``passed`` False, ``error`` says why). The opening stages act on the ground truth: an exception
+    there is not the method's doing, so it is recorded without a success rate. A stage whose module is not
+    installed is skipped, and so are the PhysX checks on a worker without SAPIEN (no verdict: the coverage
+    shows it).
     """
+    from spark_bench.sim.physx import SapienMissing
+
     try:
         return stages(name, fn, *args)
     except StageError as exc:
         cause = exc.__cause__
         if isinstance(cause, ImportError) and (cause.name or "").startswith("spark_bench."):
             return {"skipped": f"{cause.name} is not installed"}
-        if name == "sim":
+        if isinstance(cause, SapienMissing):
+            return {"skipped": exc.reason}
+        if name in ("sim", PHYSX_CHECK):
             return {"passed": False, "error": exc.reason}
         return {"success_rate": None, "error": exc.reason}
 
@@ -239,8 +262,11 @@ def evaluate_case(task: CaseTask) -> list[dict]:
         # next (a real object's source takes seconds); a load that fails is not kept: each stage fails on its own
         pairing = cache(partial(_load_pairing, generation.folder, gt_folder, metrics, gt_bench))
         if task.options.sim:
-            checks["sim"] = _check_stage(stages, "sim", _sim_checks, generation.folder)
-            row["sim_pass"] = checks["sim"].get("passed")
+            if "mujoco" in task.options.engines:
+                checks["sim"] = _check_stage(stages, "sim", _sim_checks, generation.folder)
+                row["sim_pass"] = checks["sim"].get("passed")
+            if task.options.physx:  # after MuJoCo's: its hulls come from the shape cache
+                checks[PHYSX_CHECK] = _check_stage(stages, PHYSX_CHECK, _physx_checks, generation.folder)
             checks["open"] = _check_stage(stages, "open", _scripted_open, generation.folder, gt_folder, metrics,
                                           task.options.seed, pairing)
             row["open_success"] = _success_rate(checks["open"])

@@ -27,6 +27,10 @@ def add_commands(subparsers) -> None:
     p.add_argument("--regime", help="input regime of external predictions (default: image)")
     p.add_argument("--sim", action=argparse.BooleanOptionalAction, default=True,
                    help="run sim-readiness checks and the scripted opener (default: on)")
+    p.add_argument("--engine", choices=("mujoco", "physx", "all"), default="mujoco",
+                   help="the simulator(s) the sim checks run in (default mujoco; physx: PhysX through SAPIEN 3 on "
+                        'the CPU, pip install -e ".[physx]"; all: both). A run with PhysX is a run of its own beside '
+                        "the MuJoCo-only one (docs/commands.md)")
     p.add_argument("--rl", action="store_true",
                    help="also the RL transfer score: the shipped opening policy fine-tuned on the prediction, "
                         "run on the ground truth (zero-shot and fine-tuned)")
@@ -87,12 +91,35 @@ def _db(args) -> Path:
     return Path(args.db).expanduser() if args.db else default_db()
 
 
+def _engines(args) -> tuple[str, ...]:
+    """The engines of ``eval --engine``; PhysX's needs the sim stage and SAPIEN (found, not imported: the pool's
+    workers are forked from this process).
+
+    :raises SparkBenchError: ``--no-sim`` with PhysX asked for
+    :raises SapienMissing: SAPIEN is not installed (one line: what to install)
+    """
+    import importlib.util
+
+    from spark_bench.errors import SparkBenchError
+    from spark_bench.sim.physx import INSTALL_HINT, SapienMissing
+    from spark_bench.sim.physx.engines import engine_names
+
+    engines = engine_names(args.engine)
+    if "physx" in engines and not args.sim:
+        raise SparkBenchError(f"--engine {args.engine} runs the sim checks: leave out --no-sim")
+    found = sys.modules["sapien"] is not None if "sapien" in sys.modules else importlib.util.find_spec("sapien")
+    if "physx" in engines and not found:
+        raise SapienMissing(INSTALL_HINT)
+    return engines
+
+
 def run_eval_command(args) -> int:
     from spark_bench.evaluation.runner import EvalOptions, run_eval, usable_cores
     from spark_bench.methods.base import MethodSpec
     from spark_bench.metrics.protocols import protocol_names
 
     protocols = tuple(protocol_names(args.protocol)) if args.protocol else ()  # an unknown name fails first
+    engines = _engines(args)
 
     def absolute(path: str | None) -> str | None:  # workers may run elsewhere: no relative paths
         return str(Path(path).expanduser().resolve()) if path else None
@@ -102,7 +129,7 @@ def run_eval_command(args) -> int:
                              config=absolute(args.config), label=args.label, regime=args.regime,
                              gallery=absolute(args.gallery))
     options = EvalOptions(sim=args.sim, rl=args.rl, n_samples=args.n_samples, seed=args.seed, align=args.align,
-                          protocols=protocols,
+                          protocols=protocols, engines=engines,
                           **({} if args.rl_finetune_steps is None else {"rl_finetune_steps": args.rl_finetune_steps}))
     cases = [c for c in args.cases.split(",") if c] if args.cases else None
     workers = usable_cores() if args.workers is None else args.workers
@@ -112,9 +139,12 @@ def run_eval_command(args) -> int:
     if args.json:
         print(json.dumps(summary.to_json()))
         return 0
-    from spark_bench.evaluation.board import coverage_line, fmt_scale, fmt_value
+    from spark_bench.evaluation.aggregate import PHYSX_COVERAGE
+    from spark_bench.evaluation.board import coverage_line, fmt_scale, fmt_value, physx_coverage_line
 
     def shown(key: str, value) -> str:
+        if key == PHYSX_COVERAGE:
+            return physx_coverage_line(value)
         if key.endswith("_coverage"):
             return coverage_line(value)
         if key == "alignment_scale":

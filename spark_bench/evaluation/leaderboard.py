@@ -5,7 +5,9 @@ Three tables, one row per method label, variant and input regime (the latest run
 1. shape (paper Table 1): CD, F-Score@0.1, F-Score@0.5;
 2. articulation (paper Table 2): AxisErr, PivotErr, TypeErr;
 3. sim-readiness: sim pass rate, scripted-opening success (and, when measured, the RL transfer score,
-   fine-tuned and zero-shot, beside it; the oracle's row is the policy's ceiling).
+   fine-tuned and zero-shot, beside it; the oracle's row is the policy's ceiling). Where some run checked its
+   predictions in PhysX too (``eval --engine physx|all``), the PhysX sim pass beside MuJoCo's, with how many
+   cases have a PhysX verdict (the LaTeX caption says it).
 
 Only rows of the current metric convention (:data:`spark_bench.CONVENTION_VERSION`) are shown; the note
 under the tables counts the rows of older conventions left out. The articulation errors are per object
@@ -28,7 +30,7 @@ from pathlib import Path
 
 from spark_bench.convention import CONVENTION_VERSION
 from spark_bench.errors import SparkBenchError
-from spark_bench.evaluation.aggregate import summarize
+from spark_bench.evaluation.aggregate import PHYSX_COVERAGE, PHYSX_RATE, summarize
 from spark_bench.evaluation.board import (
     COVERAGE,
     HEADERS,
@@ -38,6 +40,7 @@ from spark_bench.evaluation.board import (
     Entry,
     Leaderboard,
     Table,
+    fmt_physx_coverage,
     fmt_value,
     is_number,
     mark_version_mismatches,
@@ -64,7 +67,7 @@ def _entries(rows: list[dict]) -> list[Entry]:
         run_rows = runs[(label, variant, chash)]
         first = run_rows[0]
         # a rate whose stage never ran in this run is None (n/a) on its own
-        metrics = summarize(run_rows, sim=True, extra=("cd_open",), rl=True)
+        metrics = summarize(run_rows, sim=True, extra=("cd_open",), rl=True, physx=True)
         out.append(Entry(label, variant, first["regime"], first["method"], first["method_version"], chash,
                          len(run_rows), sum(r["status"] == "failed" for r in run_rows), metrics, run_rows))
     # references first, then by label; a variant right after its method
@@ -220,6 +223,15 @@ def _latex_table(table: Table, caption: str, label: str) -> str:
     return "\n".join(lines)
 
 
+def _physx_caption(table: Table) -> str:
+    """The coverage of a table's PhysX sim pass, for its LaTeX caption (the LaTeX tables have no count columns):
+    `` Sim pass (PhysX) over the cases with a PhysX verdict: A 48/50, B 50/50.``; empty without the column."""
+    if PHYSX_RATE not in table.metrics:
+        return ""
+    covered = ", ".join(f"{e.name} {fmt_physx_coverage(e.metrics.get(PHYSX_COVERAGE))}" for e in table.entries)
+    return f" Sim pass (PhysX) over the cases with a PhysX verdict: {covered}."
+
+
 def to_latex(board: Leaderboard, per_category: bool = False, per_part_class: bool = False) -> str:
     """LaTeX tables in the paper's style (needs ``\\usepackage[table]{xcolor}`` and the palette below);
     the notes as comments at the end."""
@@ -227,11 +239,12 @@ def to_latex(board: Leaderboard, per_category: bool = False, per_part_class: boo
              r"% needs \usepackage[table]{xcolor} and the paper's colours:",
              *[rf"\providecolor{{{name}}}{{RGB}}{{{r},{g},{b}}}" for name, (r, g, b) in PALETTE.items()], ""]
     for table in board.tables():
-        parts += [_latex_table(table, f"{table.title} on {board.bench}.", f"tab:{table.key}"), ""]
+        parts += [_latex_table(table, f"{table.title} on {board.bench}.{_physx_caption(table)}",
+                               f"tab:{table.key}"), ""]
     if per_category:
         for category, entries in board.categories.items():
             for table in board.tables(entries):
-                parts += [_latex_table(table, f"{table.title}: {category}.",
+                parts += [_latex_table(table, f"{table.title}: {category}.{_physx_caption(table)}",
                                        f"tab:{table.key}-{category.lower()}"), ""]
     if per_part_class:
         for table in _part_class_tables(board):
@@ -243,16 +256,23 @@ def to_latex(board: Leaderboard, per_category: bool = False, per_part_class: boo
 
 #: The CSV columns of the scale ``--align icp`` applied (n/a for a run scored without alignment).
 SCALE_COLUMNS = ("alignment_scale_median", "alignment_scale_min", "alignment_scale_max")
+#: The CSV columns of the PhysX sim pass's coverage (:func:`spark_bench.evaluation.aggregate.physx_coverage`),
+#: written only where some entry has a PhysX sim pass.
+PHYSX_COVERAGE_COLUMNS = ("physx_coverage_with_verdict", "physx_coverage_cases")
 
 
 def to_csv(board: Leaderboard, per_category: bool = False, per_part_class: bool = False) -> str:
     """One CSV line per entry (and per category and entry with ``per_category``); every metric. With
     ``per_part_class`` two more columns, ``part_class`` and ``n_joints``, and one more line per GAPartNet part
-    class and entry (its articulation errors over the joints of that class; the other metrics n/a)."""
-    keys = list(HEADLINE_KEYS)
+    class and entry (its articulation errors over the joints of that class; the other metrics n/a). Where some
+    entry has a PhysX sim pass, its column and :data:`PHYSX_COVERAGE_COLUMNS` (else neither: the columns of a
+    board without PhysX)."""
+    physx = board.has_physx()
+    keys = [k for k in HEADLINE_KEYS if k != PHYSX_RATE or physx]
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     coverage = [name for key, _ in COVERAGE.values() for name in (f"{key}_scored", f"{key}_total")]
+    coverage += list(PHYSX_COVERAGE_COLUMNS) if physx else []
     writer.writerow(["bench", "category", "method", "label", "variant", "regime", "version", "config_hash",
                      "n_cases", "n_failed", *keys, *coverage, *SCALE_COLUMNS,
                      *(["part_class", "n_joints"] if per_part_class else [])])
@@ -262,6 +282,9 @@ def to_csv(board: Leaderboard, per_category: bool = False, per_part_class: bool 
         for key, _ in COVERAGE.values():
             found = metrics.get(key) or {}
             numbers += [str(found.get("joints_scored", "n/a")), str(found.get("joints_total", "n/a"))]
+        if physx:
+            found = metrics.get(PHYSX_COVERAGE) or {}
+            numbers += [str(found.get("with_verdict", "n/a")), str(found.get("cases", "n/a"))]
         scales = metrics.get("alignment_scale") or {}
         numbers += [repr(float(scales[k])) if k in scales else "n/a" for k in ("median", "min", "max")]
         return numbers

@@ -2,8 +2,9 @@
 
 Per case (:func:`~spark_bench.evaluation.case_eval.evaluate_case`, plain data in and out, so it runs in a
 process pool or as a Ray task): generate (cached under ``runs/<bench>/<label>-<hash>/<case>/``), load, shape
-and articulation metrics, sim-readiness checks, the scripted opener with the predicted joints against the
-ground-truth object, and, with ``rl``, the RL transfer score.
+and articulation metrics, sim-readiness checks (in MuJoCo, and in PhysX where ``options.engines`` asks), the
+scripted opener with the predicted joints against the ground-truth object, and, with ``rl``, the RL transfer
+score.
 
 The driver (:func:`run_eval`) skips cases whose result is already stored (resume), hands the others to an
 executor (:mod:`spark_bench.evaluation.executors`: a process pool, or Ray), writes each result as it
@@ -189,7 +190,8 @@ def run_eval(spec: MethodSpec, bench: str | None = None, options: EvalOptions | 
     from spark_bench.evaluation.aggregate import summarize
 
     main_rows = [r for r in rows if r["variant"] == ""]
-    metrics = summarize(main_rows, sim=options.sim, rl=options.rl)  # with --rl always both RL keys
+    # with --rl always both RL keys; with --engine physx|all the PhysX sim pass and its coverage
+    metrics = summarize(main_rows, sim=options.sim, rl=options.rl, physx=options.physx)
     return EvalSummary(run=run, n_cases=len(all_ids), n_failed=sum(r["status"] == "failed" for r in main_rows),
                        n_skipped=len(all_ids) - len(tasks), metrics=metrics,
                        failures={r["case_id"]: f"{r['stage']}: {r['reason']}" for r in main_rows

@@ -8,6 +8,9 @@ from dataclasses import asdict, dataclass
 from spark_bench.methods.base import MethodSpec
 from spark_bench.rl import FINETUNE_STEPS
 
+#: The engines the sim stage runs its checks in unless told otherwise (``eval --engine``): MuJoCo's alone.
+DEFAULT_ENGINES = ("mujoco",)
+
 
 @dataclass(frozen=True)
 class EvalOptions:
@@ -22,6 +25,10 @@ class EvalOptions:
     :param rl_finetune_steps: fine-tuning steps per policy kind with ``rl`` (0: zero-shot only)
     :param protocols: papers' metric protocols to score each case under as well
         (:mod:`spark_bench.metrics.protocols`), stored in the row's ``metrics["protocols"]``; none by default
+    :param engines: the engines the sim checks run in (``mujoco``, ``physx``; ``eval --engine``): MuJoCo's verdict
+        is the row's ``sim_pass`` and ``checks["sim"]``, PhysX's the row's ``checks["sim_physx"]``
+        (:mod:`spark_bench.sim.physx`). Part of the run's identity only when not MuJoCo's alone, so a run with
+        PhysX is a run of its own beside the MuJoCo-only one, and the MuJoCo-only run keeps its rows and its hash
     """
 
     sim: bool = True
@@ -31,6 +38,7 @@ class EvalOptions:
     align: str = "none"
     rl_finetune_steps: int = FINETUNE_STEPS
     protocols: tuple[str, ...] = ()
+    engines: tuple[str, ...] = DEFAULT_ENGINES
 
     def identity(self) -> dict:
         out = asdict(self)
@@ -40,7 +48,16 @@ class EvalOptions:
             out.pop("protocols")
         else:
             out["protocols"] = list(self.protocols)
+        if tuple(self.engines) == DEFAULT_ENGINES:  # MuJoCo alone keeps the identity it had before engines existed
+            out.pop("engines")
+        else:
+            out["engines"] = list(self.engines)
         return out
+
+    @property
+    def physx(self) -> bool:
+        """Whether the sim stage runs the PhysX checks."""
+        return self.sim and "physx" in self.engines
 
 
 @dataclass(frozen=True)

@@ -40,7 +40,7 @@ class Headline:
     :param higher_is_better: which way is better (the header's arrow, the best / second-best marks)
     :param table: the leaderboard table it belongs to: ``shape``, ``articulation`` or ``sim``
     :param column: its column in the results store (None: a rate, aggregated from the check columns)
-    :param summary: part of every run's summary (False: ``cd_open`` and the RL transfer
+    :param summary: part of every run's summary (False: ``cd_open``, the PhysX sim pass and the RL transfer
         rates, added on request)
     """
 
@@ -62,6 +62,7 @@ HEADLINE = (
     Headline("pivot_err", "PivotErr", False, "articulation", "pivot_err"),
     Headline("type_err", "TypeErr", False, "articulation", "type_err"),
     Headline("sim_pass_rate", "Sim pass", True, "sim"),
+    Headline("sim_pass_rate_physx", "Sim pass (PhysX)", True, "sim", summary=False),
     Headline("open_success_rate", "Open success", True, "sim"),
     Headline("open_success_rate_maniskill", "Open success (ManiSkill rule)", True, "sim", summary=False),
     Headline("rl_success_rate", "RL success", True, "sim", summary=False),

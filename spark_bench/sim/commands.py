@@ -20,9 +20,10 @@ def add_commands(subparsers) -> None:
     convert = subparsers.add_parser(
         "convert", help="object folder, URDF, MJCF or USD -> a sim-ready MJCF, URDF or USD with convex hulls",
         description="Write DIR/model.xml (MuJoCo), DIR/model.urdf (PyBullet), DIR/meshes/ and "
-                    "DIR/conversion.json; --to urdf adds DIR/object.urdf (fixed base, loads in PyBullet and "
-                    "MuJoCo), --to usd DIR/object.usda (UsdPhysics articulation for Isaac Sim). CoACD results "
-                    "are cached under $SPARK_BENCH_HOME/coacd.")
+                    "DIR/conversion.json; --to urdf adds DIR/object.urdf (fixed base, loads in PyBullet, "
+                    "MuJoCo and SAPIEN), --to usd DIR/object.usda (UsdPhysics articulation for Isaac Sim); their "
+                    "hulls are within PhysX's 255 vertices and 255 polygons (one over them split, as "
+                    "conversion.json's \"export\" says). CoACD results are cached under $SPARK_BENCH_HOME/coacd.")
     convert.add_argument("src", type=Path, help="object folder (mobility.urdf inside), or a URDF, MJCF (.xml) "
                                                 "or USD (.usd/.usda/.usdc) file, read as it lies")
     convert.add_argument("--out", type=Path, required=True, help="output folder")
@@ -42,6 +43,9 @@ def add_commands(subparsers) -> None:
     check.add_argument("--to", choices=EXPORT_FORMATS, default="mjcf", help="the format --export writes")
     check.add_argument("--json", action="store_true",
                        help='print {"passed": bool, "checks": {name: {"passed", "value", ...}}}')
+    check.add_argument("--engine", choices=("mujoco", "physx", "all"), default="mujoco",
+                       help="the simulator(s) the checks run in (default mujoco; physx: SAPIEN 3 on the CPU, "
+                            'pip install -e ".[physx]"; all: both, each verdict per check)')
     check.add_argument("--render", nargs="?", type=Path, const=Path(""), default=None, metavar="PNG",
                        help="write a PNG strip: rest and each joint opened, visuals above, hulls below "
                             "(default name check_<object>.png)")
@@ -98,8 +102,17 @@ def run_convert(args) -> int:
         print(json.dumps(report, indent=1, sort_keys=True))
     else:
         print(f"{path}  ({sum(report['hulls'].values())} hulls, {report['coacd']['calls']} CoACD calls, "
-              f"{report['seconds']['total']:.2f} s)")
+              f"{report['seconds']['total']:.2f} s){_split_note(written)}")
     return 0
+
+
+def _split_note(written) -> str:
+    """What PhysX's hull limits did to an export's hulls, for its one line (empty when nothing was split)."""
+    hulls = written.physx_hulls
+    if hulls is None or not hulls.n_split:
+        return ""
+    return (f"; {hulls.n_split} hull(s) over PhysX's 255 vertices or polygons split into pieces within them "
+            f"({hulls.hulls} hulls written)")
 
 
 def _export_after_check(args, src) -> None:
@@ -107,7 +120,7 @@ def _export_after_check(args, src) -> None:
     from spark_bench.sim.export import export
 
     written = export(src, args.export, args.to, options_from_args(args), progress=False)
-    print(f"exported {written.model}", file=sys.stderr)
+    print(f"exported {written.model}{_split_note(written)}", file=sys.stderr)
 
 
 def run_check(args) -> int:
@@ -116,6 +129,9 @@ def run_check(args) -> int:
     render = None
     if args.render is not None:
         render = args.render if str(args.render) not in ("", ".") else Path(f"check_{Path(args.src).resolve().name}.png")
+    engine = getattr(args, "engine", "mujoco")
+    if engine != "mujoco":
+        return _run_engines_check(args, engine, render)
     src = source_of(args)
     report = run_checks(src, options_from_args(args), render=render, progress=not args.no_progress)
     if args.json:
@@ -135,3 +151,27 @@ def run_check(args) -> int:
         else:
             print(f"not exported to {args.export}: the check failed", file=sys.stderr)
     return 0 if report.passed else 1
+
+
+def _run_engines_check(args, engine: str, render: Path | None) -> int:
+    """``check --engine physx|all``: each engine's verdict per check (:mod:`spark_bench.sim.physx.engines`)."""
+    from spark_bench.sim.physx import sapien_module
+    from spark_bench.sim.physx.engines import check_engines, engine_names
+
+    engines = engine_names(engine)
+    if "physx" in engines:
+        sapien_module()  # SAPIEN missing: one line saying what to install, before anything is converted
+    src = source_of(args)
+    reports = check_engines(src, engines, options_from_args(args), render=render, progress=not args.no_progress)
+    if args.json:
+        print(json.dumps(reports.to_dict(), indent=1))
+    else:
+        print("\n".join(reports.lines()))
+        if render is not None:
+            print(f"wrote {render}", file=sys.stderr)
+    if args.export is not None:
+        if reports.passed:
+            _export_after_check(args, src)
+        else:
+            print(f"not exported to {args.export}: the check failed", file=sys.stderr)
+    return 0 if reports.passed else 1

@@ -13,8 +13,10 @@ Written as Infinigen-Sim's USD exporter (``princeton-vl/infinigen``,
   ``body0``): a fixed base;
 - per link a ``visual`` mesh and a ``collisions`` scope (purpose ``guide``) of convex hull meshes with
   ``CollisionAPI`` and ``MeshCollisionAPI`` ``physics:approximation = "convexHull"`` (primitives as
-  ``Cube``/``Sphere``/``Cylinder``): the very hulls of ``model.xml``; a physics material of the options'
-  friction bound to them;
+  ``Cube``/``Sphere``/``Cylinder``): the very hulls of ``model.xml`` (``hull_<k>``), but for a hull over PhysX's
+  255 vertices or 255 polygons, written as the pieces :func:`spark_bench.sim.physx.hulls.physx_shapes` splits it
+  into (``hull_<k>_<j>``, covering it exactly), which PhysX cooks as they are; a physics material of the
+  options' friction bound to them;
 - per joint a ``PhysicsRevoluteJoint``, ``PhysicsPrismaticJoint`` or ``PhysicsFixedJoint`` under ``joints/``:
   ``body0`` the parent link, ``body1`` the child; the axis one of the tokens X/Y/Z (the one nearest the
   joint's axis) with the joint's direction carried by ``localRot0``/``localRot1`` (the rotation taking the
@@ -37,7 +39,9 @@ import numpy as np
 from spark_bench.asset.joint_type import JointType
 from spark_bench.sim.mjcf import base_rotation
 from spark_bench.sim.physical import principal_inertia
+from spark_bench.sim.physx.hulls import physx_shapes, piece_names
 from spark_bench.sim.prepared import PreparedObject
+from spark_bench.sim.shapes import CollisionShape
 
 SIM_USD = "object.usda"
 TOKENS = ("X", "Y", "Z")
@@ -132,8 +136,9 @@ def _collision(stage, path: str, shape, material) -> None:
 
 
 def _link(stage, root_path: str, prim: str, name: str, prepared: PreparedObject, pose: np.ndarray,
-          material) -> str:
-    """The link's rigid body, mass, visual mesh and collision shapes; returns its prim path."""
+          material, pieces: list[tuple[int, CollisionShape]]) -> str:
+    """The link's rigid body, mass, visual mesh and collision shapes (``pieces``: its hulls as PhysX takes them);
+    returns its prim path."""
     from pxr import Gf, Sdf, UsdGeom, UsdPhysics
 
     path = f"{root_path}/{prim}"
@@ -152,12 +157,11 @@ def _link(stage, root_path: str, prim: str, name: str, prepared: PreparedObject,
     if visual is not None:
         mesh = _mesh(stage, f"{path}/visual", visual[0], visual[1])
         mesh.CreateDisplayColorAttr([Gf.Vec3f(*visual[2][:3])])
-    shapes = prepared.shapes.get(name, [])
-    if shapes:
+    if pieces:
         scope = UsdGeom.Scope.Define(stage, f"{path}/collisions")
         scope.CreatePurposeAttr(UsdGeom.Tokens.guide)  # hulls are not drawn with the visuals
-        for k, shape in enumerate(shapes):
-            _collision(stage, f"{path}/collisions/hull_{k}", shape, material)
+        for suffix, (_, shape) in zip(piece_names(pieces), pieces):
+            _collision(stage, f"{path}/collisions/hull_{suffix}", shape, material)
     return path
 
 
@@ -196,15 +200,19 @@ def _joint(stage, path: str, joint, prepared: PreparedObject, bodies: dict[str, 
             prim.CreateAttribute(f"spark:{key}", Sdf.ValueTypeNames.Double, custom=True).Set(float(value))
 
 
-def write_usd(prepared: PreparedObject, path: Path) -> Path:
+def write_usd(prepared: PreparedObject, path: Path,
+              pieces: dict[str, list[tuple[int, CollisionShape]]] | None = None) -> Path:
     """Write the prepared object as a USD stage (``.usda`` text, ``.usd``/``.usdc`` binary) at ``path``.
 
     :param prepared: output of :func:`spark_bench.sim.mjcf.prepare`
     :param path: the file to write (its folder is created)
+    :param pieces: the hulls as PhysX takes them (:func:`spark_bench.sim.physx.hulls.physx_shapes`), when the
+        caller has them
     """
     from pxr import Sdf, Usd, UsdGeom, UsdPhysics, UsdShade
 
     asset, options = prepared.asset, prepared.options
+    pieces = physx_shapes(prepared.shapes)[0] if pieces is None else pieces
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     stage = Usd.Stage.CreateInMemory()
@@ -223,8 +231,8 @@ def write_usd(prepared: PreparedObject, path: Path) -> Path:
     base[:3, :3], base[:3, 3] = base_rotation(options), np.asarray(options.base_pos, float)
     poses = asset.link_poses()
     link_prims = prim_names(list(asset.links))
-    bodies = {name: _link(stage, root_path, link_prims[name], name, prepared, base @ poses[name], material)
-              for name in asset.links}
+    bodies = {name: _link(stage, root_path, link_prims[name], name, prepared, base @ poses[name], material,
+                          pieces.get(name, [])) for name in asset.links}
     UsdPhysics.ArticulationRootAPI.Apply(stage.GetPrimAtPath(bodies[asset.root]))
     UsdGeom.Scope.Define(stage, f"{root_path}/joints")
     weld = UsdPhysics.FixedJoint.Define(stage, f"{root_path}/joints/root_joint")

@@ -19,6 +19,7 @@ from spark_bench.asset.transforms import matrix_to_rpy
 from spark_bench.sim.mjcf import write_obj_file
 from spark_bench.sim.physical import principal_inertia
 from spark_bench.sim.prepared import PreparedObject
+from spark_bench.sim.shapes import CollisionShape
 
 MESH_DIR = "meshes"
 
@@ -40,7 +41,8 @@ def _write_mesh(folder: Path, name: str, vertices, faces) -> str | None:
 
 
 def write_pybullet_urdf(prepared: PreparedObject, folder: Path, filename: str = "model.urdf",
-                        visuals: bool = True) -> Path:
+                        visuals: bool = True,
+                        collisions: dict[str, list[tuple[str, CollisionShape]]] | None = None) -> Path:
     """Write a URDF whose collisions are the prepared hulls (one OBJ each) into ``folder``.
 
     :param prepared: output of :func:`spark_bench.sim.mjcf.prepare`
@@ -48,6 +50,9 @@ def write_pybullet_urdf(prepared: PreparedObject, folder: Path, filename: str = 
     :param filename: URDF file name
     :param visuals: write the visual meshes too (the ``pybullet_loads`` check counts joints and
         collision shapes only, and skips them)
+    :param collisions: per link, the collision shapes to write instead of the prepared hulls, each with its name
+        (its ``<collision>``'s and its OBJ file's; a name of the MJCF's hulls shares its file); default: the
+        prepared hulls, named ``<link>_collision_<k>``
     """
     folder = Path(folder)
     (folder / MESH_DIR).mkdir(parents=True, exist_ok=True)
@@ -72,8 +77,10 @@ def write_pybullet_urdf(prepared: PreparedObject, folder: Path, filename: str = 
                 ET.SubElement(ET.SubElement(vis, "geometry"), "mesh", filename=rel)
                 material = ET.SubElement(vis, "material", name=f"{name}_material")
                 ET.SubElement(material, "color", rgba=" ".join(f"{c:.4g}" for c in visual[2]))
-        for k, shape in enumerate(prepared.shapes.get(name, [])):
-            col = ET.Element("collision", name=f"{name}_collision_{k}")
+        named = (collisions.get(name, []) if collisions is not None else
+                 [(f"{name}_collision_{k}", shape) for k, shape in enumerate(prepared.shapes.get(name, []))])
+        for col_name, shape in named:
+            col = ET.Element("collision", name=col_name)
             geometry = ET.Element("geometry")
             if shape.kind == "box":
                 ET.SubElement(geometry, "box", size=" ".join(f"{v:.9g}" for v in shape.size))
@@ -82,7 +89,7 @@ def write_pybullet_urdf(prepared: PreparedObject, folder: Path, filename: str = 
             elif shape.kind == "sphere":
                 ET.SubElement(geometry, "sphere", radius=f"{shape.size[0]:.9g}")
             else:
-                rel = _write_mesh(folder, f"{name}_collision_{k}", shape.vertices, shape.faces)
+                rel = _write_mesh(folder, col_name, shape.vertices, shape.faces)
                 if rel is None:
                     continue
                 ET.SubElement(geometry, "mesh", filename=rel)
