@@ -24,10 +24,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 import resource
-import subprocess
 import sys
 import tempfile
 import time
@@ -160,52 +158,20 @@ def cpu_seconds() -> float:
 
 def run_all(objects: list[tuple[str, str, Path]], store: Path, args) -> dict[str, dict]:
     """Measure every object in child processes (``args.jobs`` at once), reusing stored results."""
-    from tqdm import tqdm
+    from benchmarks.child_runs import run_in_children
 
-    store.mkdir(parents=True, exist_ok=True)
-    env = dict(os.environ, SPARK_BENCH_HOME=str(args.home))
-    rows: dict[str, dict] = {}
-    todo = []
-    for set_name, object_id, folder in objects:
-        path = store / f"{set_name.replace(' ', '_')}__{object_id}.json"
-        if path.is_file() and not args.fresh:
-            rows[path.stem] = {**json.loads(path.read_text()), "object": object_id}
-        else:
-            todo.append((set_name, object_id, folder, path))
-    running: list = []
-    bar = tqdm(total=len(todo), desc="objects", unit="object")
-    while todo or running:
-        while todo and len(running) < args.jobs:
-            set_name, object_id, folder, path = todo.pop(0)
-            command = [sys.executable, "-m", "benchmarks.measure_check_validity", "--one", str(folder),
-                       "--out", str(path), "--kinds", *args.kinds]
-            proc = subprocess.Popen(command, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                    text=True)
-            running.append((proc, set_name, object_id, path, time.monotonic()))
-        time.sleep(0.5)
-        for item in list(running):
-            proc, set_name, object_id, path, started = item
-            timed_out = time.monotonic() - started > args.timeout
-            if proc.poll() is None and not timed_out:
-                continue
-            if timed_out:
-                proc.kill()
-            output = proc.communicate()[0] or ""
-            running.remove(item)
-            bar.update(1)
-            if path.is_file():
-                row = json.loads(path.read_text())
-            else:
-                row = {"object": object_id, "error": "timed out" if timed_out else output.strip().splitlines()[-1:]}
-            row.update(set=set_name, object=object_id, wall_s=round(time.monotonic() - started, 1))
-            path.write_text(json.dumps(row, indent=1))
-            rows[path.stem] = row
-            caught = Counter(t["status"] for t in row.get("twins", []))
-            intact = row.get("intact")
-            said = "no drawer, door or lid" if intact is None else "pass" if intact["passed"] else "FAIL"
-            bar.write(f"{set_name:20s} {object_id:>16s} intact {said}  {dict(caught)}")
-    bar.close()
-    return rows
+    return run_in_children(objects, store, "benchmarks.measure_check_validity", ["--kinds", *args.kinds],
+                           home=args.home, jobs=args.jobs, timeout=args.timeout, fresh=args.fresh,
+                           describe=describe_row)
+
+
+def describe_row(row: dict) -> str:
+    """One line on a measured object: its intact verdict and its twins' statuses."""
+    if "error" in row:
+        return f"error: {row['error']}"
+    intact = row.get("intact")
+    said = "no drawer, door or lid" if intact is None else "pass" if intact["passed"] else "FAIL"
+    return f"intact {said}  {dict(Counter(t['status'] for t in row.get('twins', [])))}"
 
 
 # ----- the report ---------------------------------------------------------------------------------

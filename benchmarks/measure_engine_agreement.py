@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -168,41 +166,11 @@ def measure_object(folder: Path, twins: bool, judge: bool) -> dict:
 # ----- the run ------------------------------------------------------------------------------------
 def run_all(objects: list[tuple[str, str, Path]], store: Path, args) -> dict[str, dict]:
     """Measure every object in child processes (``args.jobs`` at once), reusing stored results."""
-    store.mkdir(parents=True, exist_ok=True)
-    env = dict(os.environ, SPARK_BENCH_HOME=str(args.home))
-    rows, todo, running = {}, [], []
-    for set_name, object_id, folder in objects:
-        path = store / f"{set_name.replace(' ', '_')}__{object_id}.json"
-        if path.is_file() and not args.fresh:
-            rows[path.stem] = {**json.loads(path.read_text()), "set": set_name}
-        else:
-            todo.append((set_name, object_id, folder, path))
-    while todo or running:
-        while todo and len(running) < args.jobs:
-            set_name, object_id, folder, path = todo.pop(0)
-            command = [sys.executable, "-m", "benchmarks.measure_engine_agreement", "--one", str(folder),
-                       "--out", str(path)] + (["--no-twins"] if not args.twins else []) + \
-                      (["--no-judge"] if not args.judge else [])
-            proc = subprocess.Popen(command, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                    text=True)
-            running.append((proc, set_name, object_id, path, time.monotonic()))
-        time.sleep(0.5)
-        for item in list(running):
-            proc, set_name, object_id, path, started = item
-            timed_out = time.monotonic() - started > args.timeout
-            if proc.poll() is None and not timed_out:
-                continue
-            if timed_out:
-                proc.kill()
-            output = proc.communicate()[0] or ""
-            running.remove(item)
-            row = json.loads(path.read_text()) if path.is_file() else {
-                "object": object_id, "error": "timed out" if timed_out else output.strip().splitlines()[-1:]}
-            row.update(set=set_name, wall_s=round(time.monotonic() - started, 1))
-            path.write_text(json.dumps(row, indent=1))
-            rows[path.stem] = row
-            print(f"{set_name:20s} {object_id:>10s} {summary_line(row)}", flush=True)
-    return rows
+    from benchmarks.child_runs import run_in_children
+
+    child_args = (["--no-twins"] if not args.twins else []) + (["--no-judge"] if not args.judge else [])
+    return run_in_children(objects, store, "benchmarks.measure_engine_agreement", child_args, home=args.home,
+                           jobs=args.jobs, timeout=args.timeout, fresh=args.fresh, describe=summary_line)
 
 
 def summary_line(row: dict) -> str:

@@ -27,8 +27,8 @@ from rich.console import Console
 from rich.table import Table
 
 import spark_bench  # noqa: F401  (registers the environments)
+from spark_bench.manipulation.scene import N_SUBSTEPS
 from spark_bench.mujoco_gl import mujoco_module
-from spark_bench.opening.planning.scene import N_SUBSTEPS
 
 mujoco = mujoco_module()
 

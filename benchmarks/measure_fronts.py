@@ -31,13 +31,13 @@ from spark_bench.envs import make_env
 from spark_bench.envs.assets import load_asset
 from spark_bench.envs.registration import ENV_OF_JOINT_TYPE
 from spark_bench.errors import InputError
+from spark_bench.manipulation.grasp import find_grasp_unchecked
+from spark_bench.manipulation.gripper import GripperConfig
+from spark_bench.manipulation.rest_meshes import RestMeshes
+from spark_bench.manipulation.scene import plan_grasp
+from spark_bench.manipulation.suction import cup_mm
 from spark_bench.opening.episodes import ground_truth_joint, open_with_ground_truth, open_with_joint
 from spark_bench.opening.judge import OPENING_STEPS
-from spark_bench.opening.planning.grasp import find_grasp_unchecked
-from spark_bench.opening.planning.gripper import GripperConfig
-from spark_bench.opening.planning.rest_meshes import RestMeshes
-from spark_bench.opening.planning.scene import plan_grasp
-from spark_bench.opening.planning.suction import cup_mm
 from spark_bench.rl.generalist_recipe import seed_range
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -46,7 +46,7 @@ PLACES = ("front", "front (tab blocked)", "front (tab too heavy to pinch)", "tab
 
 
 def where(asset, joint: str, end_effector: str) -> str:
-    """Where the part was taken: the grasp planner's choice (:func:`~spark_bench.opening.planning.grasp.find_grasp`: its
+    """Where the part was taken: the grasp planner's choice (:func:`~spark_bench.manipulation.grasp.find_grasp`: its
     broad face (a sliding plate), its front after a tab whose way in is blocked, a tab, or its front), and
     its front (the cup's) where the scene found the tab's pinch too weak for the part (``weak_pinch``)."""
     first = find_grasp_unchecked(RestMeshes(asset), joint, 0, GripperConfig()).source  # before the way-in check

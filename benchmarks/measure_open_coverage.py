@@ -31,9 +31,9 @@ def measure_case(case_dir: str, seeds: list[int]) -> list[dict]:
     """One case's drawer, door and lid joints: per joint, the verdict at each seed."""
     import spark_bench  # noqa: F401  (registers the environments)
     from spark_bench.data.case import BenchmarkCase
+    from spark_bench.manipulation.suction import cup_mm
     from spark_bench.opening.judge import OPENING_STEPS, judge_joint
     from spark_bench.opening.pairing import load_pairing, opening_joints
-    from spark_bench.opening.planning.suction import cup_mm
 
     case = BenchmarkCase(Path(case_dir))
     gt_bench = case.load_gt()

@@ -13,7 +13,7 @@ Also the issue's per-object number: ``spark-bench rollout --env SparkDrawer-v0|S
 scripted`` on each object's *default* joint (drawer for tables, door or lid otherwise).
 
 A part that no pull of the gripper can open (driven directly with the hand's largest force, nothing in
-the way: :func:`spark_bench.opening.planning.drive_check.stuck_reason`) is declined by the scene with that reason (too heavy
+the way: :func:`spark_bench.manipulation.drive_check.stuck_reason`) is declined by the scene with that reason (too heavy
 for the gripper, or jammed by its collision shapes) and counted among the declined, as *stuck*; a failed
 joint also reports how far it opens driven so (:func:`free_motion`).
 
@@ -106,9 +106,9 @@ def run_joint(asset, object_id: str, row: dict, episodes: int, max_steps: int, v
 
 def free_motion(env) -> float:
     """The largest fraction of its range the environment's joint reaches when driven directly
-    (:func:`spark_bench.opening.planning.drive_check.free_motion`: a force at the grasp, the gripper parked away), from rest."""
-    from spark_bench.opening.planning.drive_check import free_motion as drive
-    from spark_bench.opening.planning.gripper import largest_pull
+    (:func:`spark_bench.manipulation.drive_check.free_motion`: a force at the grasp, the gripper parked away), from rest."""
+    from spark_bench.manipulation.drive_check import free_motion as drive
+    from spark_bench.manipulation.gripper import largest_pull
 
     scene = env.unwrapped.scene
     return scene.free_fraction if scene.free_fraction is not None else drive(scene, largest_pull(scene.gripper.config))
@@ -128,8 +128,8 @@ def hull_gap(env) -> float:
     met, each counted from the fingertips' level at the grasp. A gap of centimetres is a handle whose gaps
     (a spoked wheel, a recessed grip) the convex pieces fill: the hand stops on the hull, short of the
     grasp, whatever the opener does (the simulation's collision shapes, like a jammed part)."""
+    from spark_bench.manipulation.features import first_hit
     from spark_bench.mujoco_gl import mujoco_module
-    from spark_bench.opening.planning.features import first_hit
 
     mujoco = mujoco_module()
     u = env.unwrapped
@@ -192,7 +192,7 @@ def contact_sheet(rows: list[dict], path: Path, per_row: int = 6) -> Path | None
 def default_rows(asset, object_id: str, rows: list[dict], episodes: int, max_steps: int) -> dict | None:
     """The issue's per-object number: the environment's *default* joint (no ``--joint``), drawer for an
     object with drawers, door or lid otherwise; reuses the joint's row when it was measured."""
-    from spark_bench.opening.planning.scene import choose_joint
+    from spark_bench.manipulation.scene import choose_joint
 
     own = [r for r in rows if r["object"] == object_id]
     if not own:
@@ -209,7 +209,7 @@ def default_rows(asset, object_id: str, rows: list[dict], episodes: int, max_ste
 
 def jammed(row: dict) -> bool:
     """Whether a joint does not open even driven directly (:func:`free_motion`): the scene declines it with
-    that reason (:func:`spark_bench.opening.planning.task.build_scene`)."""
+    that reason (:func:`spark_bench.manipulation.task.build_scene`)."""
     return row.get("free_fraction") is not None and row["free_fraction"] < TARGET
 
 
@@ -245,8 +245,8 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
                  sheet: Path | None) -> Path:
     """``opener_real.md``: rates per category, the issue's per-object number, every failure and every
     declined part with its reason, and the time taken."""
-    from spark_bench.opening.planning.drive_check import OVERLOAD
-    from spark_bench.opening.planning.gripper import GripperConfig, largest_pull
+    from spark_bench.manipulation.drive_check import OVERLOAD
+    from spark_bench.manipulation.gripper import GripperConfig, largest_pull
 
     lines = ["# The scripted opener on real objects", "",
              f"Produced by `python -m benchmarks.measure_opener_real` on {os.cpu_count()} CPU cores shared with "
@@ -258,7 +258,7 @@ def write_report(rows: list[dict], defaults: list[dict], args, seconds: float, p
              f"(that line is the rollout's `reason`). Total time {seconds:.0f} s.", "",
              "*Stuck*: a joint that does not reach the success fraction when driven directly with the gripper's "
              f"largest pull ({largest_pull(GripperConfig()):.0f} N at the grasp point's lever arm, nothing in the "
-             "way, until it stands still: `spark_bench.opening.planning.drive_check.stuck_reason`): no policy of this hand can open "
+             "way, until it stands still: `spark_bench.manipulation.drive_check.stuck_reason`): no policy of this hand can open "
              f"it, whatever it does; the reason says whether {OVERLOAD:g} times that force opens it (too heavy for "
              "the gripper) or not (jammed by its "
              "collision shapes). The scene checks this when it is built and declines such a part with that reason "

@@ -7,7 +7,7 @@ Per joint (the joints :func:`benchmarks.openable.openable_joints` enumerates, by
 - the planner's verdict for the gripper (``declined``: ``no_handle``, ``too_wide``, ``blocked``, ``button``;
   a part the planner takes is not measured here: ``auto`` leaves it to the gripper, unchanged);
 - the end-effector ``auto`` chose, the cup the planner took (40 mm, or a smaller one of
-  :func:`spark_bench.opening.planning.suction.cup_sizes` where the 40 mm cup has no place), and the cup's own verdict (no
+  :func:`spark_bench.manipulation.suction.cup_sizes` where the 40 mm cup has no place), and the cup's own verdict (no
   flat patch, something in its way, too heavy for its hold: the scene's drive check with the cup's largest hold);
 - ``--episodes`` scripted episodes (seeds 0..) of at most ``--max-steps`` steps planned from the TRUE joint,
   and as many planned from a WRONG axis: the true axis turned by 90 degrees (a drawer's about the vertical:
@@ -33,9 +33,9 @@ from benchmarks.wrong_axis import wrong_axis
 from spark_bench.envs import make_env
 from spark_bench.envs.assets import load_asset
 from spark_bench.errors import InputError
+from spark_bench.manipulation.scene import plan_grasp
+from spark_bench.manipulation.suction import SuctionConfig, cup_mm, cup_sizes
 from spark_bench.opening.episodes import ground_truth_joint, open_with_joint
-from spark_bench.opening.planning.scene import plan_grasp
-from spark_bench.opening.planning.suction import SuctionConfig, cup_mm, cup_sizes
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 ROOTS = (SHARED / "partnet_dev", SHARED / "real_objects")
@@ -112,7 +112,7 @@ def write_report(rows: list[dict], args, seconds: float, path: Path) -> Path:
         "drawer's sideways, a door's or lid's hinge turned in the face's plane about the face's outward "
         "direction, same pivot). Success: the joint passes 75 % of its range.", "",
         f"The cup: {1000 * 2 * cfg.cup_radius:.0f} mm across, holding {cfg.max_force:.0f} N along the face's "
-        f"normal (MuJoCo's `adhesion` actuator; `spark_bench/opening/planning/suction.py`), friction {cfg.friction:g}, carried "
+        f"normal (MuJoCo's `adhesion` actuator; `spark_bench/manipulation/suction.py`), friction {cfg.friction:g}, carried "
         "by the gripper's servoed carriage (the same largest pull: 60 N per axis). Where it finds no place, the "
         "smaller cups of the same line, largest first: " + ", ".join(
             f"{1000 * 2 * c.cup_radius:.0f} mm ({c.max_force:.0f} N)" for c in cup_sizes(cfg)[1:])

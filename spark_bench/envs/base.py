@@ -17,11 +17,12 @@ from spark_bench.asset.joint_type import JointType
 from spark_bench.envs import observation as OBS
 from spark_bench.envs.assets import AssetLike, asset_key, load_asset
 from spark_bench.envs.observation import FRAME_OBS_SIZE, OBS_SIZE
+from spark_bench.manipulation.end_effector import EndEffector
+from spark_bench.manipulation.grasp_target import GraspTarget
+from spark_bench.manipulation.gripper import MAX_STEP, finger_target, grip_command
+from spark_bench.manipulation.scene import N_SUBSTEPS, TIMESTEP, Scene
+from spark_bench.manipulation.task import build_scene
 from spark_bench.mujoco_gl import mujoco_module
-from spark_bench.opening.planning.end_effector import EndEffector
-from spark_bench.opening.planning.gripper import MAX_STEP, finger_target, grip_command
-from spark_bench.opening.planning.scene import N_SUBSTEPS, TIMESTEP, Scene
-from spark_bench.opening.planning.task import build_scene
 
 mujoco = mujoco_module()
 
@@ -63,18 +64,22 @@ def _cached_scene(key: str, kind: str, joint: str | None, visuals: bool = True,
 
 
 def make_scene(asset: AssetLike, kind: str, joint: str | None, visuals: bool = True,
-               end_effector: str = "gripper") -> Scene:
+               end_effector: str = "gripper", grasp: GraspTarget | None = None) -> Scene:
     """The compiled scene, cached per (asset, kind, joint, visuals, end-effector) for assets given by name, so
-    that the copies of a vectorized environment share one model.
+    that the copies of a vectorized environment share one model; a scene for a grasp planned by the caller
+    is compiled for it, uncached.
 
     :param visuals: compile the visual meshes; an environment that never renders leaves them out (the
         physics is the same: visual geoms have no contacts and no mass) and a real object's scene then
         compiles about 7 s faster per joint
-    :param end_effector: ``gripper``, ``suction`` or ``auto`` (:func:`~spark_bench.opening.planning.task.build_scene`)
+    :param end_effector: ``gripper``, ``suction`` or ``auto`` (:func:`~spark_bench.manipulation.task.build_scene`)
+    :param grasp: the gripper's grasp on the joint's part, planned already (None: planned with the scene)
     """
     key = asset_key(asset)
     if key is None:
-        return build_scene(asset, kind, joint, visuals=visuals, end_effector=end_effector)
+        return build_scene(asset, kind, joint, visuals=visuals, end_effector=end_effector, grasp=grasp)
+    if grasp is not None:  # compiled for the caller's plan: not shared
+        return build_scene(load_asset(key)[0], kind, joint, visuals=visuals, end_effector=end_effector, grasp=grasp)
     return _cached_scene(key, kind, joint, visuals, end_effector)
 
 
@@ -97,13 +102,16 @@ class SparkArticulationEnv(gym.Env):
     :param joint_estimate: ``(axis, pivot, type)``, world frame at rest: the joint the ``frame``
         observation reports instead of the simulated one's (a prediction's joint, acting on the real object)
     :param end_effector: ``gripper`` (the parallel gripper, the default), ``suction`` (a suction cup on the
-        part's front face, :mod:`spark_bench.opening.planning.suction`) or ``auto`` (the cup where the grasp planner finds
+        part's front face, :mod:`spark_bench.manipulation.suction`) or ``auto`` (the cup where the grasp planner finds
         nothing to pinch, the gripper everywhere else); the one chosen is ``self.end_effector`` and every
         step's ``info["end_effector"]``
     :param success_rule: what ``info["is_success"]``, the ``success`` reward term and the sparse reward follow
         (:data:`SUCCESS_RULES`): ``spark`` (the default: the joint past ``target_fraction``) or ``maniskill``
         (ManiSkill3's: past it and the joint's link nearly still, :meth:`evaluate`); every ``info`` carries
         both as ``is_success_spark`` and ``is_success_maniskill``
+    :param grasp: the gripper's grasp on ``joint``'s part as the caller planned it
+        (:func:`~spark_bench.manipulation.scene.plan_grasp` of the loaded asset and the joint: the opening
+        score's judge plans it once and hands it on), or None (the default: planned with the scene)
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": int(round(1.0 / (N_SUBSTEPS * TIMESTEP)))}
@@ -112,7 +120,8 @@ class SparkArticulationEnv(gym.Env):
     def __init__(self, asset: AssetLike = None, joint: str | None = None, target_fraction: float = 0.75,
                  reward_type: str = "dense", render_mode: str | None = None, width: int = 480,
                  height: int = 360, seed: int | None = None, observation: str = "basic",
-                 joint_estimate: tuple | None = None, end_effector: str = "gripper", success_rule: str = "spark"):
+                 joint_estimate: tuple | None = None, end_effector: str = "gripper", success_rule: str = "spark",
+                 grasp: GraspTarget | None = None):
         if not 0.0 < target_fraction <= 1.0:
             raise ValueError(f"target_fraction must be in (0, 1], got {target_fraction}")
         if reward_type not in ("dense", "sparse"):
@@ -125,7 +134,7 @@ class SparkArticulationEnv(gym.Env):
             raise ValueError(f"success_rule must be one of {SUCCESS_RULES}, got {success_rule!r}")
         self.success_rule = success_rule
         self.scene = make_scene(asset, self.joint_kind, joint, visuals=render_mode is not None,
-                                end_effector=end_effector)
+                                end_effector=end_effector, grasp=grasp)
         self.end_effector = self.scene.end_effector
         self._suction = self.end_effector == EndEffector.SUCTION
         self.observation = observation

@@ -61,14 +61,14 @@ class SparkDoorEnv(SparkArticulationEnv):
 
     Of the part's shape a policy may read, beyond the observation, what a robot's perception would give:
     the scene's grasp (``env.unwrapped.scene.grasp``: point, outward direction, grip) and the part's surface
-    at rest (:func:`~spark_bench.opening.planning.scene.part_points`); the scripted opener reads the door's free edge and
+    at rest (:func:`~spark_bench.manipulation.scene.part_points`); the scripted opener reads the door's free edge and
     thickness from it to push a door that slipped out of the fingers open from inside
     (:func:`~spark_bench.opening.door_geometry.door_edge`).
 
     **End-effector** (``end_effector=``): ``"gripper"`` (the default, described above), ``"suction"`` or
     ``"auto"``. ``"suction"`` carries a 40 mm suction cup (a 32, 25 or 20 mm one where the 40 mm cup finds no
-    place: :func:`~spark_bench.opening.planning.suction.cup_sizes`, ``scene.gripper.config``) on the same servoed carriage
-    instead of the fingers (:mod:`spark_bench.opening.planning.suction`): it goes to a flat patch of the door's front face
+    place: :func:`~spark_bench.manipulation.suction.cup_sizes`, ``scene.gripper.config``) on the same servoed carriage
+    instead of the fingers (:mod:`spark_bench.manipulation.suction`): it goes to a flat patch of the door's front face
     (as far from the hinge as the patch allows; the passive wrist lets the cup turn with the face), approaches
     along the face's normal and holds by MuJoCo's ``adhesion`` actuator, up to its rated hold (75 N for the 40
     mm cup) along the normal (more tears it off; along the face only friction holds it). ``a[3]`` is then the

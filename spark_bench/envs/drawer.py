@@ -61,8 +61,8 @@ class SparkDrawerEnv(SparkArticulationEnv):
 
     **End-effector** (``end_effector=``): ``"gripper"`` (the default, described above), ``"suction"`` or
     ``"auto"``. ``"suction"`` carries a 40 mm suction cup (a 32, 25 or 20 mm one where the 40 mm cup finds no
-    place: :func:`~spark_bench.opening.planning.suction.cup_sizes`, ``scene.gripper.config``) on the same servoed carriage
-    instead of the fingers (:mod:`spark_bench.opening.planning.suction`): it goes to a flat patch of the drawer's front
+    place: :func:`~spark_bench.manipulation.suction.cup_sizes`, ``scene.gripper.config``) on the same servoed carriage
+    instead of the fingers (:mod:`spark_bench.manipulation.suction`): it goes to a flat patch of the drawer's front
     face (its centre), approaches along the face's normal and holds by MuJoCo's ``adhesion`` actuator, up to
     its rated hold (75 N for the 40 mm cup) along the normal (more tears it off; along the face only friction
     holds it). ``a[3]`` is then the suction command (> 0: that fraction of the hold, <= 0 released); the

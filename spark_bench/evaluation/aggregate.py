@@ -5,15 +5,14 @@
 - Articulation metrics: mean over the ``ok`` cases that have the value (not a shape-only prediction's) (docs/conventions.md: mean over joints
   per object, then over objects); ``joint_mean`` beside them: ``axis_err``, ``pivot_err``, ``type_err``
   averaged over every joint of the ``ok`` cases (from each row's stored per-joint errors).
-- Rates (sim pass, scripted opening, RL transfer): over every case of the run where the stage gave a value,
-  a failed case counting as not passed; None when the stage never ran. Beside each opening rate, its
-  coverage (``open_coverage``, ``rl_coverage``: :func:`joint_coverage`): the ground-truth drawer and door
-  joints scored out of all of them, and what left the others out. An opening score's case value is
-  itself over the case's scored joints (:mod:`spark_bench.opening.judge`): a case whose every drawer and door
-  is left out gives none.
-- The PhysX sim pass (``eval --engine physx|all``, each row's ``checks["sim_physx"]``): a rate as the others,
-  over the cases with a PhysX verdict, beside its coverage (``physx_coverage``: :func:`physx_coverage`); rows
-  of runs without PhysX have neither.
+- Rates (the sim table, declared in :data:`spark_bench.metrics.names.RATES`: sim pass in MuJoCo and in PhysX,
+  scripted opening and its ManiSkill rule, RL transfer): over every case of the run where the stage gave a
+  value, a failed case counting as not passed; None when the stage never ran (:func:`run_rate`). Beside a rate
+  with a coverage, its coverage: for the opening rates (``open_coverage``, ``rl_coverage``: :func:`joint_coverage`)
+  the ground-truth drawer and door joints scored out of all of them, and what left the others out (an opening
+  score's case value is itself over the case's scored joints, :mod:`spark_bench.opening.judge`: a case whose
+  every drawer and door is left out gives none); for the PhysX sim pass (``physx_coverage``:
+  :func:`case_coverage`) the cases with a PhysX verdict. Rows of runs without PhysX have neither.
 
 Rows scored under different metric conventions (the ``convention`` column) are never averaged together.
 """
@@ -26,7 +25,17 @@ from collections.abc import Iterable, Sequence
 
 from spark_bench.errors import SparkBenchError
 from spark_bench.metrics.align import similarity_scale
-from spark_bench.metrics.names import ARTICULATION_KEYS, JOINT_MEAN, METRIC_COLUMNS, SHAPE_KEYS
+from spark_bench.metrics.names import (
+    ARTICULATION_KEYS,
+    BY_KEY,
+    JOINT_MEAN,
+    METRIC_COLUMNS,
+    RATE_STAGES,
+    RATES,
+    SHAPE_KEYS,
+    Headline,
+    Rate,
+)
 from spark_bench.metrics.report import joint_errors, mean_by_part_class, mean_over_joints
 
 # The keys (SUMMARY_KEYS: SHAPE_KEYS, ARTICULATION_KEYS, RATE_KEYS) and which way each is better are
@@ -44,34 +53,21 @@ def _value(row: dict, key: str):
     return value if value is not None else row.get("metrics", {}).get(key)
 
 
-#: The RL transfer rates of ``eval --rl`` (:func:`spark_bench.rl.transfer.rl_transfer_score`, stored in each
-#: row's ``checks["rl"]``): the summary key and the key of the per-case result it averages. A case's rate is
-#: over its scored joints (``joints_scored`` of ``joints_total``: :mod:`spark_bench.opening.judge` leaves out
-#: those nobody can open), None when it has none, as the scripted opening score's.
-RL_RATES = {"rl_success_rate": "success_rate", "rl_zero_shot_success_rate": "zero_shot_success_rate"}
-#: The opening score under ManiSkill3's success rule (75 % of the range and the part nearly still; the opening
-#: score's ``success_rate_maniskill``, ``docs/protocols.md``), over the same joints as ``open_success_rate``.
-MANISKILL_RATE = "open_success_rate_maniskill"
-#: The sim pass in PhysX (``eval --engine physx|all``: :mod:`spark_bench.sim.physx`, stored in each row's
-#: ``checks[PHYSX_CHECK]``) and its coverage: the summary keys.
-PHYSX_RATE = "sim_pass_rate_physx"
-PHYSX_COVERAGE = "physx_coverage"
-#: The key of a row's ``checks`` that holds the PhysX checks' report.
-PHYSX_CHECK = "sim_physx"
+#: The coverage key of the PhysX sim pass (the cases with a PhysX verdict, :func:`case_coverage`).
+PHYSX_COVERAGE = BY_KEY["sim_pass_rate_physx"].rate.coverage.key
 
 
-def _rate(rows: Sequence[dict], value) -> float | None:
-    """The mean of ``value(row)`` over the rows where its stage ran (``value`` not None), a failed case
-    counting as 0; None when the stage ran nowhere."""
-    counted = [r for r in rows if r["status"] == "failed" or value(r) is not None]
-    if not any(value(r) is not None for r in rows):
+def run_rate(rows: Sequence[dict], rate: Rate) -> float | None:
+    """A run's rate: the mean of the case values (:meth:`Rate.of_row <spark_bench.metrics.names.Rate.of_row>`)
+    over the rows where its stage gave one, a failed case counting as 0; None when the stage gave one nowhere.
+
+    :param rows: result rows of one run and variant
+    :param rate: the rate's declaration
+    """
+    counted = [r for r in rows if r["status"] == "failed" or rate.of_row(r) is not None]
+    if not any(rate.of_row(r) is not None for r in rows):
         return None
-    return sum(float(value(r)) for r in counted if r["status"] == "ok") / len(counted)
-
-
-def _check_value(check: str, key: str):
-    """A row's ``checks[check][key]`` (None where the check did not run or did not record it)."""
-    return lambda row: ((row.get("checks") or {}).get(check) or {}).get(key)
+    return sum(float(rate.of_row(r)) for r in counted if r["status"] == "ok") / len(counted)
 
 
 def joint_coverage(rows: Sequence[dict], check: str) -> dict | None:
@@ -105,16 +101,25 @@ def joint_coverage(rows: Sequence[dict], check: str) -> dict | None:
             "scored_by": dict(sorted(scored_by.items())), "cases": len(results)}
 
 
-def physx_coverage(rows: Sequence[dict]) -> dict | None:
-    """How many cases of a run have a PhysX verdict: ``{"with_verdict", "cases"}``, ``cases`` every row of the run
-    (a failed case has none; nor has a case whose worker had no SAPIEN, ``skipped``); None when no row has one
-    (a run without ``--engine physx|all``, or rows stored before it).
+def case_coverage(rows: Sequence[dict], rate: Rate) -> dict | None:
+    """How many cases of a run have a value of ``rate`` (the PhysX sim pass: a PhysX verdict):
+    ``{"with_verdict", "cases"}``, ``cases`` every row of the run (a failed case has none; nor has a case whose
+    worker could not run the stage, ``skipped``: no SAPIEN); None when no row has one (a run without the stage,
+    ``--engine physx|all``, or rows stored before it).
 
     :param rows: result rows of one run and variant
+    :param rate: the rate's declaration
     """
-    verdict = _check_value(PHYSX_CHECK, "passed")
-    counted = sum(r["status"] == "ok" and verdict(r) is not None for r in rows)
+    counted = sum(r["status"] == "ok" and rate.of_row(r) is not None for r in rows)
     return {"with_verdict": counted, "cases": len(rows)} if counted else None
+
+
+def rate_coverage(rows: Sequence[dict], rate: Rate) -> dict | None:
+    """The coverage of ``rate`` over a run (its :class:`~spark_bench.metrics.names.Coverage`'s unit says which):
+    :func:`joint_coverage` of its check or :func:`case_coverage`."""
+    if rate.coverage.unit == "case":
+        return case_coverage(rows, rate)
+    return joint_coverage(rows, rate.check)
 
 
 def alignment_scales(rows: Sequence[dict]) -> dict | None:
@@ -175,18 +180,20 @@ def by_part_class(rows: Sequence[dict]) -> dict[str, dict]:
 def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (), rl: bool = False,
               physx: bool = False) -> dict:
     """The per-benchmark metrics of one run's rows (one variant), keys
-    :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``, + :data:`RL_RATES`), then :data:`JOINT_MEAN`;
-    with ``sim`` also :data:`MANISKILL_RATE` (None for rows stored before it was recorded) and
-    ``open_coverage``, with ``rl`` also ``rl_coverage`` (:func:`joint_coverage`); where
-    the predictions were aligned (``--align icp``), ``alignment_scale`` (:func:`alignment_scales`).
+    :data:`~spark_bench.metrics.names.SUMMARY_KEYS` (+ ``extra``, + the rates of the stages asked for), then
+    :data:`JOINT_MEAN`. The rates (:data:`~spark_bench.metrics.names.RATES`, :func:`rates`) and their coverages
+    are those of the stages asked for: ``sim`` (the ManiSkill rule, None for rows stored before it was recorded,
+    and ``open_coverage``), ``physx`` (the PhysX sim pass and ``physx_coverage``) and ``rl`` (the RL transfer
+    rates and ``rl_coverage``); where the predictions were aligned (``--align icp``), ``alignment_scale``
+    (:func:`alignment_scales`).
 
     :param rows: result rows of one run and variant (ok and failed), all of one metric convention
-    :param sim: whether the sim stages were asked for (False: the rates are None)
+    :param sim: whether the sim stages were asked for (False: the rates of every summary are None)
     :param extra: further keys: ``cd_open``
     :param rl: add the RL transfer rates (each None when no case was scored: no ``--rl``, or no drawer or
         door anywhere; a failed case counts as not opened)
-    :param physx: add :data:`PHYSX_RATE` after ``sim_pass_rate`` and :data:`PHYSX_COVERAGE` (:func:`physx_coverage`),
-        each None where no row has a PhysX verdict; without it the summary is the one runs without PhysX have
+    :param physx: add the PhysX sim pass after ``sim_pass_rate`` and its coverage, each None where no row has a
+        PhysX verdict; without it the summary is the one runs without PhysX have
     :raises SparkBenchError: for rows of several metric conventions
     """
     check_convention(rows)
@@ -197,23 +204,39 @@ def summarize(rows: Sequence[dict], sim: bool = True, extra: Sequence[str] = (),
         out[key] = _mean(_value(r, key) for r in shape_ok)
     for key in ARTICULATION_KEYS:
         out[key] = _mean(_value(r, key) for r in ok if articulation_valid(r))
-    out["sim_pass_rate"] = _rate(rows, lambda r: r.get("sim_pass")) if sim else None
-    if physx:
-        out[PHYSX_RATE] = _rate(rows, _check_value(PHYSX_CHECK, "passed")) if sim else None
-    out["open_success_rate"] = _rate(rows, lambda r: r.get("open_success")) if sim else None
+    asked = {"sim": sim, "physx": physx, "rl": rl}
+    ran = {"sim": sim, "physx": sim and physx, "rl": rl}  # the PhysX checks run within the sim stage
+    first, later = rates(rows, asked, ran)
+    out.update(first)
     if "cd_open" in extra:
         out["cd_open"] = _mean(_value(r, "cd_open") for r in shape_ok)
     aligned = alignment_scales(rows)
     if aligned:
         out["alignment_scale"] = aligned
-    if sim:
-        out[MANISKILL_RATE] = _rate(rows, _check_value("open", "success_rate_maniskill"))
-        out["open_coverage"] = joint_coverage(rows, "open")
-    if physx:
-        out[PHYSX_COVERAGE] = physx_coverage(rows) if sim else None
-    if rl:
-        for key, result_key in RL_RATES.items():
-            out[key] = _rate(rows, _check_value("rl", result_key))
-        out["rl_coverage"] = joint_coverage(rows, "rl")
+    out.update(later)
     out[JOINT_MEAN] = mean_over_joints(joint_records(rows))
     return out
+
+
+def rates(rows: Sequence[dict], asked: dict[str, bool], ran: dict[str, bool]) -> tuple[dict, dict]:
+    """The rates of a run's summary and their coverages, as the declaration (:data:`~spark_bench.metrics.names.RATES`)
+    lists them: first the rates listed among the summary's numbers (every summary's, None where their stage did
+    not run, and the others' whose stage was asked for), then, stage by stage (:data:`RATE_STAGES`), the
+    appended rates and the coverages of each stage asked for.
+
+    :param rows: result rows of one run and variant
+    :param asked: per stage, whether it was asked for (its rates and coverages are keys of the summary)
+    :param ran: per stage, whether it ran (else its rates and coverages are None)
+    :returns: ``(first, later)``: the summary lists ``first`` after the articulation errors, ``later`` after
+        ``cd_open`` and the alignment scale
+    """
+    def value(h: Headline, fn) -> float | dict | None:
+        return fn(rows, h.rate) if ran[h.rate.stage] else None
+
+    first = {h.key: value(h, run_rate) for h in RATES if not h.rate.appended and (h.summary or asked[h.rate.stage])}
+    later: dict = {}
+    for stage in (s for s in RATE_STAGES if asked[s]):
+        of_stage = [h for h in RATES if h.rate.stage == stage]
+        later.update({h.key: value(h, run_rate) for h in of_stage if h.rate.appended})
+        later.update({h.rate.coverage.key: value(h, rate_coverage) for h in of_stage if h.rate.coverage})
+    return first, later

@@ -9,35 +9,25 @@ import math
 from dataclasses import dataclass, field, replace
 
 from spark_bench.convention import CONVENTION_VERSION
-from spark_bench.evaluation.aggregate import (
-    MANISKILL_RATE,
-    PHYSX_COVERAGE,
-    PHYSX_RATE,
-    RL_RATES,
-    by_part_class,
-)
+from spark_bench.evaluation.aggregate import PHYSX_COVERAGE, by_part_class
 from spark_bench.metrics.names import (
     ARTICULATION_KEYS,
+    BY_KEY,
+    COVERAGES,
     HEADLINE_KEYS,
     HIGHER_IS_BETTER,
-    RATE_KEYS,
+    RATE_STAGES,
+    RATES,
     SHAPE_KEYS,
+    Coverage,
     header,
 )
 
 #: Regimes listed but not ranked: they see the answer.
 REFERENCE_REGIMES = ("ground truth",)
-#: The RL transfer columns (``eval --rl``), shown after the scripted opener's when any entry has them.
-RL_KEYS = tuple(RL_RATES)
 #: Table headers by metric key: the label and an arrow saying which way is better.
 HEADERS = {key: header(key) for key in HEADLINE_KEYS}
 LATEX_HEADERS = {key: header(key, r"$\uparrow$", r"$\downarrow$") for key in HEADLINE_KEYS}
-#: The coverage beside each opening rate (:func:`spark_bench.evaluation.aggregate.joint_coverage`): the rate's
-#: key -> its coverage key and the count column's header.
-COVERAGE = {"open_success_rate": ("open_coverage", "Open joints"), "rl_success_rate": ("rl_coverage", "RL joints")}
-#: The header of the count beside the PhysX sim pass: the cases with a PhysX verdict, of the run's
-#: (:func:`spark_bench.evaluation.aggregate.physx_coverage`, :func:`fmt_physx_coverage`).
-PHYSX_HEADER = "PhysX cases"
 #: The header of the scale ``--align icp`` applied (:func:`fmt_scale`), shown where any entry was aligned.
 SCALE_HEADER = "ICP scale"
 #: The paper's colours for best (Palette5) and second best (Palette4).
@@ -104,23 +94,27 @@ class Table:
     entries: list[Entry]
     joints: bool = False
 
+    @property
+    def coverages(self) -> list[Coverage]:
+        """The coverages of the table's rates (:attr:`spark_bench.metrics.names.Rate.coverage`), in column order."""
+        return [BY_KEY[m].rate.coverage for m in self.metrics if BY_KEY[m].rate and BY_KEY[m].rate.coverage]
+
     def count_headers(self) -> list[str]:
         """Headers of the count columns after the metrics: the cases and failures (a per-part-class
-        table: its joints), and beside each opening rate the joints it covers (:data:`COVERAGE`)."""
+        table: its joints), and the coverage of each rate that has one (the PhysX cases with a verdict, the
+        joints each opening rate covers)."""
         if self.joints:
             return ["Joints"]
         scale = [SCALE_HEADER] if self.aligned else []
-        physx = [PHYSX_HEADER] if PHYSX_RATE in self.metrics else []
-        return ["Cases", "Failed", *physx, *(COVERAGE[m][1] for m in self.metrics if m in COVERAGE), *scale]
+        return ["Cases", "Failed", *(c.header for c in self.coverages), *scale]
 
     def count_cells(self, entry: Entry) -> list[str]:
         """The count cells of ``entry``, see :meth:`count_headers`."""
         if self.joints:
             return [str(entry.metrics.get("n_joints", 0))]
-        covered = [fmt_coverage(entry.metrics.get(COVERAGE[m][0])) for m in self.metrics if m in COVERAGE]
+        covered = [fmt_coverage_cell(c, entry.metrics.get(c.key)) for c in self.coverages]
         scale = [fmt_scale(entry.metrics.get("alignment_scale"))] if self.aligned else []
-        physx = [fmt_physx_coverage(entry.metrics.get(PHYSX_COVERAGE))] if PHYSX_RATE in self.metrics else []
-        return [str(entry.n_cases), str(entry.n_failed), *physx, *covered, *scale]
+        return [str(entry.n_cases), str(entry.n_failed), *covered, *scale]
 
     @property
     def aligned(self) -> bool:
@@ -162,25 +156,32 @@ class Leaderboard:
 
     def tables(self, entries: list[Entry] | None = None) -> list[Table]:
         entries = self.entries if entries is None else entries
-        sim_keys = list(RATE_KEYS)
-        if self.has_physx(entries):  # beside MuJoCo's sim pass; absent from boards of runs without PhysX
-            sim_keys.insert(sim_keys.index("sim_pass_rate") + 1, PHYSX_RATE)
-        if any(e.metrics.get(MANISKILL_RATE) is not None for e in entries):
-            sim_keys.append(MANISKILL_RATE)  # beside spark-bench's own rule, over the same joints
-        if self.has_rl(entries):
-            sim_keys += list(RL_KEYS)
         return [Table("shape", "Shape reconstruction", SHAPE_KEYS, entries),
                 Table("articulation", "URDF parameter estimation", ARTICULATION_KEYS, entries),
-                Table("sim", "Sim-readiness", tuple(sim_keys), entries)]
+                Table("sim", "Sim-readiness", self.rates(entries), entries)]
+
+    def rates(self, entries: list[Entry] | None = None) -> tuple[str, ...]:
+        """The sim table's rates for ``entries`` (default: the board's), in :data:`~spark_bench.metrics.names.HEADLINE`
+        order: those of every run's summary, and each other one where some entry has it or another rate of its
+        stage listed the same way (the RL columns go together; a board of runs without PhysX has no PhysX column)."""
+        entries = self.entries if entries is None else entries
+        measured = {(h.rate.stage, h.rate.appended) for h in RATES
+                    if not h.summary and any(e.metrics.get(h.key) is not None for e in entries)}
+        return tuple(h.key for h in RATES if h.summary or (h.rate.stage, h.rate.appended) in measured)
+
+    def has_stage(self, stage: str, entries: list[Entry] | None = None) -> bool:
+        """Whether any entry has a rate of ``stage`` (:data:`~spark_bench.metrics.names.RATE_STAGES`) beyond
+        those of every run's summary."""
+        return any(e.metrics.get(h.key) is not None for e in (self.entries if entries is None else entries)
+                   for h in RATES if h.rate.stage == stage and not h.summary)
 
     def has_physx(self, entries: list[Entry] | None = None) -> bool:
         """Whether any entry has a PhysX sim pass (``eval --engine physx|all``)."""
-        return any(e.metrics.get(PHYSX_RATE) is not None for e in (self.entries if entries is None else entries))
+        return self.has_stage("physx", entries)
 
     def has_rl(self, entries: list[Entry] | None = None) -> bool:
         """Whether any entry has an RL transfer score (``eval --rl``)."""
-        return any(e.metrics.get(k) is not None for e in (self.entries if entries is None else entries)
-                   for k in RL_KEYS)
+        return self.has_stage("rl", entries)
 
     def part_class_tables(self) -> list[Table]:
         """One articulation table per GAPartNet part class found in the rows (``hinge_door``,
@@ -199,8 +200,9 @@ class Leaderboard:
     def notes(self) -> list[str]:
         """What every rendering says under its tables: how the articulation errors are averaged, what the
         open-success column measures, the metric convention and the rows of other conventions left out."""
-        notes = [ARTICULATION_NOTE, OPEN_SUCCESS_NOTE, *([PHYSX_NOTE] if self.has_physx() else []),
-                 *([RL_NOTE] if self.has_rl() else []), f"Metric convention: {self.convention}."]
+        shown = {BY_KEY[key].rate.stage for key in self.rates()}
+        notes = [ARTICULATION_NOTE, *(STAGE_NOTES[s] for s in RATE_STAGES if s in shown and s in STAGE_NOTES),
+                 f"Metric convention: {self.convention}."]
         if self.left_out:
             scored = ", ".join(f"{n} under {c or 'no convention'}" for c, n in sorted(self.left_out.items()))
             notes.append(f"Not shown: {sum(self.left_out.values())} result rows scored under older metric "
@@ -307,18 +309,36 @@ def fmt_coverage(coverage: dict | None) -> str:
     return f"{coverage['joints_scored']}/{coverage['joints_total']}" + (f" ({cup} by cup)" if cup else "")
 
 
-def fmt_physx_coverage(coverage: dict | None) -> str:
-    """The PhysX sim pass's coverage for a table: ``with_verdict/cases`` (``48/50``), ``n/a`` for a run without
-    PhysX.
+def fmt_case_coverage(coverage: dict | None) -> str:
+    """A rate's coverage in cases for a table (the PhysX sim pass's): ``with_verdict/cases`` (``48/50``), ``n/a``
+    for a run without its stage.
 
-    :param coverage: :func:`spark_bench.evaluation.aggregate.physx_coverage`'s result
+    :param coverage: :func:`spark_bench.evaluation.aggregate.case_coverage`'s result
     """
     return f"{coverage['with_verdict']}/{coverage['cases']}" if coverage else "n/a"
 
 
+def fmt_coverage_cell(declared: Coverage, coverage: dict | None) -> str:
+    """A rate's coverage for a table, as its unit shows it (:func:`fmt_coverage`, :func:`fmt_case_coverage`).
+
+    :param declared: the coverage's declaration
+    :param coverage: its value in a leaderboard entry's metrics
+    """
+    return fmt_case_coverage(coverage) if declared.unit == "case" else fmt_coverage(coverage)
+
+
+def coverage_text(key: str, coverage: dict | None) -> str:
+    """A rate's coverage in words, by its key (:data:`~spark_bench.metrics.names.COVERAGES`): the joints an opening
+    rate covers (:func:`coverage_line`) or the cases with a value (``48/50 cases with a PhysX verdict``)."""
+    declared = COVERAGES[key].rate.coverage
+    if declared.unit != "case":
+        return coverage_line(coverage)
+    return f"{fmt_case_coverage(coverage)} cases with {declared.what}" if coverage else "n/a"
+
+
 def physx_coverage_line(coverage: dict | None) -> str:
-    """The PhysX sim pass's coverage in words: ``48/50 cases with a PhysX verdict``."""
-    return f"{fmt_physx_coverage(coverage)} cases with a PhysX verdict" if coverage else "n/a"
+    """The PhysX sim pass's coverage in words: ``48/50 cases with a PhysX verdict`` (:func:`coverage_text`)."""
+    return coverage_text(PHYSX_COVERAGE, coverage)
 
 
 def fmt_scale(scales: dict | None) -> str:
@@ -379,3 +399,6 @@ RL_NOTE = ("RL success: the shipped generalist opening policy (spark_bench.rl.ge
            "and door at its real size; the joints the scripted opener cannot open even with the ground truth's own "
            "are left out, as for open success. RL zero-shot: the same without fine-tuning. The oracle's row (the "
            "ground truth as the prediction) is the policy's ceiling.")
+#: The note under the tables of a board that shows a rate of the stage (:data:`~spark_bench.metrics.names.RATE_STAGES`),
+#: in stage order.
+STAGE_NOTES = {"sim": OPEN_SUCCESS_NOTE, "physx": PHYSX_NOTE, "rl": RL_NOTE}

@@ -27,17 +27,19 @@ from spark_bench.convention import CONVENTION_VERSION
 from spark_bench.data.case import BenchmarkCase
 from spark_bench.data.readers import read_json
 from spark_bench.errors import InputError, SparkBenchError
-from spark_bench.evaluation.aggregate import PHYSX_CHECK
 from spark_bench.evaluation.store import now
 from spark_bench.evaluation.tasks import CaseTask, EvalOptions
 from spark_bench.jsonio import to_json_text
 from spark_bench.methods.base import GENERATION_MARKER, CaseInput, Generation
 from spark_bench.methods.registry import make_method
-from spark_bench.metrics.names import ARTICULATION_KEYS, JOINT_MEAN, METRIC_COLUMNS
+from spark_bench.metrics.names import ARTICULATION_KEYS, JOINT_MEAN, METRIC_COLUMNS, RATES
 from spark_bench.versions import verdict_versions
 
 #: The episode video kept beside each case's fine-tuned policies (``eval --rl``).
 RL_VIDEO = "episode.gif"
+#: The key of a row's ``checks`` each check stage records its result under, and the rates read from it
+#: (:data:`spark_bench.metrics.names.RATES`): MuJoCo's checks, PhysX's, the scripted opener, the RL transfer score.
+SIM_CHECK, PHYSX_CHECK, OPEN_CHECK, RL_CHECK = "sim", "sim_physx", "open", "rl"
 
 
 class StageError(Exception):
@@ -197,11 +199,26 @@ def _rl_transfer(pred_folder: Path, gt_folder: Path, metrics: dict, out_dir: Pat
                              seed=options.seed, video=out_dir / RL_VIDEO, pairing=pairing())
 
 
-def _success_rate(result: dict) -> float | None:
-    for key in ("success_rate", "success", "open_success_rate"):
-        if result.get(key) is not None:
-            return float(result[key])
-    return None
+def rate_columns(checks: dict) -> dict:
+    """The results-store columns of a row that hold a copy of a rate's case value (:attr:`Rate.column
+    <spark_bench.metrics.names.Rate.column>`: ``sim_pass``, ``open_success``, ``rl_success``), for the check
+    stages that ran.
+
+    :param checks: the row's ``checks``: each stage's result under its key
+    """
+    return {h.rate.column: h.rate.from_checks(checks) for h in RATES if h.rate.column and h.rate.check in checks}
+
+
+def failed_stage_result(name: str, reason: str) -> dict:
+    """The result of a check stage that raised, as its first rate (:data:`spark_bench.metrics.names.RATES`) reads
+    it: where that is a verdict on the prediction (``kind`` ``pass``: the sim checks), not passed; else (the
+    opening scores act on the ground truth) without a value; ``error`` says why.
+
+    :param name: the stage's key in the row's ``checks``
+    :param reason: the one-line reason
+    """
+    first = next(h.rate for h in RATES if h.rate.check == name)
+    return {first.result: False if first.kind == "pass" else None, "error": reason}
 
 
 def _check_stage(stages: _Stages, name: str, fn: Callable, *args) -> dict:
@@ -209,9 +226,9 @@ def _check_stage(stages: _Stages, name: str, fn: Callable, *args) -> dict:
 
     An exception in the checks of the prediction (``sim``, and ``sim_physx`` in PhysX) means it is not
     sim-ready (``passed`` False, ``error`` says why). The opening stages act on the ground truth: an exception
-    there is not the method's doing, so it is recorded without a success rate. A stage whose module is not
-    installed is skipped, and so are the PhysX checks on a worker without SAPIEN (no verdict: the coverage
-    shows it).
+    there is not the method's doing, so it is recorded without a success rate (:func:`failed_stage_result`). A
+    stage whose module is not installed is skipped, and so are the PhysX checks on a worker without SAPIEN (no
+    verdict: the coverage shows it).
     """
     from spark_bench.sim.physx import SapienMissing
 
@@ -223,9 +240,7 @@ def _check_stage(stages: _Stages, name: str, fn: Callable, *args) -> dict:
             return {"skipped": f"{cause.name} is not installed"}
         if isinstance(cause, SapienMissing):
             return {"skipped": exc.reason}
-        if name in ("sim", PHYSX_CHECK):
-            return {"passed": False, "error": exc.reason}
-        return {"success_rate": None, "error": exc.reason}
+        return failed_stage_result(name, exc.reason)
 
 
 def evaluate_case(task: CaseTask) -> list[dict]:
@@ -263,19 +278,16 @@ def evaluate_case(task: CaseTask) -> list[dict]:
         pairing = cache(partial(_load_pairing, generation.folder, gt_folder, metrics, gt_bench))
         if task.options.sim:
             if "mujoco" in task.options.engines:
-                checks["sim"] = _check_stage(stages, "sim", _sim_checks, generation.folder)
-                row["sim_pass"] = checks["sim"].get("passed")
+                checks[SIM_CHECK] = _check_stage(stages, SIM_CHECK, _sim_checks, generation.folder)
             if task.options.physx:  # after MuJoCo's: its hulls come from the shape cache
                 checks[PHYSX_CHECK] = _check_stage(stages, PHYSX_CHECK, _physx_checks, generation.folder)
-            checks["open"] = _check_stage(stages, "open", _scripted_open, generation.folder, gt_folder, metrics,
-                                          task.options.seed, pairing)
-            row["open_success"] = _success_rate(checks["open"])
+            checks[OPEN_CHECK] = _check_stage(stages, OPEN_CHECK, _scripted_open, generation.folder, gt_folder,
+                                              metrics, task.options.seed, pairing)
         if task.options.rl:
-            checks["rl"] = _check_stage(stages, "rl", _rl_transfer, generation.folder, gt_folder, metrics,
-                                        Path(task.generation_dir).with_name(Path(task.generation_dir).name + ".rl"),
-                                        task.options, pairing)
-            row["rl_success"] = _success_rate(checks["rl"])
-        row.update(checks=checks, status="ok")
+            checks[RL_CHECK] = _check_stage(stages, RL_CHECK, _rl_transfer, generation.folder, gt_folder, metrics,
+                                            Path(task.generation_dir).with_name(Path(task.generation_dir).name + ".rl"),
+                                            task.options, pairing)
+        row.update(checks=checks, status="ok", **rate_columns(checks))
         rows = [row]
         for variant, folder in generation.variants.items():
             vrow = {**_base_row(task, category), "variant": variant, "prediction_dir": str(folder),

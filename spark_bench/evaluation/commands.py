@@ -13,18 +13,21 @@ def add_commands(subparsers) -> None:
     p = subparsers.add_parser("eval", help="run a method on every case of a benchmark and store the results",
                               description="Run a method on every case of a benchmark: generate (cached), "
                                           "metrics, sim-readiness checks, scripted opening; results go to "
-                                          "the SQLite store. A killed run resumes where it stopped.")
-    p.add_argument("--method", required=True, metavar="NAME",
-                   help="oracle, geometry, predictions, command, ours, retrieval, an entry point, or a methods-file entry")
+                                          "the SQLite store. A killed run resumes where it stopped.",
+                              formatter_class=EvalHelpFormatter)
+    p.add_argument("--method", required=True, metavar="NAME", help=METHOD_HELP)
+    p.add_argument("--method-args", action="append", metavar="KEY=VALUE,...",
+                   help="the method's options, e.g. predictions=DIR,label=SINGAPO (repeatable; a value is a JSON "
+                        "scalar where it parses, else text; quote a value holding a comma: label=\"a,b\"); "
+                        "--method-args help lists the method's options")
+    p.add_argument("--config", metavar="FILE",
+                   help="a configuration file (TOML or JSON): its [method] table holds the method's options, as "
+                        "--method-args (which win); its other tables configure the method itself, e.g. ours' "
+                        "[prior], [optimize]... (docs/ours.md)")
     p.add_argument("--bench", default=None, help="benchmark folder or name (default: synth-v1)")
-    p.add_argument("--predictions", metavar="DIR", help="for --method predictions: one folder per case id")
-    p.add_argument("--methods-file", metavar="FILE", help="TOML/JSON file of external commands")
-    p.add_argument("--gallery", metavar="DIR",
-                   help="for --method retrieval: a folder of PartNet-Mobility objects (default: synth-gallery-v1)")
-    p.add_argument("--entry", metavar="NAME", help="for --method command: which entry of the methods file")
-    p.add_argument("--config", metavar="FILE", help="method configuration file (ours)")
-    p.add_argument("--label", help="display label of the method's rows (predictions)")
-    p.add_argument("--regime", help="input regime of external predictions (default: image)")
+    for key, (metavar, method) in DEPRECATED_FLAGS.items():
+        p.add_argument("--" + key.replace("_", "-"), dest=key, metavar=metavar,
+                       help=f"deprecated: --method-args {key}={metavar} (--method {method})")
     p.add_argument("--sim", action=argparse.BooleanOptionalAction, default=True,
                    help="run sim-readiness checks and the scripted opener (default: on)")
     p.add_argument("--engine", choices=("mujoco", "physx", "all"), default="mujoco",
@@ -85,6 +88,75 @@ def add_commands(subparsers) -> None:
     b.set_defaults(func=run_leaderboard_command)
 
 
+#: The method's options that were flags of their own, kept for one release (each prints a deprecation line):
+#: option key -> (metavar, the method the flag was for).
+DEPRECATED_FLAGS = {"predictions": ("DIR", "predictions"), "methods_file": ("FILE", "command"),
+                    "gallery": ("DIR", "retrieval"), "entry": ("NAME", "command"),
+                    "label": ("TEXT", "predictions"), "regime": ("TEXT", "predictions")}
+METHOD_HELP = "the method (its names are listed by `spark-bench eval --help`)"
+
+
+def method_help() -> str:
+    """The help of ``--method``: every name :func:`~spark_bench.methods.registry.available_methods` lists
+    (built-ins, run-time registrations, entry points), generated when the help is shown."""
+    from spark_bench.methods.registry import available_methods
+
+    return (f"one of {', '.join(available_methods())}, or an entry of a methods file "
+            "(option methods_file); its options: --method-args")
+
+
+class EvalHelpFormatter(argparse.HelpFormatter):
+    """``eval --help``: the names of ``--method`` are looked up only when the help is printed (building the
+    parser, for every command, imports no method and reads no entry point)."""
+
+    def _get_help_string(self, action):
+        if action.help is METHOD_HELP:
+            return method_help()
+        return super()._get_help_string(action)
+
+
+def method_options(args) -> dict:
+    """The method's options of ``eval``'s arguments, as given (typed and checked by
+    :func:`~spark_bench.methods.registry.method_spec`): the ``[method]`` table of ``--config`` (and the
+    file itself as the ``config`` option when it has other tables), overridden by ``--method-args`` and the
+    deprecated flags (each printing one deprecation line).
+
+    :raises SparkBenchError: for a key given both by ``--method-args`` and a deprecated flag
+    """
+    from spark_bench.errors import SparkBenchError
+    from spark_bench.methods.options import parse_method_args
+
+    given = parse_method_args(args.method_args or ())
+    for key, (metavar, _) in DEPRECATED_FLAGS.items():
+        value = getattr(args, key, None)
+        if value is None:
+            continue
+        flag = "--" + key.replace("_", "-")
+        print(f"spark-bench: {flag} is deprecated and goes in the next release: use --method-args {key}={metavar}",
+              file=sys.stderr)
+        if key in given:
+            raise SparkBenchError(f"{key} is given by {flag} and by --method-args: keep --method-args")
+        given[key] = value
+    if not args.config:
+        return given
+    from spark_bench.methods.options import config_file_options, with_config_file
+    from spark_bench.methods.registry import accepted_options
+
+    table, others = config_file_options(args.config)
+    options = {**table, **given}
+    if others:
+        options = with_config_file(args.method, args.config, options, others, accepted_options(args.method, options))
+    return options
+
+
+def method_spec(args):
+    """The :class:`~spark_bench.methods.base.MethodSpec` of ``eval``'s arguments (:func:`method_options`; paths
+    made absolute here, since workers may run elsewhere)."""
+    from spark_bench.methods.registry import method_spec as spec_of
+
+    return spec_of(args.method, method_options(args))
+
+
 def _db(args) -> Path:
     from spark_bench.evaluation.runner import default_db
 
@@ -113,21 +185,29 @@ def _engines(args) -> tuple[str, ...]:
     return engines
 
 
+def _method_args_help(args) -> int | None:
+    """``--method-args help``: print the method's options instead of running it (0); None when not asked."""
+    texts = args.method_args or ()
+    if not any(text.strip() == "help" for text in texts):
+        return None
+    from spark_bench.methods.options import describe_options
+    from spark_bench.methods.registry import accepted_options
+
+    rest = argparse.Namespace(**{**vars(args), "method_args": [t for t in texts if t.strip() != "help"]})
+    sys.stdout.write(describe_options(args.method, accepted_options(args.method, method_options(rest))))
+    return 0
+
+
 def run_eval_command(args) -> int:
+    asked = _method_args_help(args)
+    if asked is not None:
+        return asked
     from spark_bench.evaluation.runner import EvalOptions, run_eval, usable_cores
-    from spark_bench.methods.base import MethodSpec
     from spark_bench.metrics.protocols import protocol_names
 
     protocols = tuple(protocol_names(args.protocol)) if args.protocol else ()  # an unknown name fails first
     engines = _engines(args)
-
-    def absolute(path: str | None) -> str | None:  # workers may run elsewhere: no relative paths
-        return str(Path(path).expanduser().resolve()) if path else None
-
-    spec = MethodSpec.create(args.method, predictions=absolute(args.predictions),
-                             methods_file=absolute(args.methods_file), entry=args.entry,
-                             config=absolute(args.config), label=args.label, regime=args.regime,
-                             gallery=absolute(args.gallery))
+    spec = method_spec(args)
     options = EvalOptions(sim=args.sim, rl=args.rl, n_samples=args.n_samples, seed=args.seed, align=args.align,
                           protocols=protocols, engines=engines,
                           **({} if args.rl_finetune_steps is None else {"rl_finetune_steps": args.rl_finetune_steps}))

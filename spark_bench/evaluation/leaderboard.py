@@ -30,9 +30,8 @@ from pathlib import Path
 
 from spark_bench.convention import CONVENTION_VERSION
 from spark_bench.errors import SparkBenchError
-from spark_bench.evaluation.aggregate import PHYSX_COVERAGE, PHYSX_RATE, summarize
+from spark_bench.evaluation.aggregate import summarize
 from spark_bench.evaluation.board import (
-    COVERAGE,
     HEADERS,
     LATEX_HEADERS,
     PALETTE,
@@ -40,14 +39,14 @@ from spark_bench.evaluation.board import (
     Entry,
     Leaderboard,
     Table,
-    fmt_physx_coverage,
+    fmt_case_coverage,
     fmt_value,
     is_number,
     mark_version_mismatches,
     unpinned_kernels_note,
 )
 from spark_bench.evaluation.store import ResultsStore
-from spark_bench.metrics.names import HEADLINE_KEYS
+from spark_bench.metrics.names import BY_KEY, HEADLINE, RATES, Headline
 
 FORMATS = ("md", "latex", "html", "csv")
 
@@ -223,13 +222,17 @@ def _latex_table(table: Table, caption: str, label: str) -> str:
     return "\n".join(lines)
 
 
-def _physx_caption(table: Table) -> str:
-    """The coverage of a table's PhysX sim pass, for its LaTeX caption (the LaTeX tables have no count columns):
-    `` Sim pass (PhysX) over the cases with a PhysX verdict: A 48/50, B 50/50.``; empty without the column."""
-    if PHYSX_RATE not in table.metrics:
-        return ""
-    covered = ", ".join(f"{e.name} {fmt_physx_coverage(e.metrics.get(PHYSX_COVERAGE))}" for e in table.entries)
-    return f" Sim pass (PhysX) over the cases with a PhysX verdict: {covered}."
+def _coverage_caption(table: Table) -> str:
+    """The coverage in cases of a table's rates (the PhysX sim pass's), for its LaTeX caption (the LaTeX tables have
+    no count columns): `` Sim pass (PhysX) over the cases with a PhysX verdict: A 48/50, B 50/50.``; empty where the
+    table has no such rate."""
+    out = ""
+    for key in table.metrics:
+        declared = BY_KEY[key].rate.coverage if BY_KEY[key].rate else None
+        if declared is not None and declared.unit == "case":
+            covered = ", ".join(f"{e.name} {fmt_case_coverage(e.metrics.get(declared.key))}" for e in table.entries)
+            out += f" {BY_KEY[key].label} over the cases with {declared.what}: {covered}."
+    return out
 
 
 def to_latex(board: Leaderboard, per_category: bool = False, per_part_class: bool = False) -> str:
@@ -239,12 +242,12 @@ def to_latex(board: Leaderboard, per_category: bool = False, per_part_class: boo
              r"% needs \usepackage[table]{xcolor} and the paper's colours:",
              *[rf"\providecolor{{{name}}}{{RGB}}{{{r},{g},{b}}}" for name, (r, g, b) in PALETTE.items()], ""]
     for table in board.tables():
-        parts += [_latex_table(table, f"{table.title} on {board.bench}.{_physx_caption(table)}",
+        parts += [_latex_table(table, f"{table.title} on {board.bench}.{_coverage_caption(table)}",
                                f"tab:{table.key}"), ""]
     if per_category:
         for category, entries in board.categories.items():
             for table in board.tables(entries):
-                parts += [_latex_table(table, f"{table.title}: {category}.{_physx_caption(table)}",
+                parts += [_latex_table(table, f"{table.title}: {category}.{_coverage_caption(table)}",
                                        f"tab:{table.key}-{category.lower()}"), ""]
     if per_part_class:
         for table in _part_class_tables(board):
@@ -256,35 +259,46 @@ def to_latex(board: Leaderboard, per_category: bool = False, per_part_class: boo
 
 #: The CSV columns of the scale ``--align icp`` applied (n/a for a run scored without alignment).
 SCALE_COLUMNS = ("alignment_scale_median", "alignment_scale_min", "alignment_scale_max")
-#: The CSV columns of the PhysX sim pass's coverage (:func:`spark_bench.evaluation.aggregate.physx_coverage`),
-#: written only where some entry has a PhysX sim pass.
-PHYSX_COVERAGE_COLUMNS = ("physx_coverage_with_verdict", "physx_coverage_cases")
+#: The CSV columns of a rate's coverage, by its unit: ``(column suffix, key of the coverage)`` (the columns of
+#: ``open_coverage``: ``open_coverage_scored``, ``open_coverage_total``).
+COVERAGE_COLUMNS = {"joint": (("scored", "joints_scored"), ("total", "joints_total")),
+                    "case": (("with_verdict", "with_verdict"), ("cases", "cases"))}
+
+
+def csv_rates(board: Leaderboard) -> list[str]:
+    """The rates the board's CSV writes, in :data:`~spark_bench.metrics.names.HEADLINE` order: every one
+    listed in every summary or appended (n/a where not measured), the others where some entry has them
+    (:meth:`Leaderboard.rates`: a board of runs without PhysX has no PhysX columns)."""
+    shown = set(board.rates())
+    return [h.key for h in RATES if _written_always(h) or h.key in shown]
+
+
+def _written_always(h: Headline) -> bool:
+    return h.summary or h.rate.appended
 
 
 def to_csv(board: Leaderboard, per_category: bool = False, per_part_class: bool = False) -> str:
     """One CSV line per entry (and per category and entry with ``per_category``); every metric. With
     ``per_part_class`` two more columns, ``part_class`` and ``n_joints``, and one more line per GAPartNet part
-    class and entry (its articulation errors over the joints of that class; the other metrics n/a). Where some
-    entry has a PhysX sim pass, its column and :data:`PHYSX_COVERAGE_COLUMNS` (else neither: the columns of a
-    board without PhysX)."""
-    physx = board.has_physx()
-    keys = [k for k in HEADLINE_KEYS if k != PHYSX_RATE or physx]
+    class and entry (its articulation errors over the joints of that class; the other metrics n/a). The rates of
+    :func:`csv_rates`, then their coverages (:data:`COVERAGE_COLUMNS`): those of the rates written always first,
+    then those of the others (a board without PhysX: neither its rate nor its coverage columns)."""
+    rates = csv_rates(board)
+    keys = [h.key for h in HEADLINE if h.rate is None or h.key in rates]
+    listed = sorted((BY_KEY[k] for k in rates), key=lambda h: not _written_always(h))  # stable: always first
+    coverages = [h.rate.coverage for h in listed if h.rate.coverage]
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    coverage = [name for key, _ in COVERAGE.values() for name in (f"{key}_scored", f"{key}_total")]
-    coverage += list(PHYSX_COVERAGE_COLUMNS) if physx else []
     writer.writerow(["bench", "category", "method", "label", "variant", "regime", "version", "config_hash",
-                     "n_cases", "n_failed", *keys, *coverage, *SCALE_COLUMNS,
-                     *(["part_class", "n_joints"] if per_part_class else [])])
+                     "n_cases", "n_failed", *keys,
+                     *(f"{c.key}_{suffix}" for c in coverages for suffix, _ in COVERAGE_COLUMNS[c.unit]),
+                     *SCALE_COLUMNS, *(["part_class", "n_joints"] if per_part_class else [])])
 
     def values(metrics: dict) -> list[str]:
         numbers = ["n/a" if not is_number(metrics.get(k)) else repr(float(metrics[k])) for k in keys]
-        for key, _ in COVERAGE.values():
-            found = metrics.get(key) or {}
-            numbers += [str(found.get("joints_scored", "n/a")), str(found.get("joints_total", "n/a"))]
-        if physx:
-            found = metrics.get(PHYSX_COVERAGE) or {}
-            numbers += [str(found.get("with_verdict", "n/a")), str(found.get("cases", "n/a"))]
+        for declared in coverages:
+            found = metrics.get(declared.key) or {}
+            numbers += [str(found.get(field, "n/a")) for _, field in COVERAGE_COLUMNS[declared.unit]]
         scales = metrics.get("alignment_scale") or {}
         numbers += [repr(float(scales[k])) if k in scales else "n/a" for k in ("median", "min", "max")]
         return numbers

@@ -113,8 +113,8 @@ class ImportReport(ImportOutcome):
         out += [f"  skipped  {c.case_id}: {c.reason}" for c in self.skipped]
         out += [f"  no such case: {name}" for name in self.unknown]
         if self.imported:
-            out.append(f"score them: spark-bench eval --method predictions --predictions {self.out_dir} "
-                       f"--bench {self.bench} --label {self.format} --align icp")
+            out.append(f"score them: spark-bench eval --method predictions --method-args "
+                       f"predictions={self.out_dir},label={self.format} --bench {self.bench} --align icp")
         return out
 
 

@@ -32,7 +32,6 @@ INPUT_KINDS = ("image", "camera", "masks", "open_image", "open_masks", "part_mes
 #: How each input kind is named in a regime (what the leaderboard prints); ground-truth-derived kinds say so.
 REGIME_NAMES = {"image": "image", "camera": "gt camera", "masks": "gt masks", "open_image": "gt open image",
                 "open_masks": "gt open part masks", "part_meshes": "gt part meshes", "gt": "gt"}
-ENTRY_POINT_GROUP = "spark_bench.methods"
 #: File the runner writes beside a finished generation; its presence makes the generation cached.
 GENERATION_MARKER = ".spark_bench_generation.json"
 
@@ -252,6 +251,11 @@ class Method(Protocol):
 
     Attributes: ``name`` (registry name), ``version`` (written into every row), ``inputs`` (a subset of
     :data:`INPUT_KINDS`) and ``regime`` (the input regime shown on the leaderboard).
+
+    A method class is registered with ``@register_method("name")``
+    (:func:`spark_bench.methods.registry.register_method`): its classmethod ``from_options(options: dict)``
+    builds it, and its mapping ``accepts`` (key -> :class:`~spark_bench.methods.options.MethodOption`) lists
+    the options it takes.
     """
 
     name: str
@@ -295,17 +299,18 @@ class NotPreparedError(SparkBenchError):
 class MethodSpec:
     """A method as plain data (picklable, for process pools and Ray tasks).
 
-    :param name: registry name (``oracle``, ``geometry``, ``predictions``, ``command``, ``ours``, an
-        entry point, or an entry of ``methods_file``)
-    :param options: method options: ``predictions`` (folder), ``methods_file``, ``entry``, ``config``
-        (file), ``label`` (display label override), ``regime``
+    :param name: registry name (``oracle``, ``geometry``, ``predictions``, ``command``, ``ours``,
+        ``retrieval``, an entry point, or an entry of ``methods_file``)
+    :param options: the options handed to the method's factory, sorted ``(key, value)`` pairs: what
+        ``eval --method-args`` and a config file's ``[method]`` table give, checked and typed by
+        :func:`spark_bench.methods.registry.method_spec` (``predictions``, ``gallery``, ``config``...)
     """
 
     name: str
     options: tuple[tuple[str, object], ...] = ()
 
     @classmethod
-    def create(cls, name: str, **options) -> MethodSpec:
+    def create(cls, name: str, /, **options) -> MethodSpec:
         return cls(name, tuple(sorted((k, v) for k, v in options.items() if v is not None)))
 
     @property

@@ -1,4 +1,5 @@
-"""An external program run once per case (``--method command``, or a methods-file entry by name).
+"""An external program run once per case (``--method command``, or a methods-file entry by name:
+``--method NAME --method-args methods_file=FILE``).
 
 A methods file (TOML or JSON) holds command templates; :class:`CommandMethod` fills a template's
 placeholders with the case files the method declared and runs it with
@@ -15,12 +16,16 @@ from pathlib import Path
 
 from spark_bench.errors import InputError, SparkBenchError
 from spark_bench.methods.base import INPUT_KINDS, CaseInput, Generation, GenerationError
+from spark_bench.methods.options import MethodOption
 from spark_bench.methods.process import ProgramError, run_program
+from spark_bench.methods.registry import register_method
 
 #: Input kinds that are one case file, filled into the placeholder of the same name.
 FILE_PLACEHOLDERS = ("image", "camera", "open_image", "masks", "open_masks")
 #: The tail of the program's output kept beside its object folder (characters).
 OUTPUT_TAIL = 200_000
+#: The option that names the methods file.
+METHODS_FILE = MethodOption("the methods file (TOML or JSON) of external commands", "path")
 
 
 @dataclass
@@ -86,6 +91,7 @@ def read_methods_file(path: str | Path) -> dict[str, CommandTemplate]:
     return out
 
 
+@register_method("command")
 class CommandMethod:
     """Runs an external program per case (e.g. SPARK's public ``run.py``), never through a shell.
 
@@ -93,12 +99,45 @@ class CommandMethod:
     """
 
     name = "command"
+    accepts = {"methods_file": METHODS_FILE,
+               "entry": MethodOption("which entry of the methods file (default: its only one)")}
+    #: What a methods-file entry run by its own name takes (:meth:`entry_method`).
+    entry_accepts = {"methods_file": METHODS_FILE}
 
     def __init__(self, template: CommandTemplate):
         self.template = template
         self.version = template.version
         self.inputs = template.inputs
         self.regime = template.regime
+
+    @classmethod
+    def from_options(cls, options: dict) -> CommandMethod:
+        """The registry's factory: the entry ``entry`` of the methods file ``methods_file`` (the only entry
+        when there is one)."""
+        if not options.get("methods_file"):
+            raise SparkBenchError("--method command needs --method-args methods_file=FILE "
+                                  "(and entry=NAME if it has several)")
+        templates = read_methods_file(options["methods_file"])
+        entry = options.get("entry")
+        if entry is None and len(templates) == 1:
+            entry = next(iter(templates))
+        if entry not in templates:
+            raise InputError(options["methods_file"], f"no method {entry!r} (has {sorted(templates)})")
+        return cls(templates[entry])
+
+    @classmethod
+    def entry_method(cls, name: str, methods_file: str | Path):
+        """The factory of the entry ``name`` of ``methods_file`` run as ``--method name`` (its options:
+        :attr:`entry_accepts`), or None when the file has no such entry."""
+        templates = read_methods_file(methods_file)
+        if name not in templates:
+            return None
+
+        def factory(options: dict) -> CommandMethod:
+            return cls(templates[name])
+
+        factory.accepts = cls.entry_accepts
+        return factory
 
     def label(self) -> str:
         return self.template.name
@@ -153,17 +192,3 @@ def find_object_folder(out_dir: Path) -> Path:
     if len(found) == 1:
         return found[0]
     raise GenerationError(f"expected one object folder with a URDF under {out_dir}, found {len(found)}")
-
-
-def make_command(options: dict) -> CommandMethod:
-    """The registry's factory: the entry ``options["entry"]`` of ``options["methods_file"]`` (the only
-    entry when there is one)."""
-    if not options.get("methods_file"):
-        raise SparkBenchError("--method command needs --methods-file FILE (and --entry NAME if it has several)")
-    templates = read_methods_file(options["methods_file"])
-    entry = options.get("entry")
-    if entry is None and len(templates) == 1:
-        entry = next(iter(templates))
-    if entry not in templates:
-        raise InputError(options["methods_file"], f"no method {entry!r} (has {sorted(templates)})")
-    return CommandMethod(templates[entry])

@@ -37,6 +37,7 @@ from spark_bench.asset.joint_type import JointType, is_rotational
 from spark_bench.asset.mesh import merge_meshes, sample_triangles
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link, Visual
 from spark_bench.methods.base import CaseInput, Generation, PartMeshes
+from spark_bench.methods.registry import register_method
 from spark_bench.metrics.shape import KDTree, build_tree, nearest_distances
 
 AXES = np.eye(3)
@@ -361,6 +362,7 @@ def build_asset(parts: PartMeshes, estimates: dict[str, JointEstimate], name: st
     return ArticulatedAsset(name, links, joints, category=parts.category)
 
 
+@register_method("geometry")
 class GeometryBaseline:
     """The ``geometry`` method: :func:`estimate_joints` on the case's part meshes.
 
@@ -372,12 +374,15 @@ class GeometryBaseline:
     version = "1"
     inputs = ("part_meshes",)
     regime = "part meshes"
+    #: It takes no options (its thresholds are :class:`GeometryOptions`' defaults).
+    accepts: dict = {}
 
     def __init__(self, options: GeometryOptions | None = None):
         self.options = options or GeometryOptions()
 
     @classmethod
     def from_options(cls, options: dict) -> GeometryBaseline:
+        """The registry's factory (no options)."""
         return cls()
 
     def label(self) -> str:

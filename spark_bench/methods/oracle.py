@@ -11,8 +11,10 @@ import shutil
 from pathlib import Path
 
 from spark_bench.methods.base import CaseInput, Generation
+from spark_bench.methods.registry import register_method
 
 
+@register_method("oracle")
 class Oracle:
     """Copies the case's ground-truth object folder as the prediction."""
 
@@ -20,6 +22,13 @@ class Oracle:
     version = "1"
     inputs = ("gt",)
     regime = "ground truth"
+    #: It takes no options.
+    accepts: dict = {}
+
+    @classmethod
+    def from_options(cls, options: dict) -> Oracle:
+        """The registry's factory (no options)."""
+        return cls()
 
     def label(self) -> str:
         return "oracle"

@@ -14,6 +14,8 @@ from pathlib import Path
 
 from spark_bench.errors import InputError, SparkBenchError
 from spark_bench.methods.base import CaseInput, Generation
+from spark_bench.methods.options import MethodOption
+from spark_bench.methods.registry import register_method
 
 
 def prediction_folder(predictions_dir: str | Path, case_id: str) -> Path:
@@ -33,6 +35,7 @@ def prediction_folder(predictions_dir: str | Path, case_id: str) -> Path:
     return folder
 
 
+@register_method("predictions")
 class PredictionsFolder:
     """Predictions written beforehand by any method: ``DIR/<case id>/`` is the case's object folder.
 
@@ -44,6 +47,9 @@ class PredictionsFolder:
     name = "predictions"
     version = "1"
     inputs: tuple[str, ...] = ()
+    accepts = {"predictions": MethodOption("the folder of one object folder per case id (required)", "path"),
+               "label": MethodOption("display label of the rows (default: predictions:<folder name>)"),
+               "regime": MethodOption("the input regime the external method had (default: image)")}
 
     def __init__(self, folder: str | Path, label: str | None = None, regime: str = "image"):
         self.folder = Path(folder).expanduser().resolve()
@@ -51,6 +57,13 @@ class PredictionsFolder:
             raise InputError(self.folder, "predictions folder not found")
         self._label = label or f"predictions:{self.folder.name}"
         self.regime = regime
+
+    @classmethod
+    def from_options(cls, options: dict) -> PredictionsFolder:
+        """The registry's factory: ``predictions`` (the folder), ``label``, ``regime``."""
+        if not options.get("predictions"):
+            raise SparkBenchError("--method predictions needs --method-args predictions=DIR")
+        return cls(options["predictions"], options.get("label"), options.get("regime") or "image")
 
     def label(self) -> str:
         return self._label
@@ -73,10 +86,3 @@ class PredictionsFolder:
         articulated = bool((record or {}).get("articulated", True))
         return Generation(folder, {"source": str(folder), **row_fields(record)},
                           articulation_metrics_valid=articulated)
-
-
-def make_predictions(options: dict) -> PredictionsFolder:
-    """The registry's factory: ``options["predictions"]`` is the folder (``--predictions DIR``)."""
-    if not options.get("predictions"):
-        raise SparkBenchError("--method predictions needs --predictions DIR")
-    return PredictionsFolder(options["predictions"], options.get("label"), options.get("regime") or "image")

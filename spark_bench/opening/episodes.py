@@ -11,11 +11,11 @@ import gymnasium as gym
 import numpy as np
 
 from spark_bench.asset.joint_type import JointType
+from spark_bench.manipulation.end_effector import EndEffector
+from spark_bench.manipulation.gripper import grip_command
+from spark_bench.manipulation.scene import part_points
 from spark_bench.opening.door_geometry import door_edge, turns_in_place
 from spark_bench.opening.opener import PULL_STEP, ScriptedOpener
-from spark_bench.opening.planning.end_effector import EndEffector
-from spark_bench.opening.planning.gripper import grip_command
-from spark_bench.opening.planning.scene import part_points
 from spark_bench.opening.suction_opener import SuctionOpener
 
 

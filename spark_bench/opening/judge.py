@@ -11,7 +11,7 @@ one scripted episode planned from the predicted joint, ``eval``'s ``open`` stage
   reported. The environment of a joint type is :data:`spark_bench.envs.registration.ENV_OF_JOINT_TYPE`.
 - **Which end-effector opens a part** (:data:`SCORED_END_EFFECTOR`, ``auto``): the parallel gripper where
   the grasp planner finds something to pinch, the suction cup on the part's front face where it finds
-  nothing (a flush lid, a handle-less drawer, a board: :mod:`spark_bench.opening.planning.suction`); both plan from the
+  nothing (a flush lid, a handle-less drawer, a board: :mod:`spark_bench.manipulation.suction`); both plan from the
   joint they are told, so a wrong axis fails with either. The cup also takes a part whose pinch is too weak
   for it (``weak_pinch``, the scene's drive check) and a part the gripper fails to open with its own joint
   where the cup opens it (:func:`judge_joint`). Every row says which (``end_effector``, and
@@ -59,6 +59,8 @@ import numpy as np
 
 from spark_bench.envs.registration import ENV_OF_JOINT_TYPE, make_env
 from spark_bench.errors import InputError
+from spark_bench.manipulation.end_effector import EndEffector
+from spark_bench.manipulation.suction import cup_mm
 from spark_bench.opening.episodes import OpenResult, open_with_ground_truth, open_with_joint
 from spark_bench.opening.pairing import (
     Pairing,
@@ -66,8 +68,6 @@ from spark_bench.opening.pairing import (
     one_line,
     opening_joints,
 )
-from spark_bench.opening.planning.end_effector import EndEffector
-from spark_bench.opening.planning.suction import cup_mm
 
 #: Step limit of a scripted episode in the scores (the ground-truth reference episode included).
 OPENING_STEPS = 200
@@ -110,7 +110,7 @@ class JudgedJoint:
     :param kind: what left it out (one of :data:`LEFT_OUT_KINDS`), None when it is scored
     :param end_effector: ``gripper`` or ``suction``: what opens (or would have opened) the part
     :param cup_radius: the suction cup's radius (m) where the planner placed one
-        (:func:`spark_bench.opening.planning.suction.cup_sizes`), else None
+        (:func:`spark_bench.manipulation.suction.cup_sizes`), else None
     """
 
     name: str
@@ -144,22 +144,23 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     :param seed: the reference episode's reset seed
     :param max_steps: its step limit (and the environment's)
     :param end_effector: ``auto`` (:data:`SCORED_END_EFFECTOR`), ``gripper`` or ``suction``
-        (:func:`spark_bench.opening.planning.suction.choose_end_effector`)
+        (:func:`spark_bench.manipulation.suction.choose_end_effector`)
     """
-    from spark_bench.opening.planning.scene import plan_grasp
-    from spark_bench.opening.planning.suction import choose_end_effector
+    from spark_bench.manipulation.scene import plan_grasp
+    from spark_bench.manipulation.suction import choose_end_effector
 
     try:
-        grasp = plan_grasp(gt_metres, joint.name)
+        grasp = planned = plan_grasp(gt_metres, joint.name)
     except InputError as exc:  # no geometry, no outward direction: nothing to grasp
         return JudgedJoint(joint.name, joint.type, one_line(exc), kind="planner")
     effector = choose_end_effector(end_effector, grasp.declined)
     if grasp.reason is not None and effector == EndEffector.GRIPPER:
         return JudgedJoint(joint.name, joint.type, grasp.reason, kind="planner")
     try:
-        # the rule as asked (``auto``: the scene may still take the cup, for a pinch too weak for the part)
+        # the rule as asked (``auto``: the scene may still take the cup, for a pinch too weak for the part), on
+        # the grasp planned above: one plan per joint
         env = make_env(ENV_OF_JOINT_TYPE[joint.type], asset=gt_metres, joint=joint.name, max_episode_steps=max_steps,
-                       end_effector=end_effector)
+                       end_effector=end_effector, grasp=grasp)
     except InputError as exc:  # the model does not compile, the cup finds no face...: not a method's fault
         return JudgedJoint(joint.name, joint.type, f"no opening task: {one_line(exc)}", kind="no_task",
                            end_effector=effector)
@@ -176,7 +177,7 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     if end_effector == EndEffector.AUTO and effector == EndEffector.GRIPPER and reference is not None and not reference.success:
         # the gripper fails with the part's own joint (a safe door's low ring beside its dial, where the pads
         # land on the dial): the cup scores the part where it opens it with that joint
-        cup = _cup_reference(gt_metres, joint, seed, max_steps)
+        cup = _cup_reference(gt_metres, joint, seed, max_steps, planned)
         if cup is not None:
             env.close()
             env, reference = cup
@@ -192,12 +193,13 @@ def judge_joint(gt_metres, joint, seed: int = 0, max_steps: int = OPENING_STEPS,
     return JudgedJoint(joint.name, joint.type, None, grasp.source, env, end_effector=effector, cup_radius=grasp.cup_radius)
 
 
-def _cup_reference(gt_metres, joint, seed: int, max_steps: int):
+def _cup_reference(gt_metres, joint, seed: int, max_steps: int, grasp):
     """``(environment, reference episode)`` with the suction cup on ``joint``'s part when the cup finds a place,
-    passes its drive check and opens the part with the joint's own parameters; else None (nothing left open)."""
+    passes its drive check and opens the part with the joint's own parameters; else None (nothing left open).
+    ``grasp`` is the gripper's plan on the part (the cup takes its face where it is a plate's broad one)."""
     try:
         env = make_env(ENV_OF_JOINT_TYPE[joint.type], asset=gt_metres, joint=joint.name, max_episode_steps=max_steps,
-                       end_effector="suction")
+                       end_effector="suction", grasp=grasp)
     except InputError:  # no face for the cup
         return None
     try:

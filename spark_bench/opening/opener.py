@@ -22,7 +22,7 @@ import numpy as np
 from spark_bench.asset.joint_type import MOVABLE_TYPES, JointType
 from spark_bench.asset.transforms import unit
 from spark_bench.envs import observation as OBS
-from spark_bench.envs.base import MAX_STEP
+from spark_bench.manipulation.gripper import MAX_STEP
 from spark_bench.opening.door_geometry import DoorEdge
 
 #: Distance (m) in front of the grasp point where the approach starts.

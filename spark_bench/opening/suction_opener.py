@@ -1,4 +1,4 @@
-"""The scripted opener of the suction cup (``end_effector="suction"``, :mod:`spark_bench.opening.planning.suction`): its
+"""The scripted opener of the suction cup (``end_effector="suction"``, :mod:`spark_bench.manipulation.suction`): its
 own phases on :class:`~spark_bench.opening.opener.ScriptedOpener`'s pre-grasp and opening trajectory, planned from
 the given (predicted) joint as the gripper's opener is. :func:`~spark_bench.opening.episodes.opener_for` makes it
 for an environment with the cup.

@@ -2,9 +2,9 @@
 (``spark-bench train-generalist``, :mod:`spark_bench.rl.generalist_recipe`) and shipped with the package (``spark_bench/rl/weights/``).
 
 **End-effectors.** Each policy drives either end-effector of the environments: the parallel gripper, or the
-suction cup (:mod:`spark_bench.opening.planning.suction`) on a part the grasp planner finds nothing to pinch on. Which
+suction cup (:mod:`spark_bench.manipulation.suction`) on a part the grasp planner finds nothing to pinch on. Which
 one is the environment's (made with ``end_effector="auto"`` by :func:`make_task_env`: the rule of the
-scripted opening score, :func:`spark_bench.opening.planning.suction.choose_end_effector`); the policy is told by
+scripted opening score, :func:`spark_bench.manipulation.suction.choose_end_effector`); the policy is told by
 feature 39. The cup's state lies where the fingers' does (:mod:`spark_bench.envs.observation`): entry 7
 is its suction command, 10-11 its contact force (both), 23 is -1 (approach released); its action's last
 entry is the suction command (> 0 sucks) where the gripper's is the finger command.
@@ -75,7 +75,7 @@ from spark_bench.envs import observation as OBS
 from spark_bench.envs.observation import FRAME_OBS_SIZE
 from spark_bench.envs.registration import ENV_OF_JOINT_TYPE, make_env
 from spark_bench.errors import InputError
-from spark_bench.opening.planning.end_effector import EndEffector
+from spark_bench.manipulation.end_effector import EndEffector
 
 #: Bumped whenever :func:`features` or the action's meaning changes (shipped weights name the version
 #: they were trained for).

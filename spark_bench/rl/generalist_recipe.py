@@ -24,7 +24,7 @@ from pathlib import Path
 
 from spark_bench.data.synth import GENERATOR_VERSION
 from spark_bench.errors import InputError
-from spark_bench.opening.planning.end_effector import EndEffector
+from spark_bench.manipulation.end_effector import EndEffector
 from spark_bench.rl.generalist import EPISODE_STEPS, FEATURE_VERSION, RECORD_NAME, WEIGHTS_DIR, weights_path
 from spark_bench.rl.generalist_report import plot_curves, report
 from spark_bench.rl.generalist_stages import POLICY_KWARGS, PPO_SETTINGS, StageSettings, train_kind

@@ -16,8 +16,8 @@ import numpy as np
 
 import spark_bench.rl.rollout as rollout
 from spark_bench.errors import InputError
+from spark_bench.manipulation.end_effector import EndEffector
 from spark_bench.opening.pairing import OPENING_TYPES, opening_joints
-from spark_bench.opening.planning.end_effector import EndEffector
 from spark_bench.rl.generalist import EPISODE_STEPS, KIND_OF_TYPE, GraspFrameWrapper, make_task_env
 
 #: The policy kind of each joint type that is an opening task (:data:`spark_bench.opening.pairing.OPENING_TYPES`;

@@ -4,6 +4,7 @@ the sim-readiness checks.
 - :func:`build_spec` ``(asset, options=None) -> mujoco.MjSpec``: the object, ready to compile or extend
 - :func:`convert` ``(src, out_dir, options=None) -> Path``: ``model.xml`` + ``model.urdf`` + meshes
 - :func:`run_checks` ``(src, options=None) -> CheckReport``: every check, a number and a verdict each
+- :data:`CHECKS`: the checks, declared once (:class:`CheckSpec`: name, needs, function, docs row), in report order
 - :class:`ConvertOptions`, :class:`CoacdParams`: every knob, with measured defaults
 
 Names are imported lazily (PEP 562), so that ``spark-bench --help`` and CoACD worker processes stay
@@ -20,6 +21,8 @@ _EXPORTS = {
     "PreparedObject": "spark_bench.sim.prepared",
     "convert": "spark_bench.sim.converter",
     "run_checks": "spark_bench.sim.checks",
+    "CHECKS": "spark_bench.sim.check_registry",
+    "CheckSpec": "spark_bench.sim.check_registry",
     "CheckReport": "spark_bench.sim.results",
     "CheckResult": "spark_bench.sim.results",
     "ConvertOptions": "spark_bench.sim.options",

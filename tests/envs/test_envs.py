@@ -1,9 +1,8 @@
-"""The opening environments: registration, Gymnasium conformity, determinism, grasp points, errors, and the
-unusual grips (a notch, lips side by side) carried out by the scripted opener."""
+"""The opening environments: registration, Gymnasium conformity, determinism, the start state, the sim
+conversion's object, errors (the grasp points: tests/manipulation/test_grasp_points.py; the unusual grips carried
+out by the scripted opener: tests/opening/test_opener.py)."""
 
 from __future__ import annotations
-
-import json
 
 import gymnasium as gym
 import numpy as np
@@ -16,7 +15,6 @@ from spark_bench.envs import observation as OBS
 from spark_bench.envs.assets import asset_folder
 from spark_bench.envs.cabinet import procedural_cabinet
 from spark_bench.errors import InputError
-from spark_bench.opening.planning.grasp import find_grasp
 
 ENV_IDS = ("SparkDrawer-v0", "SparkDoor-v0")
 
@@ -82,34 +80,6 @@ def test_object_comes_from_the_sim_conversion():
     assert model.geom("link_0_visual").contype == 0
 
 
-def test_grasp_picks_one_of_several_labelled_knobs():
-    """A handle link holding two knobs (a wide drawer) is grasped at one knob, not between them."""
-    from spark_bench.asset.model import Collision, Link, Visual
-
-    asset = procedural_cabinet(0)
-    drawer = asset.links["link_0"]
-    knobs = []
-    for y in (-0.15, 0.15):
-        origin = np.eye(4)
-        origin[:3, 3] = (-0.03, y, 0.0)
-        knobs.append((trimesh_box(origin), Collision(kind="box", origin=origin, size=np.full(3, 0.03))))
-    drawer.visuals, drawer.collisions = drawer.visuals[:5], drawer.collisions[:5]  # no bar
-    asset.links["knobs"] = Link(name="knobs", visuals=[Visual(mesh=m) for m, _ in knobs],
-                                collisions=[c for _, c in knobs], label="handle")
-    from spark_bench.asset.model import Joint
-
-    asset.joints["knobs_fixed"] = Joint("knobs_fixed", "fixed", "link_0", "knobs", origin=np.eye(4))
-    grasp = find_grasp(asset, "joint_0")
-    knob_y = asset.link_poses()["link_0"][1, 3] + np.array([-0.15, 0.15])
-    assert grasp.source == "label" and np.min(np.abs(grasp.point[1] - knob_y)) < 0.01
-
-
-def trimesh_box(origin):
-    import trimesh
-
-    return trimesh.creation.box(extents=(0.03, 0.03, 0.03), transform=origin)
-
-
 def test_start_state_is_in_front_of_the_handle():
     env = gym.make("SparkDrawer-v0", asset="procedural:0")
     obs, info = env.reset(seed=0)
@@ -121,67 +91,22 @@ def test_start_state_is_in_front_of_the_handle():
     assert not info["is_success"] and 0.0 < info["reach"] < 1.0
 
 
-def _pads_cover(grasp, center, thickness, outward):
-    """The grasp is over the bar (in the front plane) and the pads, from the fingertips back along their
-    length, cover the bar's whole depth."""
-    from spark_bench.opening.planning.gripper import GripperConfig
+@pytest.mark.parametrize("asset", ["procedural:0", "in memory"])
+def test_an_environment_given_a_grasp_plan_compiles_its_scene_for_it(asset):
+    """``grasp=`` (the opening score's judge plans each joint's grasp once and hands it on): the scene takes
+    that plan rather than planning its own, for an asset in memory and for one given by name (whose scenes
+    are otherwise cached and shared: this one is not)."""
+    from spark_bench.manipulation.scene import plan_grasp
 
-    config = GripperConfig()
-    lateral = (grasp.point - center) - ((grasp.point - center) @ outward) * outward
-    tips = (grasp.point - center) @ outward - config.tip_beyond_tcp  # the fingertips' level, from the bar's
-    return (np.linalg.norm(lateral) < 0.005 and tips < -thickness / 2
-            and tips + config.finger_length > thickness / 2)
-
-
-def test_grasp_point_is_the_handle_bar_on_the_procedural_cabinet():
-    """The pads are centred on the bar and reach down past it towards the front (a bar or a knob's head is
-    held from behind, not pinched at its rounded front), fingertips clear of the front."""
-    from spark_bench.opening.planning.handles import TIP_CLEARANCE
-
-    asset = procedural_cabinet(0)
-    poses = asset.link_poses()
-    drawer = find_grasp(asset, "joint_0")
-    bar = asset.links["link_0"].collisions[5]  # the drawer's bar handle
-    bar_center = (poses["link_0"] @ bar.origin)[:3, 3]
-    assert _pads_cover(drawer, bar_center, bar.size[0], drawer.outward)
-    front = (poses["link_0"] @ asset.links["link_0"].collisions[0].origin)[0, 3] - 0.01  # the panel's front, x
-    assert drawer.point[0] + 0.012 == pytest.approx(front - TIP_CLEARANCE, abs=0.0025)  # tips 3 mm off it
-    np.testing.assert_allclose(drawer.outward, [-1, 0, 0], atol=1e-6)
-    assert abs(drawer.long_axis[1]) > 0.99  # a horizontal bar: fingers close vertically
-    door = find_grasp(asset, "joint_1")
-    bar = asset.links["link_1"].collisions[1]
-    assert _pads_cover(door, (poses["link_1"] @ bar.origin)[:3, 3], bar.size[0], door.outward)
-    assert abs(door.long_axis[2]) > 0.99 and door.source == "geometry"
-    # nothing else stands beside these handles: the fingers approach fully open, with the default pads
-    assert drawer.opening is None and door.opening is None and door.pad_thickness is None
-
-
-def test_grasp_points_match_partnet_handle_annotations(real_object):
-    """Found from geometry alone, the grasp point lies on the annotated handle (PartNet result.json)."""
-    from spark_bench.asset.transforms import transform_points
-    from spark_bench.data import load_object
-
-    folder = real_object("41083")
-    tree = json.loads((folder / "result.json").read_text())
-
-    def handle_objs(nodes, inside=False):
-        out = []
-        for node in nodes:
-            here = inside or node.get("name") == "handle"
-            if here:
-                out += node.get("objs", [])
-            out += handle_objs(node.get("children", []), here)
-        return out
-
-    names = {f"textured_objs/{name}.obj" for name in handle_objs(tree)}
-    asset = load_object(folder)
-    poses = asset.link_poses()
-    for joint in asset.movable_joints():
-        link = asset.links[joint.child]
-        points = np.concatenate([transform_points(poses[link.name], v.mesh.vertices)
-                                 for v in link.visuals if v.source in names])
-        grasp = find_grasp(asset, joint.name)
-        assert np.all(grasp.point > points.min(0) - 0.02) and np.all(grasp.point < points.max(0) + 0.02), joint.name
+    loaded = procedural_cabinet(0)
+    planned = plan_grasp(loaded, "joint_0")
+    given = gym.make("SparkDrawer-v0", asset=loaded if asset == "in memory" else asset, grasp=planned)
+    own = gym.make("SparkDrawer-v0", asset=asset if asset != "in memory" else procedural_cabinet(0))
+    assert given.unwrapped.scene.grasp is planned and own.unwrapped.scene.grasp is not planned
+    np.testing.assert_array_equal(given.unwrapped.scene.grasp.point, own.unwrapped.scene.grasp.point)
+    np.testing.assert_array_equal(given.reset(seed=0)[0], own.reset(seed=0)[0])
+    given.close()
+    own.close()
 
 
 def test_unknown_joint_and_wrong_kind_fail_at_make():
@@ -258,157 +183,4 @@ def test_check_env_on_real_objects(real_object, object_id, env_ids):
         assert not terminated and np.all(np.isfinite(obs))
         assert abs(env.unwrapped.joint_fraction) < 1e-3, (env_id, env.unwrapped.joint_fraction)
         assert np.linalg.norm(obs[OBS.GRASP] - grasp) < 1e-3  # the grasp point (on the part) has not moved
-        env.close()
-
-
-NOTCH_WIDTH, NOTCH_DEPTH = 0.10, 0.028
-
-
-def notched_cabinet(seed: int = 0):
-    """The procedural cabinet with its handles replaced by finger-pull notches cut through the fronts:
-    one at the middle of the drawer front's top edge, one at the door's free edge."""
-    from spark_bench.envs.cabinet import WOOD, box_part
-
-    asset = procedural_cabinet(seed)
-
-    def cut(link, panel, boxes):
-        parts = [box_part(c, s, rgba) for c, s, rgba in boxes]
-        link.visuals = [p[0] for p in parts] + link.visuals[1:panel]
-        link.collisions = [p[1] for p in parts] + link.collisions[1:panel]
-
-    drawer, door = asset.links["link_0"], asset.links["link_1"]
-    (tx, w, h), (cx, _, _) = drawer.collisions[0].size, drawer.collisions[0].origin[:3, 3]
-    side = (w - NOTCH_WIDTH) / 2
-    cut(drawer, 5, [((cx, 0, -NOTCH_DEPTH / 2), (tx, w, h - NOTCH_DEPTH), WOOD),
-                    ((cx, -(NOTCH_WIDTH + side) / 2, h / 2 - NOTCH_DEPTH / 2), (tx, side, NOTCH_DEPTH), WOOD),
-                    ((cx, (NOTCH_WIDTH + side) / 2, h / 2 - NOTCH_DEPTH / 2), (tx, side, NOTCH_DEPTH), WOOD)])
-    (tx, dw, dh), (cx, _, _) = door.collisions[0].size, door.collisions[0].origin[:3, 3]
-    part = (dh - NOTCH_WIDTH) / 2
-    cut(door, 1, [((cx, (dw - NOTCH_DEPTH) / 2, 0), (tx, dw - NOTCH_DEPTH, dh), WOOD),
-                  ((cx, dw - NOTCH_DEPTH / 2, -(NOTCH_WIDTH + part) / 2), (tx, NOTCH_DEPTH, part), WOOD),
-                  ((cx, dw - NOTCH_DEPTH / 2, (NOTCH_WIDTH + part) / 2), (tx, NOTCH_DEPTH, part), WOOD)])
-    return asset
-
-
-def test_a_notch_in_a_front_is_found_and_gripped_from_inside():
-    asset = notched_cabinet(0)
-    poses = asset.link_poses()
-    drawer = find_grasp(asset, "joint_0")
-    assert drawer.source == "notch" and drawer.grip == "inside" and drawer.inside_grip
-    np.testing.assert_allclose(drawer.press, [0, 0, -1], atol=1e-6)  # the notch opens upwards
-    np.testing.assert_allclose(drawer.notch_size, (NOTCH_DEPTH, NOTCH_WIDTH), atol=0.004)
-    front = poses["link_0"] @ asset.links["link_0"].collisions[1].origin  # an upper piece of the front
-    top = front[2, 3] + NOTCH_DEPTH / 2
-    assert abs(drawer.point[1] - poses["link_0"][1, 3]) < 0.003  # centred across the drawer
-    assert abs(drawer.point[2] - (top - NOTCH_DEPTH / 2)) < 0.003
-    assert abs(drawer.closing[1]) > 0.99  # fingers open across the notch's width
-    door = find_grasp(asset, "joint_1")
-    assert door.source == "notch" and abs(door.closing[2]) > 0.99
-    assert door.press[1] < -0.99  # from the free edge towards the hinge
-    env = gym.make("SparkDrawer-v0", asset=asset)
-    pad = env.unwrapped.model.geom("spark_gripper_pad_left")
-    assert 2 * pad.size[2] <= NOTCH_DEPTH - 0.008  # pads low enough to enter the notch
-
-
-@pytest.mark.parametrize("env_id,joint", [("SparkDrawer-v0", "joint_0"), ("SparkDoor-v0", "joint_1")])
-def test_scripted_opener_opens_notched_fronts_with_an_inside_grip(env_id, joint):
-    """No handle, a notch: the closed fingers enter it and open against its sides; a predicted axis 90
-    degrees off still fails on the notched drawer."""
-    from spark_bench.opening.episodes import ground_truth_joint, open_with_joint
-
-    env = gym.make(env_id, asset=notched_cabinet(0), joint=joint, max_episode_steps=150)
-    assert env.unwrapped.scene.grasp.inside_grip
-    axis, pivot, joint_type = ground_truth_joint(env)
-    result = open_with_joint(env, axis, pivot, joint_type, seed=0)
-    assert result.success and result.fraction >= 0.75
-    if joint_type == "prismatic":
-        bad = open_with_joint(env, np.cross(axis, [0.0, 0.0, 1.0]), pivot, joint_type, seed=0)
-        assert not bad.success and bad.max_fraction < 0.3
-
-
-#: Synth StorageFurniture object 7 of ``generate_dataset(seed=0)`` (the benchmark's set): a double door
-#: whose two edge lips (the handles) stand about 6 mm apart, half a default pad's thickness.
-DOUBLE_DOOR_INDEX = 7
-
-
-def double_door_cabinet(out):
-    """Generate the synth double-door cabinet into ``out``; returns its folder."""
-    from spark_bench.data.synth.generate import generate_object, object_seed
-
-    return generate_object("StorageFurniture", object_seed(0, DOUBLE_DOOR_INDEX), out, "double_door")
-
-
-@pytest.fixture(scope="module")
-def double_door(tmp_path_factory):
-    return double_door_cabinet(tmp_path_factory.mktemp("synth"))
-
-
-def _door_joints(asset) -> list[str]:
-    return [j.name for j in asset.movable_joints() if j.type == "revolute"]
-
-
-def _handle_points(asset, joint: str) -> np.ndarray:
-    links = [name for name in asset.part_of_joint(joint) if asset.links[name].label == "handle"]
-    return np.asarray(asset.mesh(links=links).vertices)
-
-
-def test_clipped_vertices_are_the_mesh_inside_the_box():
-    import trimesh
-
-    from spark_bench.opening.planning.pads import clipped_vertices
-
-    cube = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
-    frame = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])  # box u = world y, v = z, w = x
-    inside = clipped_vertices(cube, np.array([0.0, 0.0, 0.0]), frame, [0.1, -np.inf, 0.2], [0.3, np.inf, np.inf])
-    np.testing.assert_allclose(inside.min(0), [0.1, -0.5, 0.2], atol=1e-9)
-    np.testing.assert_allclose(inside.max(0), [0.3, 0.5, 0.5], atol=1e-9)
-    assert len(clipped_vertices(cube, np.zeros(3), frame, [0.6, -1, -1], [0.9, 1, 1])) == 0
-
-
-def test_double_door_lips_are_pinched_one_at_a_time(double_door):
-    """The two leaves' edge lips stand closer than a default pad is thick: each door's grasp puts its
-    pads into the gaps beside its own lip, thin enough that the other lip stays outside the fingers."""
-    from spark_bench.data import load_object
-    from spark_bench.opening.planning.gripper import GripperConfig
-
-    asset = load_object(double_door)
-    doors = _door_joints(asset)
-    assert len(doors) == 2
-    lips = [_handle_points(asset, joint) for joint in doors]
-    closing = find_grasp(asset, doors[0]).closing
-    across = [lip @ closing for lip in lips]
-    gap = max(across[1].min() - across[0].max(), across[0].min() - across[1].max())
-    assert 0.002 < gap < GripperConfig().pad_thickness  # the case: a default pad does not fit between the lips
-    for joint, own, other in ((doors[0], lips[0], lips[1]), (doors[1], lips[1], lips[0])):
-        grasp = find_grasp(asset, joint)
-        assert grasp.source == "label" and grasp.opening is not None
-        assert grasp.pad_thickness < gap and grasp.clearance >= 0.001
-        inner, outer = grasp.opening, grasp.opening + grasp.pad_thickness  # each pad's faces from the TCP
-        assert np.all(np.abs((own - grasp.point) @ grasp.closing) < inner - 0.0009)  # own lip between the pads
-        assert np.all(np.abs((other - grasp.point) @ grasp.closing) > outer + 0.0009)  # the other lip outside
-        env = gym.make("SparkDoor-v0", asset=str(double_door), joint=joint)
-        pad = env.unwrapped.model.geom("spark_gripper_pad_left")
-        assert 2 * pad.size[1] == pytest.approx(grasp.pad_thickness)
-        env.close()
-
-
-def test_scripted_opener_opens_each_leaf_of_a_double_door_alone(double_door):
-    """The edge lips of a double door stand ~6 mm apart: with the default 12 mm pads closing from fully
-    open, the fingers pinched both lips and neither door opened past 10 %. Each leaf must open while the
-    other stays shut."""
-    from spark_bench.opening.episodes import open_with_ground_truth
-
-    folder = str(double_door)
-    env = gym.make("SparkDoor-v0", asset=folder, max_episode_steps=150)
-    doors = [j.name for j in env.unwrapped.scene.asset.movable_joints() if j.type == "revolute"]
-    env.close()
-    assert len(doors) == 2
-    for joint, other in ((doors[0], doors[1]), (doors[1], doors[0])):
-        env = gym.make("SparkDoor-v0", asset=folder, joint=joint, max_episode_steps=150)
-        unwrapped = env.unwrapped
-        assert unwrapped.scene.grasp.opening is not None  # the pads go beside the lip, not around both
-        result = open_with_ground_truth(env, seed=0)
-        assert result.success and result.fraction >= 0.75, (joint, result)
-        other_q = unwrapped.data.qpos[unwrapped.model.jnt_qposadr[unwrapped.model.joint(other).id]]
-        assert abs(other_q) < 0.02, (other, other_q)  # rad: the neighbour was not dragged along
         env.close()

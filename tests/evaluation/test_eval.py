@@ -190,6 +190,7 @@ def test_assert_same_numbers_compares_none_exactly_and_numbers_closely():
             assert_same_numbers(wrong, {"a": 1.0, "b": None}, rel=1e-12, abs_=1e-15)
 
 
+@pytest.mark.slow
 def test_ray_executor_gives_the_same_results_as_the_process_pool(tiny_bench, tmp_path):
     pytest.importorskip("ray", reason="the Ray executor is optional: pip install 'spark-bench[ray]'")
     import ray

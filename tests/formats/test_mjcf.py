@@ -533,8 +533,8 @@ def test_from_a_method_output_folder_to_the_leaderboard(bench, gt, tmp_path, iso
     write_particulate(runs / "cab0", gt)
     assert main(["import", "mjcf", "--runs", str(runs), "--bench", str(bench), "--out", str(pred)]) == 0
     assert "cab1" in capsys.readouterr().out  # the case without a run is listed
-    assert main(["eval", "--method", "predictions", "--predictions", str(pred), "--bench", str(bench),
-                 "--label", "Particulate", "--align", "icp", "--no-sim", "--n-samples", "5000", "--db", str(db),
+    assert main(["eval", "--method", "predictions", "--method-args", f"predictions={pred},label=Particulate",
+                 "--bench", str(bench), "--align", "icp", "--no-sim", "--n-samples", "5000", "--db", str(db),
                  "--cases", "cab0", "--workers", "0", "--no-progress", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["metrics"]["axis_err"] < 1e-3 and summary["metrics"]["type_err"] == 0.0

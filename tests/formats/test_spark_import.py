@@ -115,7 +115,7 @@ def test_command_exit_codes(tmp_path, bench, spark_cli, capsys):
     assert spark_cli(argv) == 0
     out = capsys.readouterr().out
     assert "imported cab0" in out and "skipped  cab1: no SPARK run for this case" in out
-    assert f"--predictions {pred} --bench {bench} --label spark+optimized --align icp" in out
+    assert f"--method-args predictions={pred},label=spark+optimized --bench {bench} --align icp" in out
     assert spark_cli(argv + ["--json"]) == 0
     assert json.loads(capsys.readouterr().out)["imported"] == 1
     assert spark_cli(["import", "spark", "--runs", str(tmp_path / "nowhere"), "--bench", str(bench),

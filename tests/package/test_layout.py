@@ -5,9 +5,7 @@ or module grows past the sizes a reader holds in mind.
 Every import counts, deferred ones (inside functions), ``TYPE_CHECKING`` ones and module names written as
 strings (lazy exports, entry points, the CLI's command modules) included: a package may import only the
 packages of the layers below its own (:data:`LAYERS`, lowest first); two packages of one layer never import
-each other. One sub-package is a unit of its own (:data:`SUB_UNITS`): ``opening.planning`` (the grasp planner,
-the end-effectors, the opening task's scene) sits below ``envs``, which simulates its scenes, and the rest of
-``opening`` (the scripted opener and the judge, which run the environments) above it.
+each other. A unit is a top-level package or module: no sub-package has a layer of its own.
 """
 
 from __future__ import annotations
@@ -25,7 +23,7 @@ LAYERS = (
     ("asset",),
     ("data",),
     ("metrics", "sim", "formats"),
-    ("opening.planning",),
+    ("manipulation",),
     ("envs",),
     ("opening",),
     ("rl", "methods"),
@@ -33,24 +31,13 @@ LAYERS = (
     ("cli",),
 )
 ORDER_LINE = " <- ".join(", ".join(layer) for layer in LAYERS)
-#: Sub-packages that are units of their own, in another layer than their parent package.
-SUB_UNITS = ("opening.planning",)
 MODULE_NAME = re.compile(r"^spark_bench(\.\w+)+(:\w+)?$")
 
 
 def top_level_units() -> set[str]:
     """The top-level packages and modules of ``spark_bench`` (its ``__init__`` aside)."""
     units = {p.name for p in PACKAGE.iterdir() if p.is_dir() and (p / "__init__.py").is_file()}
-    units |= {p.stem for p in PACKAGE.glob("*.py") if p.stem != "__init__"}
-    return units | set(SUB_UNITS)
-
-
-def _unit_of_parts(parts: list[str]) -> str:
-    """The unit of a dotted path below ``spark_bench`` (its parts, ``spark_bench`` left out)."""
-    for sub in SUB_UNITS:
-        if parts[:len(sub.split("."))] == sub.split("."):
-            return sub
-    return parts[0]
+    return units | {p.stem for p in PACKAGE.glob("*.py") if p.stem != "__init__"}
 
 
 def unit_of(path: Path) -> str | None:
@@ -58,7 +45,7 @@ def unit_of(path: Path) -> str | None:
     parts = path.relative_to(PACKAGE).parts
     if len(parts) == 1:
         return None if parts[0] == "__init__.py" else Path(parts[0]).stem
-    return _unit_of_parts(list(parts))
+    return parts[0]
 
 
 def imported_units(tree: ast.AST, units: set[str]) -> list[tuple[str, int]]:
@@ -75,7 +62,7 @@ def imported_units(tree: ast.AST, units: set[str]) -> list[tuple[str, int]]:
         for name in names:
             parts = name.split(".")
             if parts[0] == "spark_bench" and len(parts) > 1 and parts[1] in units:
-                out.append((_unit_of_parts(parts[1:]), node.lineno))
+                out.append((parts[1], node.lineno))
     return out
 
 
@@ -117,7 +104,7 @@ def test_the_architecture_document_states_the_order_and_every_package():
     architecture = (ROOT / "docs" / "architecture.md").read_text()
     assert ORDER_LINE in architecture, f"docs/architecture.md must state the import order: {ORDER_LINE}"
     missing = []
-    for unit in sorted(top_level_units() - set(SUB_UNITS)):
+    for unit in sorted(top_level_units()):
         shown = f"`{unit}/`" if (PACKAGE / unit).is_dir() else f"`{unit}.py`"
         if shown not in architecture:
             missing.append(shown)

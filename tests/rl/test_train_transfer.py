@@ -1,6 +1,6 @@
 """The RL transfer score (``eval --rl``): the shipped generalist, fine-tuned on the prediction, judged on the
 ground truth's drawers and doors (those nobody can open left out, as the scripted score leaves them out:
-``tests/rl/test_scoring.py``)."""
+``tests/opening/test_scoring.py``)."""
 
 from __future__ import annotations
 

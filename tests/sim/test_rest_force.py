@@ -52,12 +52,12 @@ def test_a_part_starting_inside_its_neighbour_fails_and_the_contact_is_named(iso
 def test_the_check_is_reported_and_does_not_decide_the_verdict(isolated_home, monkeypatch):
     """run_checks puts the check in ``mjcf_compiles``'s details; failing it (a bound no model meets) leaves
     spark-bench's own verdict and checks as they are."""
-    import spark_bench.sim.checks as checks
+    import spark_bench.sim.check_load as check_load
 
     report = run_checks(tiny_cabinet())
     reported = report.checks["mjcf_compiles"].details[REST_FORCE_CHECK]
     assert reported["passed"] is True and reported["threshold"] == REST_FORCE_LIMIT
-    monkeypatch.setattr(checks, "check_rest_force", lambda model: check_rest_force(model, limit=-1.0))
+    monkeypatch.setattr(check_load, "check_rest_force", lambda model: check_rest_force(model, limit=-1.0))
     strict = run_checks(tiny_cabinet())
     assert strict.checks["mjcf_compiles"].details[REST_FORCE_CHECK]["passed"] is False
     assert strict.passed and report.passed

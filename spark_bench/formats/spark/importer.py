@@ -112,8 +112,8 @@ class ImportReport(ImportOutcome):
         out += [f"  not a SPARK run folder: {name}" for name in self.not_runs]
         if self.imported:
             bench = f" --bench {self.bench}" if self.bench is not None else ""
-            out.append(f"score them: spark-bench eval --method predictions --predictions {self.out_dir}{bench} "
-                       f"--label {self.label}" + (" --align icp" if self.alignment == "icp" else ""))
+            out.append(f"score them: spark-bench eval --method predictions --method-args predictions={self.out_dir},"
+                       f"label={self.label}{bench}" + (" --align icp" if self.alignment == "icp" else ""))
         return out
 
 

@@ -36,6 +36,7 @@ from pathlib import Path
 
 from spark_bench.errors import InputError
 from spark_bench.methods.base import INPUT_KINDS
+from spark_bench.methods.options import METHOD_TABLE
 from spark_bench.methods.ours.config_parse import build_dataclass
 from spark_bench.methods.ours.sections import (
     GeometryConfig,
@@ -199,7 +200,8 @@ class SparkConfig:
 
     @classmethod
     def from_file(cls, path: str | Path) -> SparkConfig:
-        """Read a ``.json`` or ``.toml`` file."""
+        """Read a ``.json`` or ``.toml`` file; its ``[method]`` table, if any, holds the eval command's method
+        options (:mod:`spark_bench.methods.options`), not SPARK's settings, and is skipped."""
         path = Path(path)
         try:
             text = path.read_text()
@@ -208,6 +210,8 @@ class SparkConfig:
             raise InputError(path, "config file not found") from None
         except (json.JSONDecodeError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise InputError(path, f"malformed config: {exc}") from None
+        if isinstance(data, dict):
+            data = {k: v for k, v in data.items() if k != METHOD_TABLE}
         return cls.from_dict(data, path)
 
     def with_overrides(self, overrides: list[str]) -> SparkConfig:

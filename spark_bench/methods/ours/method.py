@@ -25,8 +25,11 @@ from pathlib import Path
 
 from spark_bench.data.case import BenchmarkCase
 from spark_bench.methods.base import CaseInput, Generation, NotPreparedError, regime_of
+from spark_bench.methods.options import MethodOption
+from spark_bench.methods.registry import register_method
 
 
+@register_method("ours")
 class OursMethod:
     """SPARK with a ``SparkConfig``: its label is the configuration's (``ours (prior=annotation,...)``).
 
@@ -37,6 +40,8 @@ class OursMethod:
     """
 
     name = "ours"
+    accepts = {"config": MethodOption("SPARK's configuration file, TOML or JSON (default: the offline default "
+                                      "configuration; docs/ours.md)", "path")}
 
     def __init__(self, config):
         from spark_bench import __version__
@@ -49,7 +54,8 @@ class OursMethod:
 
     @classmethod
     def from_options(cls, options: dict) -> OursMethod:
-        """The registry's factory: ``options["config"]`` is a SPARK configuration file (default: offline)."""
+        """The registry's factory: ``options["config"]`` is a SPARK configuration file (default: offline; its
+        ``[method]`` table, the eval command's, is not read here)."""
         from spark_bench.methods.ours.config import (
             SparkConfig,  # the registry works before SPARK is installed
         )

@@ -7,7 +7,7 @@ Two kinds:
   seeds are checked to be disjoint from the seeds of every named benchmark's objects
   (:func:`check_disjoint`, run before generating and again on the seeds the generator wrote), so no
   benchmark case is ever in it;
-- any folder of PartNet-Mobility-format object folders (``--gallery DIR``): every non-hidden sub-folder
+- any folder of PartNet-Mobility-format object folders (``--method-args gallery=DIR``): every non-hidden sub-folder
   is an object (or ``DIR`` itself when it holds a URDF). Folders that are not objects are skipped and
   listed; a folder with no usable object at all is an :class:`~spark_bench.errors.InputError` naming it.
 

@@ -8,7 +8,7 @@ Nothing of the ground truth is an input: the object's silhouette comes from the 
 
 Gallery: the default procedural gallery ``synth-gallery-v1`` (every synth category, 20 objects each,
 seeds disjoint from every named benchmark's), or any folder of PartNet-Mobility-format objects
-(option ``gallery``, ``--gallery DIR``).
+(option ``gallery``: ``--method-args gallery=DIR``).
 
 **The gallery never holds the case's own object.** The case record names the object folder the case
 was prepared from (``source``; provenance, not an input); its content hash
@@ -26,6 +26,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from spark_bench.methods.base import CaseInput, Generation, NotPreparedError, regime_of
+from spark_bench.methods.options import MethodOption
+from spark_bench.methods.registry import register_method
 from spark_bench.methods.retrieval.gallery import DEFAULT_GALLERY, Gallery, open_gallery, source_check
 from spark_bench.methods.retrieval.index import gallery_index
 from spark_bench.methods.retrieval.search import RECORD_FILE, SearchOptions, retrieve, write_retrieval
@@ -34,6 +36,7 @@ from spark_bench.methods.retrieval.search import RECORD_FILE, SearchOptions, ret
 BUILD_WORKERS = 2
 
 
+@register_method("retrieval")
 class RetrievalMethod:
     """``--method retrieval`` (options: ``gallery``, a folder; default ``synth-gallery-v1``).
 
@@ -45,6 +48,7 @@ class RetrievalMethod:
     version = "1"
     inputs = ("image", "camera")
     regime = regime_of(inputs)
+    accepts = {"gallery": MethodOption("a folder of PartNet-Mobility objects (default: synth-gallery-v1)", "path")}
 
     def __init__(self, gallery: str | Path | None = None, options: SearchOptions | None = None):
         default = gallery is None or str(gallery) in ("", DEFAULT_GALLERY.name)

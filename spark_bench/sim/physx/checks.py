@@ -1,4 +1,5 @@
-"""The sim-readiness checks in PhysX: each a number and a pass/fail, as :mod:`spark_bench.sim.checks` has them.
+"""The sim-readiness checks in PhysX: each a number and a pass/fail, as :mod:`spark_bench.sim.checks` has them. Their
+names and report order are :data:`spark_bench.sim.check_registry.PHYSX_CHECKS` (after ``mesh_files``).
 
 =====================  =========================================================  ==============================
 check                  value                                                      passes when
@@ -23,7 +24,7 @@ check                  value                                                    
 Joint dynamics are the prepared ones (:attr:`PreparedObject.dynamics`): armature as PhysX's joint armature;
 viscous damping as a generalized force each step; MuJoCo's dry friction (``frictionloss``) at rest as a PhysX
 velocity drive to zero whose force is capped at it (it holds a part up to that force and slides beyond, as a
-friction constraint does). The tolerances are the MuJoCo checks' (:mod:`spark_bench.sim.checks`). MuJoCo's
+friction constraint does). The tolerances are the MuJoCo checks' (:mod:`spark_bench.sim.check_rest`). MuJoCo's
 ``settled`` exemption (a part that only came out of an overlap it started in) is not made: the hulls of a part
 and its parent no longer overlap at rest (:mod:`spark_bench.sim.rest_trim`).
 """
@@ -33,7 +34,12 @@ from __future__ import annotations
 import numpy as np
 
 from spark_bench.asset.joint_type import JointType
-from spark_bench.sim.checks import PENETRATION_TOLERANCE, REST_DRIFT_FLOOR, REST_DRIFT_TOLERANCE, REST_SECONDS
+from spark_bench.sim.check_rest import (
+    PENETRATION_TOLERANCE,
+    REST_DRIFT_FLOOR,
+    REST_DRIFT_TOLERANCE,
+    REST_SECONDS,
+)
 from spark_bench.sim.mjcf import subtree_mass
 from spark_bench.sim.physical import axis_inertia
 from spark_bench.sim.physx.build import PhysxObject

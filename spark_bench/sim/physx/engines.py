@@ -14,12 +14,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from spark_bench.errors import InputError
+from spark_bench.sim.check_inputs import NOT_CONVERTED
+from spark_bench.sim.check_registry import PHYSX_CHECKS
 from spark_bench.sim.options import ConvertOptions
 from spark_bench.sim.results import CheckReport, CheckResult
 
 ENGINES = ("mujoco", "physx")
-#: The PhysX checks that need the prepared object, in report order (after ``mesh_files``).
-PHYSX_CHECKS = ("physx_loads", "mass_inertia", "joint_limits", "rest_stability", "rest_penetration", "joint_sweep")
 
 
 @dataclass
@@ -154,7 +154,7 @@ def run_physx_checks(src, options: ConvertOptions | None = None, progress: bool 
     :raises InputError: ``src`` is a converted ``model.xml`` (its hulls are there, its asset is not)
     """
     from spark_bench.asset.model import ArticulatedAsset
-    from spark_bench.sim.checks import check_mesh_files
+    from spark_bench.sim.check_files import check_mesh_files
     from spark_bench.sim.converter import load_source
     from spark_bench.sim.mjcf import prepare
     from spark_bench.sim.physx import sapien_module
@@ -168,8 +168,7 @@ def run_physx_checks(src, options: ConvertOptions | None = None, progress: bool 
     if not files.passed:
         report = CheckReport(asset.name, {"mesh_files": files})
         for name in PHYSX_CHECKS:
-            report.checks[name] = CheckResult(False, float("nan"), {
-                "reason": "not converted: the URDF names mesh files that cannot be loaded (mesh_files)"})
+            report.checks[name] = CheckResult(False, float("nan"), {"reason": NOT_CONVERTED})
         return report
     start = time.perf_counter()
     prepared = prepare(asset, options, progress=progress)

@@ -127,6 +127,7 @@ def test_retrieved_prior_pairs_other_geometry_by_structure(cabinet_objects):
 
 
 # ----- one case end to end ---------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_ours_with_retrieval_reads_no_ground_truth(cabinet_objects, tmp_path, isolated_home, monkeypatch):
     """A case of cab12 with its ground-truth folder and label images deleted; the gallery holds a
     re-written copy of cab12 (other bytes: the leak check lets it through) and two other cabinets. The run

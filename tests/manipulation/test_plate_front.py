@@ -9,7 +9,7 @@ import trimesh
 from helpers_boxes import box_mesh
 
 import spark_bench  # noqa: F401  (registers the environments)
-from spark_bench.opening.planning.plate_front import SLIDING_RATIO, face_covered, plate_normal, plate_outward
+from spark_bench.manipulation.plate_front import SLIDING_RATIO, face_covered, plate_normal, plate_outward
 
 Y = np.array([0.0, 1.0, 0.0])
 
@@ -60,8 +60,8 @@ def test_a_sliding_windows_sash_is_opened_by_its_outer_face(tmp_path):
     there, so ``auto`` puts the cup on it and drags it along the slide by friction."""
     from spark_bench.data.synth import generate_object
     from spark_bench.envs import make_env
+    from spark_bench.manipulation.grasp import find_grasp
     from spark_bench.opening.episodes import ground_truth_joint, open_with_ground_truth, open_with_joint
-    from spark_bench.opening.planning.grasp import find_grasp
 
     folder = str(generate_object("Window", 5017, tmp_path, "Window_5017"))
     env = make_env("SparkDrawer-v0", asset=folder, joint="joint_0", end_effector="auto", max_episode_steps=200)

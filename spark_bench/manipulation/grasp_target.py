@@ -1,4 +1,4 @@
-"""What the grasp planner (:mod:`spark_bench.opening.planning.grasp`) answers for one joint: where the TCP
+"""What the grasp planner (:mod:`spark_bench.manipulation.grasp`) answers for one joint: where the TCP
 goes, from which side, how the fingers (or the cup) hold, or why a parallel gripper cannot pull the part.
 """
 
@@ -37,13 +37,13 @@ class GraspTarget:
         or the simulated collision shape has no side to hold); a part declined
         for ``no_handle``, ``too_wide`` or ``unholdable`` has nothing to pinch, and the environments'
         ``end_effector="auto"`` opens it with the suction cup
-        (:func:`~spark_bench.opening.planning.suction.choose_end_effector`). The scene's drive check adds ``weak_pinch``
+        (:func:`~spark_bench.manipulation.suction.choose_end_effector`). The scene's drive check adds ``weak_pinch``
         (a pinch whose part starts to move along the fingers' closing, too heavy for one finger's servo:
-        :func:`~spark_bench.opening.planning.drive_check.stuck_reason`), where ``auto`` takes the cup when the cup opens it
+        :func:`~spark_bench.manipulation.drive_check.stuck_reason`), where ``auto`` takes the cup when the cup opens it
     :param cup_radius: for the suction cup, the radius (m) of the cup planned (one of
-        :func:`~spark_bench.opening.planning.suction.cup_sizes`; None: the gripper)
+        :func:`~spark_bench.manipulation.suction.cup_sizes`; None: the gripper)
     :param broad_face: the grasp is on a sliding plate's broad face, not on its front (``outward`` is that
-        face's; :func:`~spark_bench.opening.planning.plate_front.plate_face`)
+        face's; :func:`~spark_bench.manipulation.plate_front.plate_face`)
     """
 
     point: np.ndarray

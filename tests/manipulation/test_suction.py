@@ -12,11 +12,11 @@ import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.envs import make_env
 from spark_bench.envs import observation as OBS
 from spark_bench.envs.cabinet import procedural_cabinet
+from spark_bench.manipulation.scene import N_SUBSTEPS
+from spark_bench.manipulation.suction import SuctionConfig, choose_end_effector
+from spark_bench.manipulation.task import build_scene
 from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.opening.episodes import ground_truth_joint, open_with_ground_truth, open_with_joint
-from spark_bench.opening.planning.scene import N_SUBSTEPS
-from spark_bench.opening.planning.suction import SuctionConfig, choose_end_effector
-from spark_bench.opening.planning.task import build_scene
 
 mujoco = mujoco_module()
 
@@ -142,7 +142,7 @@ def _framed_pane(recess: float):
     behind it (a microwave door's glass), hinged along its left edge."""
     import trimesh
 
-    from spark_bench.opening.planning.features import Front, perpendicular_basis
+    from spark_bench.manipulation.features import Front, perpendicular_basis
 
     w, h, rim, t = 0.24, 0.33, 0.02, 0.02
     bars = [((t, rim, h), (0, -w / 2 + rim / 2, 0)), ((t, rim, h), (0, w / 2 - rim / 2, 0)),
@@ -157,7 +157,7 @@ def _framed_pane(recess: float):
 
 
 def test_the_cup_sits_on_a_pane_recessed_behind_a_narrow_frame():
-    from spark_bench.opening.planning.suction import recessed_levels, suction_point
+    from spark_bench.manipulation.suction import recessed_levels, suction_point
 
     config = SuctionConfig()
     front = _framed_pane(0.015)
@@ -173,13 +173,13 @@ def test_the_cup_sits_on_a_pane_recessed_behind_a_narrow_frame():
 
 
 def cup_footprint_on_face(front, config):
-    from spark_bench.opening.planning.suction import cup_footprint
+    from spark_bench.manipulation.suction import cup_footprint
 
     return cup_footprint(front, config)[0]
 
 
 def test_smaller_cups_hold_with_the_same_vacuum_scaled_by_their_area():
-    from spark_bench.opening.planning.suction import cup_sizes
+    from spark_bench.manipulation.suction import cup_sizes
 
     cups = cup_sizes(SuctionConfig())
     assert [round(2000 * c.cup_radius) for c in cups] == [40, 32, 25, 20]
@@ -193,7 +193,7 @@ def _strip(height: float, width: float = 0.14):
     """A drawer's front seen along -x: a board ``height`` tall and ``width`` wide, 20 mm thick."""
     import trimesh
 
-    from spark_bench.opening.planning.features import Front, perpendicular_basis
+    from spark_bench.manipulation.features import Front, perpendicular_basis
 
     part = trimesh.creation.box(extents=(0.02, width, height))
     outward = np.array([-1.0, 0.0, 0.0])
@@ -202,7 +202,7 @@ def _strip(height: float, width: float = 0.14):
 
 
 def test_a_front_too_small_for_the_40_mm_cup_takes_the_largest_smaller_cup_that_fits():
-    from spark_bench.opening.planning.suction import cup_sizes, suction_point
+    from spark_bench.manipulation.suction import cup_sizes, suction_point
 
     cups = cup_sizes(SuctionConfig())
     front = _strip(0.036)  # a small drawer's front at its real size: room for a 25 mm cup, not a 32 mm one
@@ -215,12 +215,13 @@ def test_a_front_too_small_for_the_40_mm_cup_takes_the_largest_smaller_cup_that_
     assert all(suction_point(_strip(0.018), c) is None for c in cups)
 
 
+@pytest.mark.slow
 def test_the_scene_carries_the_cup_the_planner_chose_and_judges_the_part_with_its_hold():
     """A cup wider than the drawer's front has no place on it; the planner takes the smaller one offered, and
     the scene's adhesion actuator and its stuck check hold with that cup's force (its area's share)."""
     from dataclasses import replace
 
-    from spark_bench.opening.planning.suction import fitted_cup, largest_hold
+    from spark_bench.manipulation.suction import fitted_cup, largest_hold
 
     config = SuctionConfig(cup_radius=0.2, max_force=7500.0, smaller_cups=(0.02,))
     scene = build_scene(_handleless(), "prismatic", "joint_0", end_effector="suction", suction=config)

@@ -1,4 +1,4 @@
-"""The pinch grasp on a part's handle candidates (:mod:`spark_bench.opening.planning.grasp` finds the part's
+"""The pinch grasp on a part's handle candidates (:mod:`spark_bench.manipulation.grasp` finds the part's
 front and runs the rest): the best candidate the pads can hold, the pads placed beside it, slid to the
 narrowest section of a hinged part's piece.
 """
@@ -8,12 +8,12 @@ from __future__ import annotations
 import numpy as np
 
 from spark_bench.asset.model import ArticulatedAsset
-from spark_bench.opening.planning.features import Front
-from spark_bench.opening.planning.grasp_target import GraspTarget
-from spark_bench.opening.planning.gripper import GripperConfig
-from spark_bench.opening.planning.handle_search import carried_links, handle_searches, on_handle
-from spark_bench.opening.planning.handles import PINCH_MARGIN, candidates, pad_center, reach_depth, sides_hold
-from spark_bench.opening.planning.pads import pad_landing, plan_pads
+from spark_bench.manipulation.features import Front
+from spark_bench.manipulation.grasp_target import GraspTarget
+from spark_bench.manipulation.gripper import GripperConfig
+from spark_bench.manipulation.handle_search import carried_links, handle_searches, on_handle
+from spark_bench.manipulation.handles import PINCH_MARGIN, candidates, pad_center, reach_depth, sides_hold
+from spark_bench.manipulation.pads import pad_landing, plan_pads
 
 #: A handle standing out of its base by this much (m) is held firmly; a lower one (a keyhole plate, an
 #: escutcheon) is taken only when nothing stands out further.
@@ -28,7 +28,7 @@ def pinch_grasp(asset: ArticulatedAsset, joint: str, front: Front, gripper: Grip
     (below the handle search's proud cut too), has sides too shallow for the pads at every level (a low
     rounded rib), or, given ``collision`` (the part's simulated collision shapes, world frame at rest), one
     whose simulated shape's sides give the pads no hold
-    (:func:`~spark_bench.opening.planning.handles.sides_hold`)."""
+    (:func:`~spark_bench.manipulation.handles.sides_hold`)."""
     n, basis = front.outward, front.basis
     widest = None
     unheld: list[str] = []
@@ -76,7 +76,7 @@ def pinch_grasp(asset: ArticulatedAsset, joint: str, front: Front, gripper: Grip
 def pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: str, gripper: GripperConfig
               ) -> GraspTarget:
     """The pinch grasp on handle candidate ``best``, its pads placed; ``landing`` set when an open pad would
-    come down on the object (:func:`~spark_bench.opening.planning.pads.pad_landing`)."""
+    come down on the object (:func:`~spark_bench.manipulation.pads.pad_landing`)."""
     n, basis = front.outward, front.basis
     depth = best.points @ n
     point = pad_center(best, front, gripper) @ basis + reach_depth(best.base, float(depth.max()),
@@ -95,7 +95,7 @@ def pinch_on(asset: ArticulatedAsset, joint: str, front: Front, best, source: st
 def place_pads(asset: ArticulatedAsset, joint: str, grasp: GraspTarget, held: np.ndarray, face: float,
                 gripper: GripperConfig) -> list[str]:
     """Put ``grasp``'s pads in the gaps beside the feature it holds when something else of the object stands
-    in the open fingers' sweep (:func:`~spark_bench.opening.planning.pads.plan_pads`: ``opening``, ``pad_thickness``,
+    in the open fingers' sweep (:func:`~spark_bench.manipulation.pads.plan_pads`: ``opening``, ``pad_thickness``,
     ``clearance`` set and the point shifted; unchanged when nothing is in the way or no pads fit).
 
     :param held: surface points of the feature held (a handle candidate's, a tab's)
@@ -103,7 +103,7 @@ def place_pads(asset: ArticulatedAsset, joint: str, grasp: GraspTarget, held: np
     :returns: the parts hinged to the part that the feature lies on
     """
     # the handle's side: the part, and a part hinged to it that the feature lies on (a safe's dial or lever,
-    # held at rest: :func:`~spark_bench.opening.planning.scene.hold_hinged_parts`); any other hinged part (a big dial
+    # held at rest: :func:`~spark_bench.manipulation.scene.hold_hinged_parts`); any other hinged part (a big dial
     # beside a bar) stands in the pads' way like another part's feature
     links = asset.part_of_joint(joint)
     holding = [name for name in carried_links(asset, joint, links) if _holds(asset, name, held)]
@@ -124,7 +124,7 @@ def place_pads(asset: ArticulatedAsset, joint: str, grasp: GraspTarget, held: np
 SWEEP_STEP = 0.002
 SWEEP_GAIN = 2 * PINCH_MARGIN
 #: Points of the piece count in its section when they stand this far (m) above the fingertips' level (as
-#: :data:`~spark_bench.opening.planning.pads.LANDING_MARGIN`).
+#: :data:`~spark_bench.manipulation.pads.LANDING_MARGIN`).
 SWEEP_PROUD = 0.004
 
 

@@ -126,23 +126,3 @@ def test_a_cap_turns_in_place_and_a_door_swings():
     opener = ScriptedOpener(z, np.zeros(3), "continuous", (1.0, 0.0, 0.0), in_place=True)
     assert opener.rotational and not opener.swinging
     assert ScriptedOpener(z, np.zeros(3), "revolute", (1.0, 0.0, 0.0)).swinging
-
-
-def test_part_points_are_memoized_per_asset_and_not_served_stale():
-    """The part's samples are computed once per asset and joint (read-only, shared), a copy of the asset
-    gets the same points, and an asset whose part moved in place gets fresh ones."""
-    from spark_bench.opening.planning.handle_search import N_SAMPLES
-    from spark_bench.opening.planning.scene import part_points
-
-    asset = load_asset("procedural:0")[0].copy()
-    door = next(j for j in asset.joints.values() if j.type == "revolute")
-    points = part_points(asset, door.name)
-    assert points.shape == (N_SAMPLES, 3) and not points.flags.writeable
-    assert part_points(asset, door.name) is points
-    copy = load_asset("procedural:0")[0].copy()
-    assert np.allclose(part_points(copy, door.name), points, atol=1e-9)
-    link = next(name for name in asset.part_of_joint(door.name) if asset.links[name].visuals)
-    for visual in asset.links[link].visuals:
-        visual.mesh.vertices = np.asarray(visual.mesh.vertices) + np.array([0.0, 0.0, 0.1])
-    moved = part_points(asset, door.name)
-    assert moved is not points and not np.allclose(moved, points, atol=1e-3)

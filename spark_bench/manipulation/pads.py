@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from spark_bench.opening.planning.features import first_hit
-from spark_bench.opening.planning.gripper import GripperConfig
+from spark_bench.manipulation.features import first_hit
+from spark_bench.manipulation.gripper import GripperConfig
 
 #: Another part's surface stands in the fingers' way when it is this far (m) proud of the grasped front
 #: (a neighbour's front face level with this one is not in the way: the fingertips stop short of it).
@@ -176,13 +176,13 @@ def pad_landing(mesh, point: np.ndarray, outward: np.ndarray, closing: np.ndarra
 def approach_blocked(asset, grasp, gripper: GripperConfig, clear: float) -> tuple[str, float, bool] | None:
     """What of the object stands in the hand's way in: rays from the pads' places as they come in (open,
     or pre-closed to ``grasp.opening``) along the outward direction, from the palm's level (what stands
-    lower is the pads' business, :func:`~spark_bench.opening.planning.pads.plan_pads`) out to ``clear`` (m).
+    lower is the pads' business, :func:`~spark_bench.manipulation.pads.plan_pads`) out to ``clear`` (m).
     Returns ``(the first link hit, its distance m, whether the ray from the grasp point itself is blocked
     too)`` or None. A part whose joint opens into the object has the object across its whole way in; a
     neighbouring feature (a dial beside a safe's lever) stands beside the grasp, in one pad's way.
 
-    :param asset: the object (a :class:`~spark_bench.opening.planning.rest_meshes.RestMeshes`)
-    :param grasp: the planned :class:`~spark_bench.opening.planning.grasp_target.GraspTarget`
+    :param asset: the object (a :class:`~spark_bench.manipulation.rest_meshes.RestMeshes`)
+    :param grasp: the planned :class:`~spark_bench.manipulation.grasp_target.GraspTarget`
     :param clear: how far (m) in front of the grasp nothing may stand
     """
     opening = gripper.max_opening if grasp.opening is None else grasp.opening

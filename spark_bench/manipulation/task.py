@@ -1,6 +1,6 @@
 """An opening task built: the joint chosen, its part's grasp planned, the end-effector picked, the scene
 compiled with the object and the end-effector, and the drive check run on it
-(:mod:`spark_bench.opening.planning.drive_check`). The environments of :mod:`spark_bench.envs` simulate what
+(:mod:`spark_bench.manipulation.drive_check`). The environments of :mod:`spark_bench.envs` simulate what
 :func:`build_scene` returns.
 """
 
@@ -10,12 +10,11 @@ from dataclasses import replace
 
 from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.errors import InputError
-from spark_bench.mujoco_gl import mujoco_module
-from spark_bench.opening.planning.drive_check import pinch_limited, stuck_reason
-from spark_bench.opening.planning.end_effector import EndEffector
-from spark_bench.opening.planning.grasp_target import GraspTarget
-from spark_bench.opening.planning.gripper import GripperConfig, add_gripper
-from spark_bench.opening.planning.scene import (
+from spark_bench.manipulation.drive_check import pinch_limited, stuck_reason
+from spark_bench.manipulation.end_effector import EndEffector
+from spark_bench.manipulation.grasp_target import GraspTarget
+from spark_bench.manipulation.gripper import GripperConfig, add_gripper
+from spark_bench.manipulation.scene import (
     IMPRATIO,
     TIMESTEP,
     Scene,
@@ -27,7 +26,8 @@ from spark_bench.opening.planning.scene import (
     prepared_object,
     workspace_box,
 )
-from spark_bench.opening.planning.suction import SuctionConfig, add_suction, choose_end_effector, fitted_cup
+from spark_bench.manipulation.suction import SuctionConfig, add_suction, choose_end_effector, fitted_cup
+from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim import build_spec
 
 mujoco = mujoco_module()
@@ -35,7 +35,7 @@ mujoco = mujoco_module()
 
 def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
                 gripper: GripperConfig | None = None, visuals: bool = True, end_effector: str = "gripper",
-                suction: SuctionConfig | None = None) -> Scene:
+                suction: SuctionConfig | None = None, grasp: GraspTarget | None = None) -> Scene:
     """Compile the object with the gripper (or the suction cup), for opening ``joint`` (or the first joint of
     ``kind``).
 
@@ -46,12 +46,16 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
     :param visuals: compile the object's visual meshes (for rendering); without them the scene simulates the
         same (visual geoms have no contacts and no mass) and a real object's compiles 10-30x faster
     :param end_effector: ``gripper``, ``suction`` or ``auto`` (the cup where the planner finds nothing to
-        pinch: :func:`~spark_bench.opening.planning.suction.choose_end_effector`; also where the cup opens a part whose
-        pinch cannot hold its pull along the fingers' closing direction, ``weak_pinch``: :func:`~spark_bench.opening.planning.drive_check.stuck_reason`)
+        pinch: :func:`~spark_bench.manipulation.suction.choose_end_effector`; also where the cup opens a part whose
+        pinch cannot hold its pull along the fingers' closing direction, ``weak_pinch``: :func:`~spark_bench.manipulation.drive_check.stuck_reason`)
     :param suction: the cup's dimensions and holding force
+    :param grasp: the gripper's grasp on the chosen joint's part, planned already by the caller
+        (:func:`~spark_bench.manipulation.scene.plan_grasp` of ``asset``, the joint and ``gripper``: the
+        opening score's judge plans it once per joint and hands it on); None: planned here
     """
     chosen = choose_joint(asset, kind, joint)
-    grasp = plan_grasp(asset, chosen.name, gripper)
+    if grasp is None:
+        grasp = plan_grasp(asset, chosen.name, gripper)
     effector = choose_end_effector(end_effector, grasp.declined)
     if effector == EndEffector.SUCTION:  # on the face the gripper's planner looked at (a plate's broad face)
         grasp = plan_cup(asset, chosen.name, suction, outward=grasp.outward if grasp.broad_face else None)
@@ -72,7 +76,7 @@ def build_scene(asset: ArticulatedAsset, kind: str, joint: str | None = None,
 def compile_scene(asset: ArticulatedAsset, chosen: Joint, grasp: GraspTarget, effector: str,
                    gripper: GripperConfig | None, suction: SuctionConfig | None, visuals: bool) -> Scene:
     """:func:`build_scene` for a planned ``grasp`` and a chosen end-effector (``gripper`` or ``suction``): the
-    compiled scene, its drive check run when the planner found a grasp (:func:`~spark_bench.opening.planning.drive_check.stuck_reason`)."""
+    compiled scene, its drive check run when the planner found a grasp (:func:`~spark_bench.manipulation.drive_check.stuck_reason`)."""
     spec = build_spec(asset, prepared=prepared_object(asset), visuals=visuals)
     spec.option.timestep = TIMESTEP
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST

@@ -4,7 +4,7 @@ The part is driven directly (no gripper in the way) by the largest force the end
 at the grasp point: the hand's largest pull, one finger's servo for a pinch whose part starts to move along the
 fingers' closing direction, the cup's hold for the suction cup. A part that does not open so is one no policy of
 that end-effector opens (too heavy, or jammed by its collision shapes), and the scene's grasp says why
-(:func:`stuck_reason`, run by :func:`~spark_bench.opening.planning.task.build_scene`).
+(:func:`stuck_reason`, run by :func:`~spark_bench.manipulation.task.build_scene`).
 """
 
 from __future__ import annotations
@@ -12,12 +12,12 @@ from __future__ import annotations
 import numpy as np
 
 from spark_bench.asset.transforms import unit
+from spark_bench.manipulation.end_effector import EndEffector
+from spark_bench.manipulation.grasp import outward_direction, part_name
+from spark_bench.manipulation.gripper import largest_pull, pinch_hold
+from spark_bench.manipulation.scene import N_SUBSTEPS, Scene
+from spark_bench.manipulation.suction import largest_hold
 from spark_bench.mujoco_gl import mujoco_module
-from spark_bench.opening.planning.end_effector import EndEffector
-from spark_bench.opening.planning.grasp import outward_direction, part_name
-from spark_bench.opening.planning.gripper import largest_pull, pinch_hold
-from spark_bench.opening.planning.scene import N_SUBSTEPS, Scene
-from spark_bench.opening.planning.suction import largest_hold
 
 mujoco = mujoco_module()
 
@@ -37,10 +37,10 @@ STALL_TOLERANCE = 1e-3
 
 def hand_pull(scene: Scene) -> float:
     """The largest steady force (N) the end-effector opens ``scene``'s part with: the cup's largest hold
-    (:func:`~spark_bench.opening.planning.suction.largest_hold`); the hand's largest pull
-    (:func:`~spark_bench.opening.planning.gripper.largest_pull`), and for a pinch whose part starts to move along the
+    (:func:`~spark_bench.manipulation.suction.largest_hold`); the hand's largest pull
+    (:func:`~spark_bench.manipulation.gripper.largest_pull`), and for a pinch whose part starts to move along the
     fingers' closing direction (a lid's lip pinched across its thickness and lifted) at most what the far
-    finger's servo holds over that share of the pull (:func:`~spark_bench.opening.planning.gripper.pinch_hold`): there
+    finger's servo holds over that share of the pull (:func:`~spark_bench.manipulation.gripper.pinch_hold`): there
     the pads' friction holds nothing."""
     config = scene.gripper.config
     if scene.end_effector == EndEffector.SUCTION:

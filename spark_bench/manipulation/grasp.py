@@ -2,25 +2,25 @@
 
 The part's *front* is found first: its outward direction (the pull direction of a drawer, the swing
 direction of a door's far edge, made exact by the normal of the faces facing it) and the front face's
-level along it (:func:`~spark_bench.opening.planning.features.front_level`). Handles are then looked for, first
+level along it (:func:`~spark_bench.manipulation.features.front_level`). Handles are then looked for, first
 found first taken:
 
 1. a link labelled ``handle`` among the part's links (``semantics.txt`` label, or GAPartNet's annotation
    ``category``);
 2. a labelled handle of a part hinged to it (a safe's lever, its own joint) standing in front of the front;
 3. geometry: the surface of the part and of the parts hinged to it (a dial, a knob) standing proud of the
-   front face by more than :data:`~spark_bench.opening.planning.handle_search.HANDLE_MIN_PROUD`, in connected clusters.
+   front face by more than :data:`~spark_bench.manipulation.handle_search.HANDLE_MIN_PROUD`, in connected clusters.
 
 Only clusters the open fingers can close around count (narrower than the open fingers by
 :data:`PINCH_MARGIN` on each side, across the closing direction); the chosen one is the central one
 (drawers) or the one farthest from the hinge (doors). A labelled handle whose bounding box's center is
-not over the handle (a bucket's bail, an arc) is grasped at its far end (:func:`~spark_bench.opening.planning.handle_search.on_handle`). The fingers
+not over the handle (a bucket's bail, an arc) is grasped at its far end (:func:`~spark_bench.manipulation.handle_search.on_handle`). The fingers
 reach down the handle as far as they can: the fingertips :data:`TIP_CLEARANCE` above the front face, or
 the pads' whole length below the handle's top when it stands out further, so that a knob's head or a
 bar is held from behind, not pinched at its rounded front.
 
 A part with no handle but a finger-pull notch cut into an edge of its front
-(:func:`~spark_bench.opening.planning.features.find_notch`) gets an *inside grip*: the closed fingers enter the
+(:func:`~spark_bench.manipulation.features.find_notch`) gets an *inside grip*: the closed fingers enter the
 notch, the hand presses against the notch's inner wall and the fingers open against its sides
 (``inside_grip=True``, ``press`` the direction of that wall). A revolute part with none of these but a tab
 standing out past its free edge (a box lid's lifting tab, :func:`find_tab`) is pinched across the tab
@@ -28,16 +28,16 @@ from beyond that edge (``outward`` is then the edge's direction, not the swing's
 its front face's center (drawers) or a point of the front face near its free edge (doors), with
 ``has_handle=False`` and a one-line ``reason`` why a parallel gripper cannot pull it.
 
-A pinch grasp is then checked against its neighbourhood (:func:`spark_bench.opening.planning.pads.plan_pads`), and
+A pinch grasp is then checked against its neighbourhood (:func:`spark_bench.manipulation.pads.plan_pads`), and
 the hand's way in against the object (:func:`find_grasp`). A tab whose way in is blocked (a front-loading
 washer's handle on its door's rim) gives way to the front's own grasps; a sliding plate (a sash) whose front
 has nothing to pinch or no way in is looked at from its broad face
-(:func:`~spark_bench.opening.planning.plate_front.plate_face`).
+(:func:`~spark_bench.manipulation.plate_front.plate_face`).
 
-Where the handle candidates are looked for is :mod:`spark_bench.opening.planning.handle_search`; which of them a
-parallel gripper can pinch, and where, :mod:`spark_bench.opening.planning.handles`; the pinch on the best of them,
-its pads placed, :mod:`spark_bench.opening.planning.pinch`; what the planner answers,
-:class:`~spark_bench.opening.planning.grasp_target.GraspTarget`.
+Where the handle candidates are looked for is :mod:`spark_bench.manipulation.handle_search`; which of them a
+parallel gripper can pinch, and where, :mod:`spark_bench.manipulation.handles`; the pinch on the best of them,
+its pads placed, :mod:`spark_bench.manipulation.pinch`; what the planner answers,
+:class:`~spark_bench.manipulation.grasp_target.GraspTarget`.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.mesh import sample_surface
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.asset.transforms import unit
-from spark_bench.opening.planning.features import (
+from spark_bench.manipulation.features import (
     LEVEL_BIN,
     Front,
     clusters,
@@ -62,19 +62,19 @@ from spark_bench.opening.planning.features import (
     perpendicular_basis,
     rasterise_front,
 )
-from spark_bench.opening.planning.grasp_target import GraspTarget
-from spark_bench.opening.planning.gripper import GripperConfig
-from spark_bench.opening.planning.handle_search import (
+from spark_bench.manipulation.grasp_target import GraspTarget
+from spark_bench.manipulation.gripper import GripperConfig
+from spark_bench.manipulation.handle_search import (
     HANDLE_MIN_PROUD,
     N_HANDLE_SAMPLES,
     N_SAMPLES,
     carried_links,
 )
-from spark_bench.opening.planning.handles import edge_pinch, sides_hold
-from spark_bench.opening.planning.pads import approach_blocked
-from spark_bench.opening.planning.pinch import pinch_grasp, place_pads
-from spark_bench.opening.planning.plate_front import plate_face
-from spark_bench.opening.planning.rest_meshes import RestMeshes
+from spark_bench.manipulation.handles import edge_pinch, sides_hold
+from spark_bench.manipulation.pads import approach_blocked
+from spark_bench.manipulation.pinch import pinch_grasp, place_pads
+from spark_bench.manipulation.plate_front import plate_face
+from spark_bench.manipulation.rest_meshes import RestMeshes
 
 #: A revolute part's free edge must lie this far (m) from its hinge for a feature past it to be a lid's tab:
 #: a shorter part is a lever (a toilet's flush lever, 8 cm), pressed on its face, not pinched at its end.
@@ -250,12 +250,12 @@ def find_grasp(asset: ArticulatedAsset, joint: str, seed: int = 0,
 
 
 def _way_in(asset: ArticulatedAsset, joint: str, grasp: GraspTarget, gripper: GripperConfig):
-    """What blocks ``grasp``'s way in (:func:`~spark_bench.opening.planning.pads.approach_blocked`), or None."""
+    """What blocks ``grasp``'s way in (:func:`~spark_bench.manipulation.pads.approach_blocked`), or None."""
     blocked = approach_blocked(asset, grasp, gripper, APPROACH_CLEAR)
     if blocked is not None and grasp.source == "face" and blocked[0] in asset.moving_links(joint):
         # nothing to pinch, and what stands before the face's centre is the part's own (the knob the pads
         # cannot hold): no other part in the way, the cup (``auto``) plans its own place and way in
-        # (:func:`~spark_bench.opening.planning.suction.plan_suction`)
+        # (:func:`~spark_bench.manipulation.suction.plan_suction`)
         return None
     return blocked
 
@@ -281,7 +281,7 @@ def is_push_button(asset: ArticulatedAsset, joint: str) -> bool:
 
 
 def edge_sides_hold(front: Front, edge: tuple, gripper: GripperConfig, collision=None) -> bool:
-    """Whether the pads hold an edge pinch's two edges (:func:`~spark_bench.opening.planning.handles.sides_hold`, on the
+    """Whether the pads hold an edge pinch's two edges (:func:`~spark_bench.manipulation.handles.sides_hold`, on the
     part's surface and, given them, its collision shapes): the crown of a rounded lid is a strip narrower than
     the open fingers at its face level, but its sides slope away and the pads slide off them."""
     point, along, _ = edge

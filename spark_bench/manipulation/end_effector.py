@@ -9,7 +9,7 @@ from enum import StrEnum
 
 class EndEffector(StrEnum):
     """The parallel gripper, the suction cup, or ``auto`` (the gripper where it can pinch the part, else the
-    cup: :func:`~spark_bench.opening.planning.suction.choose_end_effector`)."""
+    cup: :func:`~spark_bench.manipulation.suction.choose_end_effector`)."""
 
     GRIPPER = "gripper"
     SUCTION = "suction"

@@ -10,13 +10,12 @@ import numpy as np
 import pytest
 import trimesh
 from helpers_boxes import box_mesh, box_part
-from helpers_open import opens_with_its_hinge_only
 from helpers_real import PARTNET_DEV
 
 import spark_bench  # noqa: F401  (registers the environments)
 from spark_bench.asset.model import Collision, Joint, Link, Visual
 from spark_bench.envs.cabinet import METAL, procedural_cabinet
-from spark_bench.opening.planning.grasp import find_grasp, is_push_button
+from spark_bench.manipulation.grasp import find_grasp, is_push_button
 
 
 def _cylinder(center, radius, length) -> tuple[Visual, Collision]:
@@ -59,7 +58,7 @@ def test_a_small_knob_on_a_large_front_is_found():
 def test_a_boss_on_a_wide_rosette_is_pinched_down_to_the_rosette():
     """A 120 mm rosette is wider than the open fingers (82 mm with margins); its 24 mm boss is held, the
     fingertips stopping just above the rosette, not at the front."""
-    from spark_bench.opening.planning.handles import TIP_CLEARANCE
+    from spark_bench.manipulation.handles import TIP_CLEARANCE
 
     asset = _drawer_with([_cylinder((0.0, 0.0, 0.0), 0.06, 0.012), _cylinder((-0.012, 0.0, 0.0), 0.012, 0.03)])
     grasp = find_grasp(asset, "joint_0")
@@ -132,7 +131,7 @@ def test_a_hinged_lever_is_the_doors_handle_held_near_its_pivot():
 def test_default_joint_is_the_door_not_a_knob_or_a_lever():
     """With no joint named, the door task opens the door: not a continuous knob, nor a small part on a
     revolute joint listed before it."""
-    from spark_bench.opening.planning.scene import choose_joint
+    from spark_bench.manipulation.scene import choose_joint
 
     asset = _door_with_lever(continuous=False)
     # put the lever's joint first, as PartNet-Mobility files often do
@@ -145,8 +144,8 @@ def test_default_joint_is_the_door_not_a_knob_or_a_lever():
 def test_fingers_close_at_a_bounded_speed():
     """Slamming shut at 20 m/s, a 12 mm pad crossed 18 mm in one 4 ms step and landed inside a real
     drawer's knob; the finger damping caps the closing speed near grip_force / damping."""
+    from spark_bench.manipulation.gripper import finger_target
     from spark_bench.mujoco_gl import mujoco_module
-    from spark_bench.opening.planning.gripper import finger_target
 
     mujoco = mujoco_module()
     env = gym.make("SparkDrawer-v0", asset="procedural:0")
@@ -166,6 +165,7 @@ def test_fingers_close_at_a_bounded_speed():
     env.close()
 
 
+@pytest.mark.slow
 def test_a_real_drawer_with_a_round_knob_opens():
     """PartNet-Mobility table 24644: a 25 mm mushroom knob (70 mm in its file's units). The fingers closed through its hull and the
     drawer stayed shut; it must open in both episodes within the registered 100 steps."""
@@ -201,7 +201,7 @@ def test_the_workspace_holds_a_wide_swinging_door():
     """A door opening 170 degrees (a safe's) stands a door's width in front of the cabinet half-way, out of
     the box of its rest and open positions: the gripper's workspace must hold its whole sweep, or the hand
     stops at the workspace's wall with the door a third open."""
-    from spark_bench.opening.planning.scene import WORKSPACE_MARGIN, workspace_box
+    from spark_bench.manipulation.scene import WORKSPACE_MARGIN, workspace_box
 
     asset = procedural_cabinet(0)
     door = asset.joints["joint_1"]
@@ -218,7 +218,6 @@ def test_the_workspace_holds_a_wide_swinging_door():
     rest, opened = asset.bounds(), asset.bounds(asset.open_configuration())
     half = asset.mesh({"joint_1": np.pi / 2}, links=links).vertices
     assert half.min(0)[0] < min(rest[0][0], opened[0][0]) - 0.1
-
 
 
 def test_a_push_button_is_declined_as_one():
@@ -255,7 +254,7 @@ def test_a_dome_knob_is_pinched_on_its_steep_cap_not_its_sloping_foot():
     """A 140 mm knob shaped like a dome (a cone, 30 mm high: its sides slope 2.3 sideways per unit of
     height) with a 36 mm cylindrical cap: the pads closing on the foot's slope slide off when pulled, so
     the fingertips reach only down to the cap, whose sides hold them (the level search steps 3 mm)."""
-    from spark_bench.opening.planning.handles import MAX_WALL_SLOPE
+    from spark_bench.manipulation.handles import MAX_WALL_SLOPE
 
     asset = _drawer_with([_cone((0.0, 0.0, 0.0), 0.07, 0.03), _cylinder((-0.022, 0.0, 0.0), 0.018, 0.015)])
     grasp = find_grasp(asset, "joint_0")
@@ -272,8 +271,8 @@ def test_a_dome_knob_is_pinched_on_its_steep_cap_not_its_sloping_foot():
 def test_a_pad_landing_on_the_object_is_measured():
     """:func:`pad_landing`: an open pad coming down on a plate beside the grasp stands on it (the hand
     would stop short); over a bar that fits between the pads, nothing is in their way."""
-    from spark_bench.opening.planning.gripper import GripperConfig
-    from spark_bench.opening.planning.pads import LANDING_MARGIN, pad_landing
+    from spark_bench.manipulation.gripper import GripperConfig
+    from spark_bench.manipulation.pads import LANDING_MARGIN, pad_landing
 
     gripper = GripperConfig()
     front = box_mesh([0.02, 0.6, 0.6], [0.01, 0, 0])
@@ -292,9 +291,9 @@ def test_a_knob_whose_simulated_shape_is_a_cone_is_not_pinched():
     """The dome knob with its cylindrical cap, its collision shape the convex hull of both (a cone: the cap's
     wall gone): the pads would slide off it, so the planner passes it over and declines the part as
     ``unholdable`` (``auto`` takes the cup); with the cap's own shape the sides hold."""
-    from spark_bench.opening.planning.gripper import GripperConfig
-    from spark_bench.opening.planning.handles import sides_hold
-    from spark_bench.opening.planning.suction import choose_end_effector
+    from spark_bench.manipulation.gripper import GripperConfig
+    from spark_bench.manipulation.handles import sides_hold
+    from spark_bench.manipulation.suction import choose_end_effector
 
     asset = _drawer_with([_cone((0.0, 0.0, 0.0), 0.07, 0.03), _cylinder((-0.022, 0.0, 0.0), 0.018, 0.015)])
     knob = trimesh.util.concatenate([visual.mesh for visual in asset.links["link_0"].visuals[5:]])
@@ -318,9 +317,9 @@ def test_approach_blocked_finds_what_stands_in_the_way_in():
     plate beyond the clear distance are in nobody's way (the rays' bounding box must not drop a hit)."""
     from types import SimpleNamespace
 
-    from spark_bench.opening.planning.grasp_target import GraspTarget
-    from spark_bench.opening.planning.gripper import GripperConfig
-    from spark_bench.opening.planning.pads import approach_blocked
+    from spark_bench.manipulation.grasp_target import GraspTarget
+    from spark_bench.manipulation.gripper import GripperConfig
+    from spark_bench.manipulation.pads import approach_blocked
 
     gripper = GripperConfig()
     near = gripper.finger_length - gripper.tip_beyond_tcp
@@ -391,8 +390,8 @@ def test_a_part_its_collision_shapes_jam_is_declined_as_jammed():
     drives the joint directly when it is built and declines the part with that reason. The plain cabinet's
     drawer reaches the success fraction so, and keeps no reason. (The stop is a link of its own: MuJoCo
     leaves out contacts between a body and its parent.)"""
-    from spark_bench.opening.planning.drive_check import JAM_FRACTION
-    from spark_bench.opening.planning.task import build_scene
+    from spark_bench.manipulation.drive_check import JAM_FRACTION
+    from spark_bench.manipulation.task import build_scene
 
     plain = build_scene(procedural_cabinet(0), "prismatic", "joint_0", visuals=False)
     assert plain.grasp.reason is None and plain.free_fraction >= JAM_FRACTION
@@ -414,9 +413,9 @@ def test_a_part_too_heavy_for_the_gripper_is_told_from_a_jammed_one():
     """A drawer whose joint friction (150 N) exceeds the hand's largest pull (104 N) but not four times it
     stays shut under that pull and opens under the harder one: the reason says it is too heavy for the
     gripper, not jammed."""
-    from spark_bench.opening.planning.drive_check import JAM_FRACTION, free_motion, stuck_reason
-    from spark_bench.opening.planning.gripper import largest_pull
-    from spark_bench.opening.planning.task import build_scene
+    from spark_bench.manipulation.drive_check import JAM_FRACTION, free_motion, stuck_reason
+    from spark_bench.manipulation.gripper import largest_pull
+    from spark_bench.manipulation.task import build_scene
 
     scene = build_scene(procedural_cabinet(0), "prismatic", "joint_0", visuals=False)
     pull = largest_pull(scene.gripper.config)
@@ -434,9 +433,9 @@ def test_the_drive_check_turns_a_door_with_the_pull_at_its_grasp_lever_arm():
     friction 0.8 times that torque lets it open, 1.3 times holds it (a unit lever, or none, would tell
     these apart wrongly: the cabinet's grasp is well under 1 m from the hinge), and a held part stops the
     drive early (it stands still) whatever the step limit."""
-    from spark_bench.opening.planning.drive_check import JAM_FRACTION, free_motion
-    from spark_bench.opening.planning.gripper import largest_pull
-    from spark_bench.opening.planning.task import build_scene
+    from spark_bench.manipulation.drive_check import JAM_FRACTION, free_motion
+    from spark_bench.manipulation.gripper import largest_pull
+    from spark_bench.manipulation.task import build_scene
 
     scene = build_scene(procedural_cabinet(0), "revolute", "joint_1", visuals=False)
     pivot, axis = scene.asset.joint_frames()["joint_1"]
@@ -465,48 +464,19 @@ def _door_with_wheel():
     return _bare_door_with("wheel", parts, center), center
 
 
-def test_a_safe_door_the_gripper_fails_with_its_own_joint_is_scored_with_the_cup():
-    """PartNet-Mobility safe 102387 (a door behind its dial): the only pinch is a low ring beside a 200 mm dial,
-    the pads land on the dial, and the scripted opener fails with the door's own joint. The opening score's
-    rule (``judge_joint``, ``auto``) then tries the cup on the door's front: it opens the door with the true
-    hinge, and not with the hinge turned in the door's plane, so the door is scored (with the cup), not left
-    out."""
-    from spark_bench.data import load_object
-    from spark_bench.envs import make_env
-    from spark_bench.opening.judge import judge_joint
-    from spark_bench.opening.planning.scene import plan_grasp
-
-    folder = PARTNET_DEV / "102387"
-    if not folder.is_dir():
-        pytest.skip(f"partnet_dev objects not available ({folder} is absent)")
-    asset = load_object(folder)  # at its real size, as the opening score acts on it
-    grasp = plan_grasp(asset, "joint_0")  # with the simulated collision shapes, as the environments plan
-    assert grasp.reason is None and grasp.landing
-    env = make_env("SparkDoor-v0", asset=asset, joint="joint_0", end_effector="auto", max_episode_steps=200)
-    assert env.unwrapped.end_effector == "gripper"  # something to pinch: the environment keeps the gripper
-    assert opens_with_its_hinge_only(env, 200)[0] is False
-    env.close()
-    judged = judge_joint(asset, asset.joints["joint_0"], seed=0, max_steps=200)
-    try:
-        assert judged.reason is None and judged.end_effector == "suction" and judged.cup_radius is not None
-        assert opens_with_its_hinge_only(judged.env, 200) == (True, False)
-    finally:
-        judged.close()
-
-
 def test_a_wheel_is_held_by_a_spoke_clear_of_its_hub():
     """A spoked wheel is wider than the open fingers: its pinchable pieces are searched from its axis out.
     The first one, beside the hub, would land an open pad on the hub (the hand stops on it, short of the
     spoke: a real safe, 102318, whose planner then took a wedge-shaped pull the pads slid off). Further
     pieces of the wheel are tried: the grasp is where a spoke leaves the hub, its open pads clear."""
     from spark_bench.envs import make_env
+    from spark_bench.manipulation.grasp import part_front
+    from spark_bench.manipulation.gripper import GripperConfig
+    from spark_bench.manipulation.handle_search import handle_searches, on_handle
+    from spark_bench.manipulation.handles import candidates
+    from spark_bench.manipulation.pinch import pinch_on
+    from spark_bench.manipulation.rest_meshes import RestMeshes
     from spark_bench.opening.episodes import open_with_ground_truth
-    from spark_bench.opening.planning.grasp import part_front
-    from spark_bench.opening.planning.gripper import GripperConfig
-    from spark_bench.opening.planning.handle_search import handle_searches, on_handle
-    from spark_bench.opening.planning.handles import candidates
-    from spark_bench.opening.planning.pinch import pinch_on
-    from spark_bench.opening.planning.rest_meshes import RestMeshes
 
     asset, center = _door_with_wheel()
     grasp = find_grasp(asset, "joint_1")
@@ -548,8 +518,8 @@ def test_a_low_rounded_rib_is_not_pinched_but_a_bar_is():
     MAX_WALL_SLOPE), and the pads slide off them. The planner passes it over, on its visual surface and on
     its collision shape alike, and declines the part as ``unholdable`` (``auto`` takes the cup). A bar
     handle of the same width, 25 mm out with straight sides, is still pinched."""
-    from spark_bench.opening.planning.handles import MAX_WALL_SLOPE
-    from spark_bench.opening.planning.suction import choose_end_effector
+    from spark_bench.manipulation.handles import MAX_WALL_SLOPE
+    from spark_bench.manipulation.suction import choose_end_effector
 
     radius, proud = 0.026, 0.013
     assert 2 * np.sqrt(radius ** 2 - (radius - proud) ** 2) == pytest.approx(0.045, abs=0.001)
@@ -569,7 +539,7 @@ def test_a_low_rounded_rib_is_not_pinched_but_a_bar_is():
 
 
 def _front_of_mesh(mesh):
-    from spark_bench.opening.planning.features import Front, perpendicular_basis
+    from spark_bench.manipulation.features import Front, perpendicular_basis
 
     outward = np.array([0.0, 0.0, 1.0])
     points = np.asarray(mesh.sample(20000, seed=0))
@@ -582,9 +552,9 @@ def test_an_edge_pinch_needs_sides_the_pads_hold():
     """The crown of a rounded chest lid (0.12 m radius) is a strip narrower than the open fingers at its
     face level, so the edge pinch found it; its sides slope away and the pads slid off (partnet_dev box
     100247 at its real size). A narrow front with square edges keeps its edge pinch."""
-    from spark_bench.opening.planning.grasp import edge_sides_hold
-    from spark_bench.opening.planning.gripper import GripperConfig
-    from spark_bench.opening.planning.handles import edge_pinch
+    from spark_bench.manipulation.grasp import edge_sides_hold
+    from spark_bench.manipulation.gripper import GripperConfig
+    from spark_bench.manipulation.handles import edge_pinch
 
     gripper = GripperConfig()
     square = _front_of_mesh(trimesh.creation.box(extents=(0.04, 0.2, 0.04)))
@@ -601,7 +571,7 @@ def test_a_feature_beside_an_elongated_handles_end_is_not_under_the_pads():
     """A safe's lever (60 x 10 mm, 12 mm proud) with a keypad standing 11 mm out 10 mm past its tip
     (partnet_dev 102278 at its real size): the pads, pinching across the lever, come down beside it on the
     door (level 0), not on the keypad; a round knob of the same height still sees the surface all around."""
-    from spark_bench.opening.planning.handle_search import feature_base
+    from spark_bench.manipulation.handle_search import feature_base
 
     rng = np.random.default_rng(0)
     lever = np.column_stack([rng.uniform(0, 0.06, 400), rng.uniform(-0.005, 0.005, 400), np.full(400, 0.012)])
@@ -618,9 +588,9 @@ def test_the_pads_slide_to_a_wheels_hub_not_its_spoke_roots():
     along the handle to where the piece is narrowest (partnet_dev 102309 at its real size)."""
     from types import SimpleNamespace
 
-    from spark_bench.opening.planning.grasp_target import GraspTarget
-    from spark_bench.opening.planning.gripper import GripperConfig
-    from spark_bench.opening.planning.pinch import clear_sweep
+    from spark_bench.manipulation.grasp_target import GraspTarget
+    from spark_bench.manipulation.gripper import GripperConfig
+    from spark_bench.manipulation.pinch import clear_sweep
 
     gripper = GripperConfig()
     rng = np.random.default_rng(0)

@@ -1,4 +1,4 @@
-"""Surface features of a part that the grasp planner reads (:mod:`spark_bench.opening.planning.grasp`): the front
+"""Surface features of a part that the grasp planner reads (:mod:`spark_bench.manipulation.grasp`): the front
 face's level and normal, connected clusters of surface points, a feature's long direction, and
 finger-pull notches cut into the front (found on a raster of the front face), and the grasped part's
 front as the planner sees it (:class:`Front`).
@@ -30,7 +30,7 @@ MIN_CLUSTER_FRACTION = 0.002
 #: Cell size (m) of the front-face raster used to find a notch.
 NOTCH_CELL = 0.003
 #: Smallest extent (m), both ways, of an uncovered region of the front for it to count as a notch. (The
-#: pads' height is fitted to the notch's depth, :data:`spark_bench.opening.planning.scene.NOTCH_CLEARANCE`; across its
+#: pads' height is fitted to the notch's depth, :data:`spark_bench.manipulation.scene.NOTCH_CLEARANCE`; across its
 #: width the closed default fingers are 24 mm, two 12 mm pads.)
 NOTCH_MIN = 0.02
 #: Largest notch extent (m) along its open edge: beyond this (and beyond :data:`NOTCH_MAX_FRACTION` of

@@ -1,4 +1,4 @@
-"""Where a part's handle candidates are looked for (:mod:`spark_bench.opening.planning.grasp`): the part's own links
+"""Where a part's handle candidates are looked for (:mod:`spark_bench.manipulation.grasp`): the part's own links
 labelled ``handle``, the labelled handles of parts hinged to it (a safe's lever), and its geometry
 standing proud of the front face (with the parts hinged to it: a dial, a knob); which links move with a
 part but are parts of their own; and which points of a labelled handle are grasped (:func:`on_handle`).
@@ -10,12 +10,12 @@ import numpy as np
 
 from spark_bench.asset.mesh import sample_surface
 from spark_bench.asset.model import ArticulatedAsset
-from spark_bench.opening.planning.features import MIN_CLUSTER, Front, clusters, long_axis, proud_samples
-from spark_bench.opening.planning.gripper import GripperConfig
-from spark_bench.opening.planning.pads import OBSTACLE_MIN_PROUD, SWEEP_MARGIN
+from spark_bench.manipulation.features import MIN_CLUSTER, Front, clusters, long_axis, proud_samples
+from spark_bench.manipulation.gripper import GripperConfig
+from spark_bench.manipulation.pads import OBSTACLE_MIN_PROUD, SWEEP_MARGIN
 
 #: A surface point counts as handle when it stands this far (m) in front of the front face (twice
-#: :data:`~spark_bench.opening.planning.pads.OBSTACLE_MIN_PROUD`, what counts as in the fingers' way).
+#: :data:`~spark_bench.manipulation.pads.OBSTACLE_MIN_PROUD`, what counts as in the fingers' way).
 HANDLE_MIN_PROUD = 2 * OBSTACLE_MIN_PROUD  # 8 mm
 #: Surface samples per part.
 N_SAMPLES = 20000

@@ -1,10 +1,10 @@
 """Where a sliding plate is grasped when its front gives nothing to take it by: a sliding window's sash, a
 sliding panel or tray moves along its own broad face, and its face in the opening direction (the front the
-grasp planner looks at first, :func:`~spark_bench.opening.planning.grasp.outward_direction`) is a thin edge, often
+grasp planner looks at first, :func:`~spark_bench.manipulation.grasp.outward_direction`) is a thin edge, often
 inside the frame. People and robots take such a part by its broad face (a pull handle or a recess there,
 or a suction cup dragging it by friction) and slide it along the joint. :func:`plate_outward` says from
 which face; the grasp planner looks there when the front has nothing to pinch or its way in is blocked
-(:func:`~spark_bench.opening.planning.grasp.find_grasp`).
+(:func:`~spark_bench.manipulation.grasp.find_grasp`).
 
 Not for parts turning in their own plane (a lever on a door or a toilet's tank, about the door's normal):
 taken by their broad face, synth toilets' flush levers opened with the true hinge and with it reversed,
@@ -20,8 +20,8 @@ import numpy as np
 from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.mesh import sample_surface
 from spark_bench.asset.transforms import unit
-from spark_bench.opening.planning.features import LEVEL_BIN, face_normal, first_hit
-from spark_bench.opening.planning.handle_search import N_SAMPLES
+from spark_bench.manipulation.features import LEVEL_BIN, face_normal, first_hit
+from spark_bench.manipulation.handle_search import N_SAMPLES
 
 #: A part is a sliding plate when its thinnest extent across its joint's axis is less than this fraction
 #: of its extent along the axis. Measured: partnet_dev's, real_objects' and synth-v1's plates (a sash, an
@@ -111,7 +111,7 @@ def plate_face(asset, joint: str, clear: float, seed: int = 0) -> np.ndarray | N
     """The outward direction of the broad face a sliding plate moved by ``joint`` is taken by
     (:func:`plate_outward`), or None (not prismatic, no plate, or no broad face clear).
 
-    :param asset: the object (or a :class:`~spark_bench.opening.planning.rest_meshes.RestMeshes` of it)
+    :param asset: the object (or a :class:`~spark_bench.manipulation.rest_meshes.RestMeshes` of it)
     :param clear: how far (m) in front of a face the object must not stand (the hand's way in)
     :param seed: seed of the surface sampling
     """

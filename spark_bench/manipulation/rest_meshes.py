@@ -1,5 +1,5 @@
 """An articulated asset seen at its rest configuration, each link's world mesh computed once: the grasp
-planner (:mod:`spark_bench.opening.planning.grasp`) merges the same links' meshes many times per joint, and a real
+planner (:mod:`spark_bench.manipulation.grasp`) merges the same links' meshes many times per joint, and a real
 object's visual meshes hold 10^5-10^6 vertices."""
 
 from __future__ import annotations

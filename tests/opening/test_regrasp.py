@@ -47,8 +47,8 @@ def test_the_re_grasp_of_an_open_door_waits_comes_in_slowly_and_stops_where_it_w
     """While the door still swings the hand holds at the pre-grasp; coming in, it moves at most REGRASP_STEP a
     step and stops (and closes there) as soon as the door is knocked towards closing or a pad touches it. A
     door at rest against its stop is approached at full speed, as at first."""
+    from spark_bench.manipulation.gripper import MAX_STEP
     from spark_bench.opening.opener import REGRASP_STEP
-    from spark_bench.opening.planning.gripper import MAX_STEP
 
     opener, grasp, tcp, outward, _ = _slipped_door_opener((-0.05, 0.0, 0.0))
     pre = PREGRASP_OFFSET * outward

@@ -1,4 +1,4 @@
-"""Which handle candidates a parallel gripper can pinch, and where on them (:mod:`spark_bench.opening.planning.grasp`
+"""Which handle candidates a parallel gripper can pinch, and where on them (:mod:`spark_bench.manipulation.grasp`
 finds the candidates).
 
 A candidate is a cluster of surface points standing out of a part's front. It is pinchable whole when
@@ -24,8 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spark_bench.opening.planning.features import MIN_CLUSTER, Front, clusters, long_axis
-from spark_bench.opening.planning.gripper import GripperConfig
+from spark_bench.manipulation.features import MIN_CLUSTER, Front, clusters, long_axis
+from spark_bench.manipulation.gripper import GripperConfig
 
 #: Room (m) kept between the fingertips and the level the pads reach down to (the front's level is known
 #: to a histogram bin, 2 mm).
@@ -147,16 +147,16 @@ def sides_hold(mesh, point: np.ndarray, outward: np.ndarray, closing: np.ndarray
     the handle, a handle reaching less than :data:`WALL_BIN` + :data:`WALL_BAND` above the tips): True,
     nothing to judge: this check passes a candidate over only on evidence.
 
-    The same check on the part's *visual* surface (``mesh`` the part's own, :mod:`spark_bench.opening.planning.grasp`)
+    The same check on the part's *visual* surface (``mesh`` the part's own, :mod:`spark_bench.manipulation.grasp`)
     judges the candidate's sides over the whole height the pads grip, the part below the handle search's
-    proud cut (:data:`~spark_bench.opening.planning.handle_search.HANDLE_MIN_PROUD`) included: a low rounded rib on a
+    proud cut (:data:`~spark_bench.manipulation.handle_search.HANDLE_MIN_PROUD`) included: a low rounded rib on a
     lid, 13 mm proud, is a candidate by its top 3 mm, but its flanks rise 1.5 sideways per unit of height
     all the way down, and the pads slide off them.
 
     :param point: the grasp point (TCP)
     :param tips: the fingertips' level along ``outward``
     """
-    from spark_bench.opening.planning.pads import clipped_vertices, near_box
+    from spark_bench.manipulation.pads import clipped_vertices, near_box
 
     frame = np.stack([closing, long_axis, outward])
     reach = gripper.max_opening + gripper.pad_thickness
@@ -311,8 +311,8 @@ def edge_pinch(front: Front, others, gripper: GripperConfig) -> tuple[np.ndarray
     :param front: the part's front
     :param others: the rest of the object's mesh (world, at rest), or None
     """
-    from spark_bench.opening.planning.features import LEVEL_BIN
-    from spark_bench.opening.planning.pads import clipped_vertices, near_box
+    from spark_bench.manipulation.features import LEVEL_BIN
+    from spark_bench.manipulation.pads import clipped_vertices, near_box
 
     n, basis = front.outward, front.basis
     face_points = front.points[np.abs(front.points @ n - front.face) < 2 * LEVEL_BIN]

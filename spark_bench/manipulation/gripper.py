@@ -23,7 +23,8 @@ mujoco = mujoco_module()
 
 PREFIX = "spark_gripper"
 #: Largest TCP displacement per step (action 1.0), m: the environments move each translation servo's target
-#: at most this far from the TCP.
+#: at most this far from the TCP (the carriage of either end-effector), the hand's largest pull follows from it
+#: (:func:`largest_pull`) and the scripted opener scales its moves by it. The one definition.
 MAX_STEP = 0.02
 
 

@@ -11,7 +11,7 @@ A pull along the face's normal stronger than that separates the cup, and a pull 
 friction only (the adhesion's normal force times the cup's friction): a trajectory planned from a wrong
 axis tears the cup off or drags it over a part that does not follow.
 
-The cup is carried like the gripper's hand (:mod:`spark_bench.opening.planning.gripper`): three world-aligned slide
+The cup is carried like the gripper's hand (:mod:`spark_bench.manipulation.gripper`): three world-aligned slide
 joints driven by position servos, gravity compensated, and for doors a passive spring-loaded wrist hinge
 parallel to the door's hinge through the cup's face, so that the cup turns with the face it holds. The
 hand frame's x is the approach direction; its origin, the *TCP*, is the centre of the cup's face.
@@ -32,10 +32,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy import ndimage
 
-from spark_bench.mujoco_gl import mujoco_module
-from spark_bench.opening.planning.end_effector import END_EFFECTORS, EndEffector
-from spark_bench.opening.planning.features import LEVEL_BIN, NOTCH_CELL, rasterise_front
-from spark_bench.opening.planning.gripper import (
+from spark_bench.manipulation.end_effector import END_EFFECTORS, EndEffector
+from spark_bench.manipulation.features import LEVEL_BIN, NOTCH_CELL, rasterise_front
+from spark_bench.manipulation.gripper import (
     PREFIX,
     GripperConfig,
     add_carriage,
@@ -44,10 +43,11 @@ from spark_bench.opening.planning.gripper import (
     largest_pull,
     rotation_quat,
 )
+from spark_bench.mujoco_gl import mujoco_module
 
 mujoco = mujoco_module()
 
-#: Why the grasp planner declined a part (:attr:`~spark_bench.opening.planning.grasp_target.GraspTarget.declined`) that
+#: Why the grasp planner declined a part (:attr:`~spark_bench.manipulation.grasp_target.GraspTarget.declined`) that
 #: ``auto`` opens with the cup instead: nothing to pinch (no handle, knob, notch or tab), a handle wider
 #: than the open fingers, or handle candidates none of which the pads can hold (``unholdable``). A part
 #: whose approach is blocked, or a push button, is not one.
@@ -141,7 +141,7 @@ def cup_mm(radius: float | None) -> float | None:
 
 
 def fitted_cup(grasp, config: SuctionConfig | None = None) -> SuctionConfig:
-    """The cup the planner chose for ``grasp`` (:attr:`~spark_bench.opening.planning.grasp_target.GraspTarget.cup_radius`) among
+    """The cup the planner chose for ``grasp`` (:attr:`~spark_bench.manipulation.grasp_target.GraspTarget.cup_radius`) among
     :func:`cup_sizes` of ``config`` (default :class:`SuctionConfig`); ``config`` itself when it chose none.
 
     :raises ValueError: ``grasp`` names a cup that ``config`` does not offer
@@ -158,7 +158,7 @@ def fitted_cup(grasp, config: SuctionConfig | None = None) -> SuctionConfig:
 
 def largest_hold(config: SuctionConfig) -> float:
     """The largest steady pull (N) the cup passes on to the part along the face's normal: the carriage's
-    largest pull (:func:`~spark_bench.opening.planning.gripper.largest_pull`) or the cup's holding force, the smaller."""
+    largest pull (:func:`~spark_bench.manipulation.gripper.largest_pull`) or the cup's holding force, the smaller."""
     return float(min(largest_pull(config), config.max_force))
 
 
@@ -204,8 +204,8 @@ def choose_end_effector(end_effector: str, declined: str | None) -> str:
     gripper everywhere else (a handle, a notch, a tab; also a part declined for another reason, so that its
     reason stands).
 
-    :param end_effector: one of :data:`~spark_bench.opening.planning.end_effector.END_EFFECTORS`
-    :param declined: why the planner declined the part (:attr:`~spark_bench.opening.planning.grasp_target.GraspTarget.declined`)
+    :param end_effector: one of :data:`~spark_bench.manipulation.end_effector.END_EFFECTORS`
+    :param declined: why the planner declined the part (:attr:`~spark_bench.manipulation.grasp_target.GraspTarget.declined`)
     :raises ValueError: an unknown end-effector
     """
     if end_effector not in END_EFFECTORS:
@@ -217,11 +217,11 @@ def choose_end_effector(end_effector: str, declined: str | None) -> str:
 
 def cup_footprint(front, config: SuctionConfig, cell: float = NOTCH_CELL, level: float | None = None
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Where the cup's centre may go on the front face: cells (:func:`~spark_bench.opening.planning.features.rasterise_front`)
+    """Where the cup's centre may go on the front face: cells (:func:`~spark_bench.manipulation.features.rasterise_front`)
     whose whole cup disc lies on the face, at least :data:`SIDE_CLEARANCE` from any of the part's surface
     standing :data:`PROUD` out of it. Returns ``(the cells' centres in the front plane (K, 2), the image)``.
 
-    :param front: the part's :class:`~spark_bench.opening.planning.features.Front`
+    :param front: the part's :class:`~spark_bench.manipulation.features.Front`
     :param config: the cup (its radius)
     :param cell: the raster's cell, m
     :param level: the level (along the front's outward direction) of the face the cup sits on: the front
@@ -251,7 +251,7 @@ def recessed_levels(front, config: SuctionConfig) -> list[float]:
     """Levels of flat faces recessed behind the front face, front-most first: a microwave door's glass 15 mm
     behind a frame too narrow for the cup. A level counts when faces facing out cover at least a cup's disc
     there, no deeper than the cup's length (:attr:`SuctionConfig.cup_length`: the bellows reach in; the way
-    in is checked as for any place, :func:`~spark_bench.opening.planning.pads.approach_blocked`)."""
+    in is checked as for any place, :func:`~spark_bench.manipulation.pads.approach_blocked`)."""
     part, n = front.part, front.outward
     level = np.asarray(part.triangles).mean(1) @ n
     facing = (part.face_normals @ n > 0.95) & (level < front.face - 2 * LEVEL_BIN) \
@@ -267,7 +267,7 @@ def recessed_levels(front, config: SuctionConfig) -> list[float]:
 def suction_point(front, config: SuctionConfig) -> np.ndarray | None:
     """The cup's place on the front face (world, at rest), or None when no flat patch holds the cup: of the
     places :func:`cup_footprint` allows, the most central on a drawer, the farthest from the hinge on a door
-    or lid (the longest lever; :meth:`~spark_bench.opening.planning.features.Front.point_scores`), and of those within
+    or lid (the longest lever; :meth:`~spark_bench.manipulation.features.Front.point_scores`), and of those within
     :data:`LEVER_TOLERANCE` of it the one nearest the middle of the allowed places (a door's free edge is a
     line of equally good places: its middle, not a corner). Where the front face has no such place, the
     flat faces recessed behind it are tried, front-most first (:func:`recessed_levels`)."""
@@ -294,7 +294,7 @@ def flat_patch_reason(joint: str, part: str, config: SuctionConfig) -> str:
 
 def approach_config(config: SuctionConfig) -> GripperConfig:
     """The gripper dimensions under which the planner's approach check
-    (:func:`~spark_bench.opening.planning.pads.approach_blocked`) tests the cup's way in: rays from the cup's rim from its
+    (:func:`~spark_bench.manipulation.pads.approach_blocked`) tests the cup's way in: rays from the cup's rim from its
     face out."""
     return GripperConfig(max_opening=config.cup_radius, finger_length=PROUD + 0.002, tip_beyond_tcp=0.0)
 
@@ -302,24 +302,24 @@ def approach_config(config: SuctionConfig) -> GripperConfig:
 def plan_suction(asset, joint: str, config: SuctionConfig | None = None, seed: int = 0,
                  outward: np.ndarray | None = None):
     """The cup's grasp on the part moved by ``joint``, world frame at rest: a
-    :class:`~spark_bench.opening.planning.grasp_target.GraspTarget` with ``source="suction"``, ``grip="suction"``, the point
+    :class:`~spark_bench.manipulation.grasp_target.GraspTarget` with ``source="suction"``, ``grip="suction"``, the point
     :func:`suction_point` chose, the front's outward direction and the cup's radius (``cup_radius``: the
     largest of :func:`cup_sizes` with a place and a clear way in, the strongest hold; :func:`fitted_cup`); its
     ``reason`` says why no cup can hold the part (no flat patch for the smallest, or the object in the way in
     of the largest that has a place), else None.
 
-    :param asset: the object (or a :class:`~spark_bench.opening.planning.rest_meshes.RestMeshes` of it)
+    :param asset: the object (or a :class:`~spark_bench.manipulation.rest_meshes.RestMeshes` of it)
     :param joint: a movable joint's name
     :param config: the cup (default :class:`SuctionConfig`) and its smaller fallbacks
     :param seed: seed of the surface sampling
     :param outward: the front's direction where the gripper's planner took another face than the part's
-        front (a plate's broad face, :func:`~spark_bench.opening.planning.plate_front.plate_face`); None: the front
+        front (a plate's broad face, :func:`~spark_bench.manipulation.plate_front.plate_face`); None: the front
     :raises ValueError: the part has no geometry, or its centroid lies on its hinge
     """
-    from spark_bench.opening.planning.grasp import APPROACH_CLEAR, part_front, part_name
-    from spark_bench.opening.planning.grasp_target import GraspTarget
-    from spark_bench.opening.planning.pads import approach_blocked
-    from spark_bench.opening.planning.rest_meshes import RestMeshes
+    from spark_bench.manipulation.grasp import APPROACH_CLEAR, part_front, part_name
+    from spark_bench.manipulation.grasp_target import GraspTarget
+    from spark_bench.manipulation.pads import approach_blocked
+    from spark_bench.manipulation.rest_meshes import RestMeshes
 
     cfg = config or SuctionConfig()
     rest = asset if isinstance(asset, RestMeshes) else RestMeshes(asset)

@@ -19,17 +19,17 @@ import numpy as np
 from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.errors import InputError
-from spark_bench.mujoco_gl import mujoco_module
-from spark_bench.opening.planning.grasp import find_grasp
-from spark_bench.opening.planning.grasp_target import GraspTarget
-from spark_bench.opening.planning.gripper import GripperConfig, GripperHandles
-from spark_bench.opening.planning.handle_search import N_SAMPLES
-from spark_bench.opening.planning.rest_meshes import RestMeshes
-from spark_bench.opening.planning.suction import (
+from spark_bench.manipulation.grasp import find_grasp
+from spark_bench.manipulation.grasp_target import GraspTarget
+from spark_bench.manipulation.gripper import GripperConfig, GripperHandles
+from spark_bench.manipulation.handle_search import N_SAMPLES
+from spark_bench.manipulation.rest_meshes import RestMeshes
+from spark_bench.manipulation.suction import (
     SuctionConfig,
     SuctionHandles,
     plan_suction,
 )
+from spark_bench.mujoco_gl import mujoco_module
 
 mujoco = mujoco_module()
 
@@ -46,7 +46,7 @@ NOTCH_CLEARANCE = 0.014
 NOTCH_MIN_PAD_HEIGHT = 0.008
 #: Contact ``solref`` of pads thinned to fit beside a handle: the stiffest MuJoCo allows at this step
 #: (2 steps), so that a 3 mm pad squeezing a 5 mm lip sinks about 0.5 mm into it, not 2 mm (at 0.02 s).
-#: The default pads use it too (:class:`~spark_bench.opening.planning.gripper.GripperConfig`'s ``pad_solref``).
+#: The default pads use it too (:class:`~spark_bench.manipulation.gripper.GripperConfig`'s ``pad_solref``).
 THIN_PAD_SOLREF = (2 * TIMESTEP, 1.0)
 #: Half-range (joint units) left to a joint hinged to the opened part (:func:`hold_hinged_parts`).
 HELD_RANGE = 1e-4
@@ -75,11 +75,11 @@ class Scene:
     :param rest_qpos: the full ``qpos`` with every object joint at rest, gripper at the origin
     :param held_joints: joints of parts hinged to the opened part, held at rest (:func:`hold_hinged_parts`)
     :param free_fraction: the fraction of its range the joint reaches driven directly with the gripper's
-        largest pull (:func:`~spark_bench.opening.planning.drive_check.stuck_reason`), when checked (the planner found a grasp): below
-        :data:`~spark_bench.opening.planning.drive_check.JAM_FRACTION` the grasp's ``reason`` says why no policy of this gripper can open the part
+        largest pull (:func:`~spark_bench.manipulation.drive_check.stuck_reason`), when checked (the planner found a grasp): below
+        :data:`~spark_bench.manipulation.drive_check.JAM_FRACTION` the grasp's ``reason`` says why no policy of this gripper can open the part
     :param end_effector: ``gripper`` (the parallel gripper: ``gripper`` holds :class:`GripperHandles`) or
-        ``suction`` (the suction cup, :mod:`spark_bench.opening.planning.suction`: ``gripper`` holds its
-        :class:`~spark_bench.opening.planning.suction.SuctionHandles`, ``grasp`` the cup's place)
+        ``suction`` (the suction cup, :mod:`spark_bench.manipulation.suction`: ``gripper`` holds its
+        :class:`~spark_bench.manipulation.suction.SuctionHandles`, ``grasp`` the cup's place)
     """
 
     model: mujoco.MjModel
@@ -178,7 +178,7 @@ def workspace_box(asset: ArticulatedAsset, margin: float = WORKSPACE_MARGIN, joi
 
 def fitted_gripper(grasp: GraspTarget, gripper: GripperConfig | None = None) -> GripperConfig:
     """The gripper fitted to ``grasp``: pads lowered to enter a notch with room to spare, or thinned to fit
-    into the gaps beside the handle (:func:`~spark_bench.opening.planning.pads.plan_pads` planned them for ``gripper``).
+    into the gaps beside the handle (:func:`~spark_bench.manipulation.pads.plan_pads` planned them for ``gripper``).
 
     :param gripper: the gripper to fit (default: :class:`GripperConfig`'s defaults)
     """
@@ -249,7 +249,7 @@ def collision_mesh(asset: ArticulatedAsset, links: list[str]):
 
 
 def plan_grasp(asset: ArticulatedAsset, joint: str, gripper: GripperConfig | None = None) -> GraspTarget:
-    """The grasp on the part moved by ``joint`` (:func:`~spark_bench.opening.planning.grasp.find_grasp`), memoized per
+    """The grasp on the part moved by ``joint`` (:func:`~spark_bench.manipulation.grasp.find_grasp`), memoized per
     asset; its ``reason`` says why the scripted opener cannot open the part, if it cannot. Handle candidates
     are judged on the part's simulated collision shapes too (:func:`collision_mesh`, the object prepared for
     MuJoCo as its scenes are: :func:`prepared_object`): the pads squeeze those, not the visual surface.
@@ -293,7 +293,7 @@ def part_points(asset: ArticulatedAsset, joint: str, n: int = N_SAMPLES) -> np.n
 
 def plan_cup(asset: ArticulatedAsset, joint: str, config: SuctionConfig | None = None,
              outward: np.ndarray | None = None) -> GraspTarget:
-    """The suction cup's place on the part moved by ``joint`` (:func:`~spark_bench.opening.planning.suction.plan_suction`),
+    """The suction cup's place on the part moved by ``joint`` (:func:`~spark_bench.manipulation.suction.plan_suction`),
     memoized per asset as :func:`plan_grasp` is.
 
     :param outward: the face to plan on, where the gripper's planner took another than the part's front (a

@@ -1,0 +1,81 @@
+"""One object per child process, results stored as they finish: the runner of the benchmarks that check many
+objects (``measure_check_validity``, ``measure_engine_agreement``).
+
+Each object runs as ``python -m MODULE --one FOLDER --out STORE/<set>__<id>.json [ARGS]`` (``jobs`` at once), so
+that one object's crash or hang (killed after ``timeout`` seconds) costs only its own row, and an interrupted run
+resumes from the rows already stored.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def stored_path(store: Path, set_name: str, object_id: str) -> Path:
+    """Where the row of ``object_id`` of ``set_name`` is stored."""
+    return store / f"{set_name.replace(' ', '_')}__{object_id}.json"
+
+
+def run_in_children(objects: list[tuple[str, str, Path]], store: Path, module: str, child_args: list[str], *,
+                    home: Path, jobs: int, timeout: float, fresh: bool,
+                    describe: Callable[[dict], str]) -> dict[str, dict]:
+    """Measure every ``(set, id, folder)`` of ``objects`` in child processes, reusing stored rows.
+
+    :param store: the folder of the rows (one JSON file per object)
+    :param module: the benchmark module run as the child (it takes ``--one FOLDER --out PATH``)
+    :param child_args: further arguments of every child
+    :param home: ``$SPARK_BENCH_HOME`` of the children (their CoACD cache)
+    :param jobs: children at once
+    :param timeout: seconds one child may take before it is killed
+    :param fresh: measure objects that have a stored row again
+    :param describe: one line on a finished row, printed under the progress bar
+    :return: the rows by ``<set>__<id>``, each with its ``set`` and ``object``
+    """
+    from tqdm import tqdm
+
+    store.mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, SPARK_BENCH_HOME=str(home))
+    rows: dict[str, dict] = {}
+    todo = []
+    for set_name, object_id, folder in objects:
+        path = stored_path(store, set_name, object_id)
+        if path.is_file() and not fresh:
+            rows[path.stem] = {**json.loads(path.read_text()), "set": set_name, "object": object_id}
+        else:
+            todo.append((set_name, object_id, folder, path))
+    running: list = []
+    bar = tqdm(total=len(todo), desc="objects", unit="object")
+    while todo or running:
+        while todo and len(running) < jobs:
+            set_name, object_id, folder, path = todo.pop(0)
+            command = [sys.executable, "-m", module, "--one", str(folder), "--out", str(path), *child_args]
+            proc = subprocess.Popen(command, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                    text=True)
+            running.append((proc, set_name, object_id, path, time.monotonic()))
+        time.sleep(0.5)
+        for item in list(running):
+            proc, set_name, object_id, path, started = item
+            timed_out = time.monotonic() - started > timeout
+            if proc.poll() is None and not timed_out:
+                continue
+            if timed_out:
+                proc.kill()
+            output = proc.communicate()[0] or ""
+            running.remove(item)
+            bar.update(1)
+            row = json.loads(path.read_text()) if path.is_file() else {
+                "error": "timed out" if timed_out else output.strip().splitlines()[-1:]}
+            row.update(set=set_name, object=object_id, wall_s=round(time.monotonic() - started, 1))
+            path.write_text(json.dumps(row, indent=1))
+            rows[path.stem] = row
+            bar.write(f"{set_name:20s} {object_id:>16s} {describe(row)}")
+    bar.close()
+    return rows
