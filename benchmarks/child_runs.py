@@ -1,5 +1,6 @@
 """One object per child process, results stored as they finish: the runner of the benchmarks that check many
-objects (``measure_check_validity``, ``measure_engine_agreement``).
+objects (``measure_check_validity``, ``measure_engine_agreement``), with the objects they share (:func:`object_sets`)
+and the command-line options that pick them and run them (:func:`add_run_arguments`).
 
 Each object runs as ``python -m MODULE --one FOLDER --out STORE/<set>__<id>.json [ARGS]`` (``jobs`` at once), so
 that one object's crash or hang (killed after ``timeout`` seconds) costs only its own row, and an interrupted run
@@ -8,15 +9,63 @@ resumes from the rows already stored.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT.parent / "shared"
+PARTNET_DEV = SHARED / "partnet_dev"
+REAL_OBJECTS = SHARED / "real_objects"
+
+
+def add_run_arguments(parser: argparse.ArgumentParser, name: str, results: Path) -> None:
+    """The options every many-object benchmark takes: which objects (:func:`object_sets`), how many children at
+    once, their home, where the rows and the report go.
+
+    :param name: the benchmark's short name, for its default home and store under the temporary folder
+    :param results: the report's default path without suffix
+    """
+    parser.add_argument("--half", choices=("tune", "holdout", "all", "none"), default="all",
+                        help="which half of partnet_dev (none: skip it)")
+    parser.add_argument("--no-real", dest="real", action="store_false", help="skip ../shared/real_objects")
+    parser.add_argument("--cases", nargs="*", type=Path, default=[], help="prepared benchmarks: their cases/*/gt")
+    parser.add_argument("--ids", nargs="*", default=None, help="only these object or case ids")
+    parser.add_argument("--jobs", type=int, default=2, help="objects measured at once")
+    parser.add_argument("--home", type=Path, default=Path(tempfile.gettempdir()) / f"spark_{name}_home",
+                        help="$SPARK_BENCH_HOME of the checks (their CoACD cache)")
+    parser.add_argument("--store", type=Path, default=Path(tempfile.gettempdir()) / f"spark_{name}",
+                        help="per-object results")
+    parser.add_argument("--fresh", action="store_true", help="measure objects that have a stored result again")
+    parser.add_argument("--timeout", type=float, default=3600.0, help="seconds one object may take")
+    parser.add_argument("--out", type=Path, default=results, help="report path without suffix ('-': none)")
+    parser.add_argument("--one", type=Path, default=None, help=argparse.SUPPRESS)
+
+
+def object_sets(args) -> list[tuple[str, str, Path]]:
+    """``(set, id, folder)`` of every object :func:`add_run_arguments`' options pick: partnet_dev's halves (as
+    ``partnet_dev_split.json`` fixes them), real_objects, and each prepared benchmark's ground truths."""
+    from benchmarks.partnet_dev_split import read_halves
+
+    out = []
+    ids = set(args.ids) if args.ids else None
+    if PARTNET_DEV.is_dir() and args.half != "none":
+        halves = read_halves()
+        for half in ("tune", "holdout") if args.half == "all" else (args.half,):
+            out += [(f"partnet_dev {half}", i, PARTNET_DEV / i) for i in halves[half]]
+    if REAL_OBJECTS.is_dir() and args.real:
+        out += [("real_objects", p.name, p) for p in sorted(REAL_OBJECTS.iterdir()) if (p / "mobility.urdf").is_file()]
+    for bench in args.cases:
+        name = Path(bench).name
+        out += [(name, c.name, c / "gt") for c in sorted((Path(bench) / "cases").iterdir())
+                if (c / "gt" / "mobility.urdf").is_file()]
+    return [row for row in out if ids is None or row[1] in ids]
 
 
 def stored_path(store: Path, set_name: str, object_id: str) -> Path:

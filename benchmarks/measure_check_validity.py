@@ -27,15 +27,11 @@ import json
 import re
 import resource
 import sys
-import tempfile
 import time
 from collections import Counter
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared"
-PARTNET_DEV = SHARED / "partnet_dev"
-REAL_OBJECTS = SHARED / "real_objects"
 RESULTS = ROOT / "benchmarks" / "results" / "check_validity"
 #: Parts whose joints are broken: drawers, doors and lids, as ``sim_real`` counts them (``semantics.txt``).
 OPENABLE = re.compile(r"(^|_)(drawer|door|lid)$")
@@ -131,25 +127,6 @@ def measure_object(folder: Path, kinds: tuple[str, ...]) -> dict:
 
 
 # ----- the run ------------------------------------------------------------------------------------
-def object_sets(args) -> list[tuple[str, str, Path]]:
-    """``(set, id, folder)`` of every object to measure."""
-    from benchmarks.partnet_dev_split import read_halves
-
-    out = []
-    ids = set(args.ids) if args.ids else None
-    if PARTNET_DEV.is_dir() and args.half != "none":
-        halves = read_halves()
-        for half in ("tune", "holdout") if args.half == "all" else (args.half,):
-            out += [(f"partnet_dev {half}", i, PARTNET_DEV / i) for i in halves[half]]
-    if REAL_OBJECTS.is_dir() and args.real:
-        out += [("real_objects", p.name, p) for p in sorted(REAL_OBJECTS.iterdir()) if (p / "mobility.urdf").is_file()]
-    for bench in args.cases:
-        name = Path(bench).name
-        out += [(name, c.name, c / "gt") for c in sorted((Path(bench) / "cases").iterdir())
-                if (c / "gt" / "mobility.urdf").is_file()]
-    return [row for row in out if ids is None or row[1] in ids]
-
-
 def cpu_seconds() -> float:
     """CPU seconds of this process and its finished children (CoACD workers)."""
     return sum(u.ru_utime + u.ru_stime for u in (resource.getrusage(resource.RUSAGE_SELF),
@@ -299,26 +276,14 @@ def comparison(rows: dict[str, dict], summary: dict, args) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     from benchmarks.broken_twins import KINDS
+    from benchmarks.child_runs import add_run_arguments, object_sets
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--half", choices=("tune", "holdout", "all", "none"), default="all",
-                        help="which half of partnet_dev (none: skip it)")
-    parser.add_argument("--no-real", dest="real", action="store_false", help="skip ../shared/real_objects")
-    parser.add_argument("--cases", nargs="*", type=Path, default=[], help="prepared benchmarks: their cases/*/gt")
-    parser.add_argument("--ids", nargs="*", default=None, help="only these object or case ids")
+    add_run_arguments(parser, "check_validity", RESULTS)
     parser.add_argument("--kinds", nargs="*", default=list(KINDS), choices=KINDS, help="kinds of break")
-    parser.add_argument("--jobs", type=int, default=2, help="objects measured at once")
-    parser.add_argument("--home", type=Path, default=Path(tempfile.gettempdir()) / "spark_check_validity_home",
-                        help="$SPARK_BENCH_HOME of the checks (their CoACD cache)")
-    parser.add_argument("--store", type=Path, default=Path(tempfile.gettempdir()) / "spark_check_validity",
-                        help="per-object results, under STORE/LABEL/")
-    parser.add_argument("--label", default="current", help="name of this run's results")
+    parser.add_argument("--label", default="current", help="name of this run's results (under STORE/LABEL/)")
     parser.add_argument("--compare", default=None,
                         help="report this label's catch rates and changed verdicts beside this run's")
-    parser.add_argument("--fresh", action="store_true", help="measure objects that have a stored result again")
-    parser.add_argument("--timeout", type=float, default=3600.0, help="seconds one object may take")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="report path without suffix ('-': none)")
-    parser.add_argument("--one", type=Path, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.one is not None:  # the child: one object, its result written to --out
         row = measure_object(args.one, tuple(args.kinds))

@@ -22,7 +22,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -338,30 +337,17 @@ def markdown(rows: dict[str, dict], asked: int) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from benchmarks.measure_check_validity import object_sets
+    from benchmarks.child_runs import add_run_arguments, object_sets
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--half", choices=("tune", "holdout", "all", "none"), default="all",
-                        help="which half of partnet_dev (none: skip it)")
-    parser.add_argument("--no-real", dest="real", action="store_false", help="skip ../shared/real_objects")
-    parser.add_argument("--cases", nargs="*", type=Path, default=[], help="prepared benchmarks: their cases/*/gt")
-    parser.add_argument("--ids", nargs="*", default=None, help="only these object or case ids")
+    add_run_arguments(parser, "engine_agreement", RESULTS)
     parser.add_argument("--no-twins", dest="twins", action="store_false", help="the intact objects only")
     parser.add_argument("--no-judge", dest="judge", action="store_false", help="do not judge the twins' breaks")
-    parser.add_argument("--jobs", type=int, default=2, help="objects measured at once")
-    parser.add_argument("--home", type=Path, default=Path(tempfile.gettempdir()) / "spark_engine_agreement_home",
-                        help="$SPARK_BENCH_HOME of the checks (their CoACD cache)")
-    parser.add_argument("--store", type=Path, default=Path(tempfile.gettempdir()) / "spark_engine_agreement",
-                        help="per-object results")
-    parser.add_argument("--fresh", action="store_true", help="measure objects that have a stored result again")
-    parser.add_argument("--timeout", type=float, default=3600.0, help="seconds one object may take")
-    parser.add_argument("--out", type=Path, default=RESULTS, help="report path without suffix ('-': none)")
     parser.add_argument("--report-only", action="store_true", help="write the report of the stored results only")
     parser.add_argument("--diagnose", action="store_true",
                         help="add PhysX's verdict without PCM to the stored disagreements, then report")
     parser.add_argument("--redo-physx", action="store_true",
                         help="make PhysX's verdicts of the stored results again (MuJoCo's kept), then report")
-    parser.add_argument("--one", type=Path, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.one is not None:  # the child: one object, its result written to --out
         row = measure_object(args.one, args.twins, args.judge)

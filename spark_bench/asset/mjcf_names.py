@@ -20,6 +20,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from spark_bench.asset.naming import unique_name
+
 #: The world body's name: its element in the file (``world``, MuJoCo's name, is reserved in a model).
 WORLD = "worldbody"
 #: MuJoCo's joint types, in ``mjtJoint`` order, as the made-up names spell them.
@@ -47,22 +49,13 @@ def safe(name: str) -> str:
     return UNSAFE.sub("_", name.strip()) or "_"
 
 
-def _unique(name: str, used: set[str]) -> str:
-    """``name``, numbered ``_2``, ``_3``... when ``used`` already holds it; added to ``used``."""
-    out, k = name, 2
-    while out in used:
-        out, k = f"{name}_{k}", k + 1
-    used.add(out)
-    return out
-
-
 def _named(model, kind: str, count: int) -> list[str]:
     """Each element's author name made safe (numbered where two become one), "" where the file gives none."""
     used: set[str] = set()
     out = []
     for i in range(count):
         name = getattr(model, kind)(i).name
-        out.append(_unique(safe(name), used) if name else "")
+        out.append(unique_name(safe(name), used) if name else "")
     return out
 
 
@@ -75,7 +68,7 @@ def _place(written: list[str], owners: list[int], bodies: list[str], words: list
     for written_name, owner, word in zip(written, owners, words):
         k = seen.get(owner, 0)
         seen[owner] = k + 1
-        out.append(written_name if written_name else _unique(f"{bodies[owner]}:{word}{k}", used))
+        out.append(written_name if written_name else unique_name(f"{bodies[owner]}:{word}{k}", used))
     return out
 
 
@@ -83,13 +76,13 @@ def element_names(model) -> ElementNames:
     """The names of every body, joint and geom of ``model`` (a compiled ``MjModel``; see the module docstring)."""
     written = _named(model, "body", model.nbody)
     used = {w for w in written[1:] if w}
-    bodies = [_unique(WORLD, used)]  # numbered where an author's body is so named (spark-bench's own model.xml)
+    bodies = [unique_name(WORLD, used)]  # numbered where an author's body is so named (spark-bench's own model.xml)
     children: dict[int, int] = {}
     for b in range(1, model.nbody):  # MuJoCo orders parents before children
         parent = int(model.body_parentid[b])
         k = children.get(parent, 0)
         children[parent] = k + 1
-        bodies.append(written[b] or _unique(f"{bodies[parent]}:body{k}", used))
+        bodies.append(written[b] or unique_name(f"{bodies[parent]}:body{k}", used))
     joints = _place(_named(model, "jnt", model.njnt), [int(b) for b in model.jnt_bodyid], bodies,
                     [JOINT_WORDS[int(t)] for t in model.jnt_type])
     geoms = _place(_named(model, "geom", model.ngeom), [int(b) for b in model.geom_bodyid], bodies,

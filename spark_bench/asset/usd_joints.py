@@ -23,6 +23,7 @@ import math
 from pathlib import Path
 
 from spark_bench.asset.joint_type import JointType
+from spark_bench.asset.naming import unique_name
 from spark_bench.errors import InputError
 
 #: The PhysX joint schema Isaac Sim's URDF importer applies to every joint it gives a drive; usd-core does not
@@ -58,12 +59,7 @@ def prim_names(prims: list) -> dict:
         for path, parts in segments.items():
             out[path] = ":".join(part for part in parts[-depth:] if part)
     for path, name in list(out.items()):  # a path name equal to another prim's own name: numbered
-        name = f"{name}_prim" if name in RESERVED else name
-        base, k = name, 2
-        while name in used:
-            name, k = f"{base}_{k}", k + 1
-        used.add(name)
-        out[path] = name
+        out[path] = unique_name(f"{name}_prim" if name in RESERVED else name, used)
     return out
 
 

@@ -143,14 +143,19 @@ def run_check(args) -> int:
             reason = f"  {result.details['reason']}" if "reason" in result.details else ""
             print(f"{name:<{width}}  {mark}  {result.value:.4g}{reason}")
         print(f"{report.name}: {'passed' if report.passed else 'failed'}")
-        if render is not None:
-            print(f"wrote {render}", file=sys.stderr)
+    return _after_check(args, src, report.passed, render)
+
+
+def _after_check(args, src, passed: bool, render: Path | None) -> int:
+    """What follows a check's report: where its render went, the export (only when it passed), the exit code."""
+    if render is not None and not args.json:
+        print(f"wrote {render}", file=sys.stderr)
     if args.export is not None:
-        if report.passed:
+        if passed:
             _export_after_check(args, src)
         else:
             print(f"not exported to {args.export}: the check failed", file=sys.stderr)
-    return 0 if report.passed else 1
+    return 0 if passed else 1
 
 
 def _run_engines_check(args, engine: str, render: Path | None) -> int:
@@ -167,11 +172,4 @@ def _run_engines_check(args, engine: str, render: Path | None) -> int:
         print(json.dumps(reports.to_dict(), indent=1))
     else:
         print("\n".join(reports.lines()))
-        if render is not None:
-            print(f"wrote {render}", file=sys.stderr)
-    if args.export is not None:
-        if reports.passed:
-            _export_after_check(args, src)
-        else:
-            print(f"not exported to {args.export}: the check failed", file=sys.stderr)
-    return 0 if reports.passed else 1
+    return _after_check(args, src, reports.passed, render)

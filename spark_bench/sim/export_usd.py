@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from spark_bench.asset.joint_type import JointType
+from spark_bench.asset.naming import unique_name
 from spark_bench.sim.mjcf import base_rotation
 from spark_bench.sim.physical import principal_inertia
 from spark_bench.sim.physx.hulls import physx_shapes, piece_names
@@ -54,12 +55,7 @@ def prim_names(names: list[str]) -> dict[str, str]:
     out: dict[str, str] = {}
     used: set[str] = set()
     for name in names:
-        base = Tf.MakeValidIdentifier(name) or "prim"
-        candidate, k = base, 1
-        while candidate in used:
-            candidate, k = f"{base}_{k}", k + 1
-        used.add(candidate)
-        out[name] = candidate
+        out[name] = unique_name(Tf.MakeValidIdentifier(name) or "prim", used, first=1)
     return out
 
 

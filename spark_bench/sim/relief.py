@@ -214,13 +214,19 @@ def as_mesh(shape: CollisionShape) -> CollisionShape:
                           faces=np.asarray(mesh.faces, np.int64))
 
 
-def summarize_relief(cuts) -> dict:
-    """Hinge-relief cuts per joint: the hulls bevelled, the deepest penetration removed (m)."""
+def summarize_cuts(cuts, by: str, digits: int) -> dict:
+    """Hull cuts grouped by their attribute ``by`` (a joint, a link): the hulls cut, how many cuts, the deepest
+    penetration removed (m, rounded to ``digits``); each cut has ``geom`` and ``depth``."""
     out: dict[str, dict] = {}
     for cut in cuts:
-        entry = out.setdefault(cut.joint, {"geoms": [], "cuts": 0, "max_depth": 0.0})
+        entry = out.setdefault(getattr(cut, by), {"geoms": [], "cuts": 0, "max_depth": 0.0})
         if cut.geom not in entry["geoms"]:
             entry["geoms"].append(cut.geom)
         entry["cuts"] += 1
-        entry["max_depth"] = round(max(entry["max_depth"], cut.depth), 5)
+        entry["max_depth"] = round(max(entry["max_depth"], cut.depth), digits)
     return out
+
+
+def summarize_relief(cuts) -> dict:
+    """Hinge-relief cuts per joint: the hulls bevelled, the deepest penetration removed (m)."""
+    return summarize_cuts(cuts, "joint", 5)

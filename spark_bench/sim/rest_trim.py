@@ -25,7 +25,7 @@ import numpy as np
 
 from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.contacts import geometric_parents
-from spark_bench.sim.relief import MAX_REMOVED, as_mesh, cut_hull
+from spark_bench.sim.relief import MAX_REMOVED, as_mesh, cut_hull, summarize_cuts
 from spark_bench.sim.shapes import CollisionShape
 
 #: Passes of find-overlaps-then-cut (a cut can leave a shallower overlap with a neighbouring hull; a hull is cut
@@ -222,11 +222,4 @@ def trim_rest_overlaps(prepared, compile_model, limit: float, gap: float) -> tup
 
 def summarize_trim(cuts: list[TrimCut]) -> dict:
     """Rest-trimming cuts per link: the hulls cut, the deepest overlap removed (m)."""
-    out: dict[str, dict] = {}
-    for cut in cuts:
-        entry = out.setdefault(cut.link, {"geoms": [], "cuts": 0, "max_depth": 0.0})
-        if cut.geom not in entry["geoms"]:
-            entry["geoms"].append(cut.geom)
-        entry["cuts"] += 1
-        entry["max_depth"] = round(max(entry["max_depth"], cut.depth), 6)
-    return out
+    return summarize_cuts(cuts, "link", 6)
