@@ -26,7 +26,7 @@ import numpy as np
 
 from spark_bench.asset.joint_type import JointType
 from spark_bench.asset.model import ArticulatedAsset, Joint, Link
-from spark_bench.asset.transforms import axis_angle_matrix, make_transform
+from spark_bench.asset.transforms import axis_angle_matrix, make_transform, unit
 
 #: The kinds of break, in report order.
 KINDS = ("axis_reversed", "pivot_far_edge", "slide_turned", "type_swapped")
@@ -56,11 +56,6 @@ class Twin:
     part: str
     asset: ArticulatedAsset
     description: str
-
-
-def unit(vector) -> np.ndarray:
-    vector = np.asarray(vector, float)
-    return vector / np.linalg.norm(vector)
 
 
 def rest_baked(asset: ArticulatedAsset, joint_name: str) -> ArticulatedAsset:

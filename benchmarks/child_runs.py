@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -73,6 +71,21 @@ def stored_path(store: Path, set_name: str, object_id: str) -> Path:
     return store / f"{set_name.replace(' ', '_')}__{object_id}.json"
 
 
+def stored_rows(store: Path, objects: list[tuple[str, str, Path]]) -> dict[str, dict]:
+    """The rows already stored for ``objects`` (by ``<set>__<id>``, each with its ``set`` and ``object``)."""
+    rows = {}
+    for set_name, object_id, _ in objects:
+        path = stored_path(store, set_name, object_id)
+        if path.is_file():
+            rows[path.stem] = {**json.loads(path.read_text()), "set": set_name, "object": object_id}
+    return rows
+
+
+def rate(part: int, whole: int, digits: int = 0) -> str:
+    """``part/whole (percent %)``, ``n/a`` for none: a rate always beside what it was computed on."""
+    return f"{part}/{whole} ({100.0 * part / whole:.{digits}f} %)" if whole else "n/a"
+
+
 def run_in_children(objects: list[tuple[str, str, Path]], store: Path, module: str, child_args: list[str], *,
                     home: Path, jobs: int, timeout: float, fresh: bool,
                     describe: Callable[[dict], str]) -> dict[str, dict]:
@@ -88,43 +101,41 @@ def run_in_children(objects: list[tuple[str, str, Path]], store: Path, module: s
     :param describe: one line on a finished row, printed under the progress bar
     :return: the rows by ``<set>__<id>``, each with its ``set`` and ``object``
     """
+    from concurrent.futures import ThreadPoolExecutor, as_completed
+
     from tqdm import tqdm
 
     store.mkdir(parents=True, exist_ok=True)
-    env = dict(os.environ, SPARK_BENCH_HOME=str(home))
-    rows: dict[str, dict] = {}
-    todo = []
-    for set_name, object_id, folder in objects:
-        path = stored_path(store, set_name, object_id)
-        if path.is_file() and not fresh:
-            rows[path.stem] = {**json.loads(path.read_text()), "set": set_name, "object": object_id}
-        else:
-            todo.append((set_name, object_id, folder, path))
-    running: list = []
-    bar = tqdm(total=len(todo), desc="objects", unit="object")
-    while todo or running:
-        while todo and len(running) < jobs:
-            set_name, object_id, folder, path = todo.pop(0)
-            command = [sys.executable, "-m", module, "--one", str(folder), "--out", str(path), *child_args]
-            proc = subprocess.Popen(command, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                    text=True)
-            running.append((proc, set_name, object_id, path, time.monotonic()))
-        time.sleep(0.5)
-        for item in list(running):
-            proc, set_name, object_id, path, started = item
-            timed_out = time.monotonic() - started > timeout
-            if proc.poll() is None and not timed_out:
-                continue
-            if timed_out:
-                proc.kill()
-            output = proc.communicate()[0] or ""
-            running.remove(item)
+    rows = {} if fresh else stored_rows(store, objects)
+    todo = [(s, i, folder, stored_path(store, s, i)) for s, i, folder in objects
+            if stored_path(store, s, i).stem not in rows]
+
+    def one(item) -> tuple[str, dict]:
+        set_name, object_id, folder, path = item
+        started = time.monotonic()
+        row = _child_row([sys.executable, "-m", module, "--one", str(folder), "--out", str(path), *child_args],
+                         path, timeout, home)
+        row.update(set=set_name, object=object_id, wall_s=round(time.monotonic() - started, 1))
+        path.write_text(json.dumps(row, indent=1))  # stored as it finishes: an interrupted run resumes here
+        return path.stem, row
+
+    with ThreadPoolExecutor(max(1, jobs)) as pool, tqdm(total=len(todo), desc="objects", unit="object") as bar:
+        for future in as_completed([pool.submit(one, item) for item in todo]):
+            key, row = future.result()
+            rows[key] = row
             bar.update(1)
-            row = json.loads(path.read_text()) if path.is_file() else {
-                "error": "timed out" if timed_out else output.strip().splitlines()[-1:]}
-            row.update(set=set_name, object=object_id, wall_s=round(time.monotonic() - started, 1))
-            path.write_text(json.dumps(row, indent=1))
-            rows[path.stem] = row
-            bar.write(f"{set_name:20s} {object_id:>16s} {describe(row)}")
-    bar.close()
+            bar.write(f"{row['set']:20s} {row['object']:>16s} {describe(row)}")
     return rows
+
+
+def _child_row(command: list[str], path: Path, timeout: float, home: Path) -> dict:
+    """The row one child wrote to ``path``; where it wrote none, its error (a time-out, its last output line)."""
+    from spark_bench.methods.process import ProgramError, run_program
+
+    try:  # its own process group, killed whole on a time-out (CoACD workers included), its output drained
+        result = run_program(command, timeout, cwd=ROOT, extra_env={"SPARK_BENCH_HOME": str(home)})
+    except ProgramError as exc:
+        return {"error": exc.problem}
+    if path.is_file():
+        return json.loads(path.read_text())
+    return {"error": (result.last_lines() or [f"exited with status {result.returncode} and wrote no row"])[0]}

@@ -31,6 +31,8 @@ import time
 from collections import Counter
 from pathlib import Path
 
+from benchmarks.child_runs import rate, stored_rows
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results" / "check_validity"
 #: Parts whose joints are broken: drawers, doors and lids, as ``sim_real`` counts them (``semantics.txt``).
@@ -156,8 +158,9 @@ def summarize(rows: dict[str, dict], kinds: tuple[str, ...]) -> dict:
     """Per set: intact objects passing, and per kind the twins built, left out (by why), clean, caught."""
     out: dict[str, dict] = {}
     for row in rows.values():
-        entry = out.setdefault(row["set"], {"objects": 0, "intact_passed": 0, "errors": 0, "cpu_s": 0.0,
-                                            "kinds": {k: Counter() for k in kinds}})
+        entry = out.setdefault(row["set"], {"asked": 0, "objects": 0, "intact_passed": 0, "errors": 0,
+                                            "cpu_s": 0.0, "kinds": {k: Counter() for k in kinds}})
+        entry["asked"] += 1
         if row.get("intact", 0) is None:  # no drawer, door or lid
             continue
         entry["objects"] += 1
@@ -177,10 +180,6 @@ def summarize(rows: dict[str, dict], kinds: tuple[str, ...]) -> dict:
     return out
 
 
-def rate(part: int, whole: int) -> str:
-    return f"{part}/{whole} ({100.0 * part / whole:.0f} %)" if whole else "n/a"
-
-
 def markdown(summary: dict, rows: dict[str, dict], args) -> str:
     lines = ["# Sim checks against broken twins (check validity)", "",
              f"Written by `benchmarks/measure_check_validity.py` ({time.strftime('%Y-%m-%d')}, label `{args.label}`): "
@@ -189,9 +188,11 @@ def markdown(summary: dict, rows: dict[str, dict], args) -> str:
              "(`benchmarks/clean_break.py`) and its intact object passes every check.", "",
              "## Catch rate per kind of break", "",
              "Caught: the check fails; on its part: the failure names the broken joint or its part. Coverage: the "
+             "objects with a drawer, door or lid out of those asked (the others have nothing to break), and the "
              "clean twins of objects whose intact form passes, out of the twins built.", "",
-             "| set | intact objects passing | kind | twins built | left out (not clean / intact fails / error) "
-             "| clean twins | caught | caught on its part |", "|---|---|---|---|---|---|---|---|"]
+             "| set | objects with a drawer, door or lid / asked (errors) | intact objects passing | kind | twins built "
+             "| left out (not clean / intact fails / error) | clean twins | caught | caught on its part |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for set_name in [s for s in SETS if s in summary] + sorted(set(summary) - set(SETS)):
         entry = summary[set_name]
         intact = rate(entry["intact_passed"], entry["objects"] - entry["errors"])
@@ -199,7 +200,8 @@ def markdown(summary: dict, rows: dict[str, dict], args) -> str:
             if not counts.get("built"):
                 continue
             left = f"{counts['not clean']} / {counts['intact fails']} / {counts['error']}"
-            lines.append(f"| {set_name} | {intact} | {kind} | {counts['built']} | {left} | {counts['clean']} "
+            lines.append(f"| {set_name} | {entry['objects']}/{entry['asked']} ({entry['errors']}) | {intact} | {kind} "
+                         f"| {counts['built']} | {left} | {counts['clean']} "
                          f"| {rate(counts['caught'], counts['clean'])} | {rate(counts['named'], counts['clean'])} |")
     lines += ["", "## Intact objects that fail a check", "",
               "Their twins are left out (`intact fails`).", "", "| set | object | category | failed checks |",
@@ -251,15 +253,10 @@ def verdict_changes(rows: dict[str, dict], before_dir: Path) -> list[str]:
     return out
 
 
-def stored_rows(folder: Path, keys) -> dict[str, dict]:
-    """The rows of another run stored in ``folder`` for the same objects."""
-    paths = {key: folder / f"{key}.json" for key in keys}
-    return {key: json.loads(path.read_text()) for key, path in paths.items() if path.is_file()}
-
-
 def comparison(rows: dict[str, dict], summary: dict, args) -> str:
     """Catch rates of the run labelled ``args.compare`` beside this run's, and every verdict that differs."""
-    before = summarize(stored_rows(args.store / args.compare, rows), tuple(args.kinds))
+    objects = [(row["set"], row["object"], None) for row in rows.values()]
+    before = summarize(stored_rows(args.store / args.compare, objects), tuple(args.kinds))
     lines = ["", f"## Compared with `{args.compare}`", "",
              f"The same objects and twins as stored by the run labelled `{args.compare}`.", "",
              f"| set | kind | caught ({args.compare}) | caught ({args.label}) |", "|---|---|---|---|"]

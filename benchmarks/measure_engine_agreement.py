@@ -25,6 +25,9 @@ import sys
 import time
 from pathlib import Path
 
+from benchmarks.child_runs import rate as child_rate
+from benchmarks.child_runs import stored_path, stored_rows
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results" / "engine_agreement"
 #: The checks both engines have (their verdicts are compared one by one).
@@ -100,7 +103,7 @@ def redo_physx(rows: dict[str, dict], objects: list[tuple[str, str, Path]], ever
     from spark_bench.sim.options import ConvertOptions
     from spark_bench.sim.physx.engines import physx_report
 
-    folders = {f"{s.replace(' ', '_')}__{i}": f for s, i, f in objects}
+    folders = {stored_path(Path(), s, i).stem: f for s, i, f in objects}
     for key, row in rows.items():
         entries = [("intact", row.get("intact"))] + [(t, t) for t in row.get("twins", [])]
         todo = [(k, e) for k, e in entries if e and "error" not in e and e.get("physx")
@@ -216,7 +219,7 @@ def tally(entries: list[dict]) -> dict:
 
 
 def rate(part: int, whole: int) -> str:
-    return f"{part}/{whole} ({100.0 * part / whole:.1f} %)" if whole else "n/a"
+    return child_rate(part, whole, digits=1)
 
 
 def _rows_by_set(rows: dict[str, dict]) -> dict[str, dict[str, list]]:
@@ -358,11 +361,7 @@ def main(argv: list[str] | None = None) -> int:
         print("nothing to measure (shared objects absent?)")
         return 0
     if args.report_only or args.diagnose or args.redo_physx:  # the stored results, MuJoCo not run again
-        rows = {}
-        for set_name, object_id, _ in objects:
-            path = args.store / f"{set_name.replace(' ', '_')}__{object_id}.json"
-            if path.is_file():
-                rows[path.stem] = {**json.loads(path.read_text()), "set": set_name}
+        rows = stored_rows(args.store, objects)
         if args.diagnose or args.redo_physx:
             redo_physx(rows, objects, everything=args.redo_physx)
             for key, row in rows.items():

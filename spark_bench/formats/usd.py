@@ -91,18 +91,19 @@ def check_inside(stage_file: Path, run_dir: Path) -> list[str]:
     """
     from pxr import UsdUtils
 
-    from spark_bench.asset.usd_stage import quiet_usd
+    from spark_bench.asset.usd_stage import quiet_usd, read_stage
     from spark_bench.formats.urdf import OUTSIDE_HINT
 
     with quiet_usd():  # what does not resolve is read_usd's to answer (a warning or an error naming it)
         try:
             layers, assets, _ = UsdUtils.ComputeAllDependencies(str(stage_file))
-        except Exception:  # pxr raises Tf errors of its own type (a sublayer that is not USD): the layers composed
-            from pxr import Usd
-
-            stage = Usd.Stage.Open(str(stage_file))
-            layers, assets = (stage.GetUsedLayers() if stage is not None else []), []
-    files = [Path(layer.realPath) for layer in layers if layer.realPath] + [Path(a) for a in assets]
+            failed = False
+        except Exception:  # pxr raises Tf errors of its own type (a sublayer that is not USD)
+            failed = True
+        if failed:  # the layers the stage composes, opened as read_usd opens it (a file usd-core refuses: named)
+            stage = read_stage(stage_file).stage  # held: a layer's handle expires with its stage
+            layers, assets = stage.GetUsedLayers(), []
+        files = [Path(layer.realPath) for layer in layers if layer.realPath] + [Path(a) for a in assets]
     out = []
     for file in files:
         resolved = file.resolve()

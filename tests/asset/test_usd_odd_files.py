@@ -193,3 +193,26 @@ def test_an_error_elsewhere_names_the_arcs_that_could_not_be_composed(tmp_path):
         load_object(path)
     message = str(caught.value)
     assert "D6" in message and "sublayer @physics.usda@" in message and "\n" not in message
+
+
+def test_a_run_whose_sublayer_is_not_usd_imports_with_the_warning(tmp_path):
+    """``import usd`` reads a run as ``check`` does: the sublayer that is not USD is a warning, not a refusal."""
+    from spark_bench.formats.usd import read_run
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "garbage.usda").write_text("this is not a USD layer\n")
+    write(run / "door.usda", door_stage(header="subLayers = [@garbage.usda@]"))
+    read = read_run(run)
+    assert any("garbage.usda" in w and "not a USD layer" in w for w in read.asset.warnings)
+
+
+def test_a_run_file_that_is_not_usd_is_refused_in_one_line(tmp_path):
+    from spark_bench.formats.usd import read_run
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "door.usda").write_text("this is not a USD layer\n")
+    with pytest.raises(InputError) as error:
+        read_run(run)
+    assert str(run / "door.usda") in str(error.value) and "\n" not in str(error.value)
