@@ -74,18 +74,6 @@ class Orientation:
             out["inside_at_lower_upper"] = [round(float(v), 4) for v in self.inside]
         return out
 
-    def describe(self) -> str:
-        """One line for a report: the joint, its range as written, where it is drawn and why it opens so."""
-        lower, upper = self.written
-        line = (f"joint {self.joint!r} (range [{lower:.4g}, {upper:.4g}], drawn at {self.drawn:.4g}) opens toward "
-                f"its {self.toward} limit")
-        if self.rule == "geometry" and self.inside is not None:
-            line += (f": {self.inside[0]:.0%} of the part is inside the rest of the object at the lower limit, "
-                     f"{self.inside[1]:.0%} at the upper")
-        elif self.rule != "rest at lower":
-            line += f" ({self.rule})"
-        return line
-
 
 def flip(joint: Joint) -> None:
     """Turn ``joint`` about the opposite axis with its range negated: the same motion, the limits swapped."""

@@ -27,7 +27,6 @@ from spark_bench.errors import SparkBenchError
 from spark_bench.metrics.align import similarity_scale
 from spark_bench.metrics.names import (
     ARTICULATION_KEYS,
-    BY_KEY,
     JOINT_MEAN,
     METRIC_COLUMNS,
     RATE_STAGES,
@@ -51,10 +50,6 @@ def _value(row: dict, key: str):
     column = METRIC_COLUMNS[key]
     value = row.get(column)
     return value if value is not None else row.get("metrics", {}).get(key)
-
-
-#: The coverage key of the PhysX sim pass (the cases with a PhysX verdict, :func:`case_coverage`).
-PHYSX_COVERAGE = BY_KEY["sim_pass_rate_physx"].rate.coverage.key
 
 
 def run_rate(rows: Sequence[dict], rate: Rate) -> float | None:

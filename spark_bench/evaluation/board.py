@@ -9,7 +9,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 from spark_bench.convention import CONVENTION_VERSION
-from spark_bench.evaluation.aggregate import PHYSX_COVERAGE, by_part_class
+from spark_bench.evaluation.aggregate import by_part_class
 from spark_bench.metrics.names import (
     ARTICULATION_KEYS,
     BY_KEY,
@@ -175,10 +175,6 @@ class Leaderboard:
         return any(e.metrics.get(h.key) is not None for e in (self.entries if entries is None else entries)
                    for h in RATES if h.rate.stage == stage and not h.summary)
 
-    def has_physx(self, entries: list[Entry] | None = None) -> bool:
-        """Whether any entry has a PhysX sim pass (``eval --engine physx|all``)."""
-        return self.has_stage("physx", entries)
-
     def has_rl(self, entries: list[Entry] | None = None) -> bool:
         """Whether any entry has an RL transfer score (``eval --rl``)."""
         return self.has_stage("rl", entries)
@@ -334,11 +330,6 @@ def coverage_text(key: str, coverage: dict | None) -> str:
     if declared.unit != "case":
         return coverage_line(coverage)
     return f"{fmt_case_coverage(coverage)} cases with {declared.what}" if coverage else "n/a"
-
-
-def physx_coverage_line(coverage: dict | None) -> str:
-    """The PhysX sim pass's coverage in words: ``48/50 cases with a PhysX verdict`` (:func:`coverage_text`)."""
-    return coverage_text(PHYSX_COVERAGE, coverage)
 
 
 def fmt_scale(scales: dict | None) -> str:

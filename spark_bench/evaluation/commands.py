@@ -219,14 +219,12 @@ def run_eval_command(args) -> int:
     if args.json:
         print(json.dumps(summary.to_json()))
         return 0
-    from spark_bench.evaluation.aggregate import PHYSX_COVERAGE
-    from spark_bench.evaluation.board import coverage_line, fmt_scale, fmt_value, physx_coverage_line
+    from spark_bench.evaluation.board import coverage_text, fmt_scale, fmt_value
+    from spark_bench.metrics.names import COVERAGES
 
     def shown(key: str, value) -> str:
-        if key == PHYSX_COVERAGE:
-            return physx_coverage_line(value)
-        if key.endswith("_coverage"):
-            return coverage_line(value)
+        if key in COVERAGES:
+            return coverage_text(key, value)
         if key == "alignment_scale":
             return f"{fmt_scale(value)} over {value['cases']} aligned cases (median, range)"
         return fmt_value(value)

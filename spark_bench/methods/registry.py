@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from spark_bench.methods.base import Method, MethodSpec
 
 Factory = Callable[[dict], "Method"]
-#: The entry-point group of third-party methods (the same as :data:`spark_bench.methods.base.ENTRY_POINT_GROUP`).
+#: The entry-point group of third-party methods (a plug-in's pyproject: ``[project.entry-points."spark_bench.methods"]``).
 ENTRY_POINT_GROUP = "spark_bench.methods"
 #: The built-in methods and the module whose class registers each (imported on first use).
 BUILTIN_MODULES = {

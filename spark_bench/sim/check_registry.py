@@ -94,7 +94,6 @@ CHECKS = (
 )
 #: The checks' names, in report order.
 CHECK_NAMES = tuple(c.name for c in CHECKS)
-BY_NAME = {c.name: c for c in CHECKS}
 
 #: PhysX's own checks: ``physx_loads`` (PhysX builds the articulation, where MuJoCo compiles and PyBullet loads)
 #: and ``joint_limits`` (PhysX reads back the limits it was given).
@@ -109,4 +108,4 @@ def docs_table() -> str:
     return "\n".join(["| check | value | passes when |", "|---|---|---|", *(c.row() for c in CHECKS)])
 
 
-__all__ = ["BY_NAME", "CHECKS", "CHECK_NAMES", "NEEDS", "PHYSX_CHECKS", "PHYSX_OWN", "CheckSpec", "docs_table"]
+__all__ = ["CHECKS", "CHECK_NAMES", "NEEDS", "PHYSX_CHECKS", "PHYSX_OWN", "CheckSpec", "docs_table"]

@@ -73,25 +73,16 @@ def first_crossing(model, data, start: np.ndarray, step: np.ndarray) -> float:
     return -1.0
 
 
-def surface_bounds(model, data) -> np.ndarray:
-    """``(2, 3)``: the lower and upper corner of the box around every mesh geom of ``model``, in its frame."""
-    corners = []
-    for geom in range(model.ngeom):
-        mesh = model.geom_dataid[geom]
-        start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
-        vertices = model.mesh_vert[start:start + count] @ data.geom_xmat[geom].reshape(3, 3).T + data.geom_xpos[geom]
-        corners += [vertices.min(axis=0), vertices.max(axis=0)]
-    corners = np.asarray(corners).reshape(-1, 3)
-    return np.stack([corners.min(axis=0), corners.max(axis=0)])
-
-
-def crossing_steps(model, data, path: np.ndarray, start_tolerance: float) -> np.ndarray:
+def crossing_steps(model, data, path: np.ndarray, start_tolerance: float, stop_after: int | None = None) -> np.ndarray:
     """Per point, the first step at whose end it has crossed a surface of ``model`` after travelling more than
     ``start_tolerance`` (-1: never).
 
     :param path: ``(steps, points, 3)`` positions of the points at each step, in ``model``'s frame
+    :param stop_after: stop once this many points have crossed (the later steps are not cast: -1 there)
     """
-    lower, upper = surface_bounds(model, data)
+    from spark_bench.sim.render import model_bounds
+
+    lower, upper = model_bounds(model, data)
     margin = 1e-6 * (1.0 + float(np.max(upper - lower)))
     travelled = np.zeros(path.shape[1])
     crossed = np.full(path.shape[1], -1)
@@ -106,4 +97,6 @@ def crossing_steps(model, data, path: np.ndarray, start_tolerance: float) -> np.
             if hit >= 0.0 and travelled[p] + hit * length[p] > start_tolerance:
                 crossed[p] = k
         travelled += length
+        if stop_after is not None and np.count_nonzero(crossed >= 0) >= stop_after:
+            break
     return crossed

@@ -109,31 +109,30 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
         _update_physics(prepared)
         return
 
-    def probe_model(with_excludes: bool):
+    def probe_model():
         spec = assemble_spec(prepared, visuals=False)
         # every parent-child contact on, as the final model has them (explicit pairs or unfiltered)
         spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_FILTERPARENT)
-        if with_excludes:
-            for parent, child in sorted(prepared.excluded):
-                spec.add_exclude(bodyname1=parent, bodyname2=child)
+        for parent, child in sorted(prepared.excluded):
+            spec.add_exclude(bodyname1=parent, bodyname2=child)
         return spec.compile()
 
     gap = 0.5 * prepared.options.clearance * prepared.size
     limit = prepared.options.trim_overlap * prepared.size
-    prepared.excluded = {}
-    model = probe_model(True)
+    prepared.excluded = {}  # none yet: the probe collides every pair
+    model = probe_model()
     pairs = {(parent, child) for child, parent in geometric_parents(prepared).items()}
     at_rest: dict[tuple[str, str], float] = {}
     for o in rest_overlaps(model, mujoco.MjData(model), pairs):
         at_rest[(o.parent, o.child)] = max(at_rest.get((o.parent, o.child), 0.0), o.depth)
     judged = {(parent, child) for parent, child, _ in phantom_candidates(prepared)}
     prepared.excluded = {pair: depth for pair, depth in at_rest.items() if pair not in judged and depth > limit}
-    prepared.trim, unresolved = trim_rest_overlaps(prepared, lambda: probe_model(True), limit, gap)
+    prepared.trim, unresolved = trim_rest_overlaps(prepared, probe_model, limit, gap)
     prepared.excluded.update(unresolved)
     # the paths judged on the cut hulls (nearer the surfaces they wrap), with what overlapped before the cuts
-    prepared.phantom = find_phantom_blocks(prepared, probe_model(True), gap, at_rest)
+    prepared.phantom = find_phantom_blocks(prepared, probe_model(), gap, at_rest)
     prepared.excluded.update({(b.parent, b.child): at_rest.get((b.parent, b.child), 0.0) for b in prepared.phantom})
-    prepared.relief = relieve(prepared, lambda: probe_model(True), gap)
+    prepared.relief = relieve(prepared, probe_model, gap)
     if cache is not None and not prepared.report.coacd.failed:
         store_contacts(cache, key, prepared)
     # the model is built from what the cache gives back, stored or not (see as_cached), and its masses from

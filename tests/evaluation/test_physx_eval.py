@@ -122,7 +122,7 @@ def test_eval_engine_all_stores_physx_beside_mujoco_in_a_run_of_its_own(tmp_path
     assert both.metrics["sim_pass_rate_physx"] == float(physx["passed"])
     assert both.metrics["physx_coverage"] == {"with_verdict": 1, "cases": 1}
     (entry,) = board.entries  # the run with PhysX, the label's latest; the MuJoCo-only rows stay in the store
-    assert entry.config_hash == both.run.config_hash and board.has_physx()
+    assert entry.config_hash == both.run.config_hash and board.has_stage("physx")
     assert "| 1 | 0 | 1/1 |" in to_markdown(board)
 
 

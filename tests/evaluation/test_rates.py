@@ -11,7 +11,7 @@ import pytest
 
 from spark_bench import CONVENTION_VERSION
 from spark_bench.evaluation.aggregate import run_rate, summarize
-from spark_bench.evaluation.board import HEADERS, coverage_text, physx_coverage_line
+from spark_bench.evaluation.board import HEADERS, coverage_text
 from spark_bench.evaluation.case_eval import (
     OPEN_CHECK,
     PHYSX_CHECK,
@@ -83,6 +83,6 @@ def test_every_declared_rate_is_summarized_shown_and_written(tmp_path, key):
 
 
 def test_the_physx_coverage_reads_in_words():
-    assert physx_coverage_line({"with_verdict": 48, "cases": 50}) == "48/50 cases with a PhysX verdict"
-    assert physx_coverage_line(None) == "n/a"
+    assert coverage_text("physx_coverage", {"with_verdict": 48, "cases": 50}) == "48/50 cases with a PhysX verdict"
+    assert coverage_text("physx_coverage", None) == "n/a"
     assert coverage_text("open_coverage", None) == "n/a"

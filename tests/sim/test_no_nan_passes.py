@@ -1,10 +1,11 @@
 """No check passes on a number that is not one, and a part with nothing to weigh fails ``mass_inertia`` (issue 43,
 item 3).
 
-Today (``spark_bench/sim/checks.py`` ``check_mass_inertia``): an object none of whose bodies moves passes
-``mass_inertia`` with the value NaN (the smallest mass over no moving body), and a moving part without any geometry
-(no visual, no collision shape) passes with the converter's placeholder mass (``spark_bench.sim.physical.HELPER_MASS``,
-1 g, meant for PartNet-Mobility's ``*_helper`` links between two joints). Both fail now, with a reason.
+Before issue 43, ``check_mass_inertia`` passed an object none of whose bodies moves with the value NaN (the smallest
+mass over no moving body), and a moving part without any geometry (no visual, no collision shape) with the converter's
+placeholder mass (``spark_bench.sim.physical.HELPER_MASS``, 1 g, meant for PartNet-Mobility's ``*_helper`` links
+between two joints). Now the first weighs its bodies (a finite value, a pass), the second fails with a reason, and a
+result that is not a number is never a pass (:class:`~spark_bench.sim.results.CheckResult`).
 """
 
 from __future__ import annotations
@@ -57,10 +58,18 @@ def helper_chain() -> ArticulatedAsset:
     return ArticulatedAsset("helper_chain", links, joints)
 
 
-def test_no_check_passes_with_a_value_that_is_not_a_number():
-    report = run_checks(static_box(), _options())
-    passed_on_nan = [name for name, check in report.checks.items() if check.passed and not math.isfinite(check.value)]
-    assert passed_on_nan == []
+def test_a_result_that_is_not_a_number_is_a_failure_with_its_reason():
+    from spark_bench.sim.results import CheckResult
+
+    for value in (float("nan"), float("inf")):
+        result = CheckResult(True, value, {})
+        assert not result.passed and "not a number" in result.details["reason"]
+    assert CheckResult(True, 0.5, {}).passed
+
+
+def test_an_object_where_nothing_moves_is_weighed_by_its_bodies():
+    check = run_checks(static_box(), _options()).checks["mass_inertia"]
+    assert check.passed and math.isfinite(check.value) and check.value > 0.1, check.to_dict()  # kg, not NaN
 
 
 def test_a_moving_part_without_collision_geometry_fails_mass_inertia_with_a_reason():
