@@ -223,7 +223,7 @@ class ModelFileInputs(CheckInputs):
     def size(self) -> float:
         """The diagonal of the model's bounds at rest (at least 1 mm)."""
         from spark_bench.mujoco_gl import mujoco_module
-        from spark_bench.sim.render import model_bounds
+        from spark_bench.sim.bounds import model_bounds
 
         mujoco = mujoco_module()
         data = mujoco.MjData(self.model)

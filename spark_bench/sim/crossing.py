@@ -19,6 +19,7 @@ import trimesh
 
 from spark_bench.asset.mesh import sample_surface
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.sim.bounds import model_bounds
 
 #: A surface met at a smaller cosine between the segment and the surface's normal is run along, not crossed.
 GRAZING_COS = 0.05
@@ -80,8 +81,6 @@ def crossing_steps(model, data, path: np.ndarray, start_tolerance: float, stop_a
     :param path: ``(steps, points, 3)`` positions of the points at each step, in ``model``'s frame
     :param stop_after: stop once this many points have crossed (the later steps are not cast: -1 there)
     """
-    from spark_bench.sim.render import model_bounds
-
     lower, upper = model_bounds(model, data)
     margin = 1e-6 * (1.0 + float(np.max(upper - lower)))
     travelled = np.zeros(path.shape[1])

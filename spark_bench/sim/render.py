@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.sim.bounds import model_bounds
 
 #: Camera: in front of the object (its front faces -X), a little to the side and above.
 AZIMUTH, ELEVATION, DISTANCE = 25.0, -22.0, 1.35
@@ -21,23 +22,6 @@ def _frame(renderer, model, data, camera, group: int) -> np.ndarray:
     option.geomgroup[group] = 1
     renderer.update_scene(data, camera=camera, scene_option=option)
     return renderer.render().copy()
-
-
-def model_bounds(model, data, group: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """World bounding box of the geoms (of ``group``) at the current pose, from their bounding boxes."""
-    lows, highs = [], []
-    for g in range(model.ngeom):
-        if group is not None and model.geom_group[g] != group:
-            continue
-        center, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
-        rotation = data.geom_xmat[g].reshape(3, 3)
-        world_center = data.geom_xpos[g] + rotation @ center
-        world_half = np.abs(rotation) @ half
-        lows.append(world_center - world_half)
-        highs.append(world_center + world_half)
-    if not lows:
-        return np.zeros(3) - 0.5, np.zeros(3) + 0.5
-    return np.min(lows, axis=0), np.max(highs, axis=0)
 
 
 def open_poses(model) -> list[tuple[str, float]]:
