@@ -27,6 +27,7 @@ import trimesh
 
 from spark_bench.asset.model import ArticulatedAsset
 from spark_bench.sim.crossing import crossing_steps, inset_samples, surface_model
+from spark_bench.sim.free_path import crossing_values
 from spark_bench.sim.prepared import link_visual_mesh
 from spark_bench.sim.sweep import SWEEP_REACH
 
@@ -38,9 +39,6 @@ START_TOLERANCE = 0.005
 INSET = 0.0002
 #: Fraction of the part's points that must enter the object along the twin's path beyond those along the intact's.
 MIN_ENTERED = 0.02
-#: Steps along a hinge's path (per radian) and along a slide's path (per range).
-STEPS_PER_RADIAN = 60
-SLIDE_STEPS = 60
 
 
 @dataclass
@@ -85,14 +83,6 @@ def _moving_samples(asset: ArticulatedAsset, links: list[str], count: int, inset
             for index, (name, mesh) in enumerate(sorted(meshes.items()))}
 
 
-def path_values(asset: ArticulatedAsset, joint_name: str, reach: float = SWEEP_REACH) -> np.ndarray:
-    """The joint values visited, from rest to ``reach`` of the range."""
-    joint = asset.joints[joint_name]
-    span = float(joint.upper - joint.lower)
-    steps = max(8, int(np.ceil(abs(span) * reach * STEPS_PER_RADIAN))) if joint.is_rotational else SLIDE_STEPS
-    return joint.rest_value + span * reach * np.linspace(0.0, 1.0, steps + 1)
-
-
 def path_crossing(asset: ArticulatedAsset, joint_name: str, reach: float = SWEEP_REACH,
                   samples: int = SAMPLES) -> PathCrossing:
     """How the part of ``joint_name`` meets the rest of ``asset`` along the first ``reach`` of its range.
@@ -106,7 +96,7 @@ def path_crossing(asset: ArticulatedAsset, joint_name: str, reach: float = SWEEP
     moving = asset.moving_links(joint_name)
     points = _moving_samples(asset, moving, samples, INSET * size)
     model, data = _static_scene(asset, set(moving))
-    values = path_values(asset, joint_name, reach)
+    values = crossing_values(asset.joints[joint_name], reach)  # as the converter steps a part's own path
 
     def world(value: float) -> np.ndarray:
         poses = asset.link_poses({joint_name: float(value)})
@@ -133,11 +123,16 @@ class BreakJudgement:
                 "intact": self.intact.to_dict()}
 
 
-def judge_break(intact: ArticulatedAsset, twin: ArticulatedAsset, joint_name: str) -> BreakJudgement:
+def judge_break(intact: ArticulatedAsset, twin: ArticulatedAsset, joint_name: str,
+                intact_path: PathCrossing | None = None) -> BreakJudgement:
     """Whether ``twin`` (``intact`` with ``joint_name`` broken) moves its part into the object (see the module
-    docstring)."""
+    docstring).
+
+    :param intact_path: :func:`path_crossing` of ``intact``'s ``joint_name``, where the caller judges several twins
+        of one joint (computed here otherwise)
+    """
     twin_path = path_crossing(twin, joint_name)
-    intact_path = path_crossing(intact, joint_name)
+    intact_path = intact_path or path_crossing(intact, joint_name)
     if twin_path.entered - intact_path.entered < MIN_ENTERED:
         return BreakJudgement(False, f"free space: {twin_path.entered:.1%} of the part's points meet the object "
                                      f"within {SWEEP_REACH:.0%} of the range, {intact_path.entered:.1%} on the intact "

@@ -77,8 +77,11 @@ def names_part(verdict: dict, joint: str, part: str) -> bool:
     return any(pattern.search(reason) for reason in verdict["reasons"].values())
 
 
-def twin_entry(asset, joint: str, kind: str, intact_passed: bool) -> dict:
-    """One twin: how it was made, whether it is a clean break, and (clean, intact passing) its verdict."""
+def twin_entry(asset, joint: str, kind: str, intact_passed: bool, intact_path=None) -> dict:
+    """One twin: how it was made, whether it is a clean break, and (clean, intact passing) its verdict.
+
+    :param intact_path: the intact joint's :func:`~benchmarks.clean_break.path_crossing`, shared by its twins
+    """
     from benchmarks.broken_twins import make_twin
     from benchmarks.clean_break import judge_break
 
@@ -90,7 +93,7 @@ def twin_entry(asset, joint: str, kind: str, intact_passed: bool) -> dict:
         except ValueError as exc:
             entry.update(status="not applicable", reason=str(exc))
             return entry
-        judgement = judge_break(asset, twin.asset, joint)
+        judgement = judge_break(asset, twin.asset, joint, intact_path)
         entry.update(part=twin.part, description=twin.description, judgement=judgement.to_dict())
         if judgement.clean:
             break
@@ -113,6 +116,7 @@ def twin_entry(asset, joint: str, kind: str, intact_passed: bool) -> dict:
 def measure_object(folder: Path, kinds: tuple[str, ...]) -> dict:
     """The intact verdict and every twin of one object folder."""
     from benchmarks.broken_twins import applicable_kinds
+    from benchmarks.clean_break import path_crossing
     from spark_bench.data import load_object
 
     asset = load_object(folder)
@@ -122,9 +126,10 @@ def measure_object(folder: Path, kinds: tuple[str, ...]) -> dict:
     intact = verdict_of(asset)
     twins = []
     for joint in joints:
-        for kind in applicable_kinds(asset.joints[joint]):
-            if kind in kinds:
-                twins.append(twin_entry(asset, joint, kind, intact["passed"]))
+        wanted = [kind for kind in applicable_kinds(asset.joints[joint]) if kind in kinds]
+        intact_path = path_crossing(asset, joint) if wanted else None  # the control every twin of it is judged by
+        for kind in wanted:
+            twins.append(twin_entry(asset, joint, kind, intact["passed"], intact_path))
     return {"object": folder.name, "category": asset.category, "intact": intact, "twins": twins}
 
 

@@ -135,11 +135,12 @@ def _passed_check():
 def twin_rows(asset, judge: bool) -> list[dict]:
     """Both engines' verdicts on every broken twin of ``asset`` (a twin that cannot be built is left out)."""
     from benchmarks.broken_twins import applicable_kinds, make_twin
-    from benchmarks.clean_break import judge_break
+    from benchmarks.clean_break import judge_break, path_crossing
     from benchmarks.measure_check_validity import broken_joints
 
     rows = []
     for joint in broken_joints(asset):
+        intact_path = path_crossing(asset, joint) if judge else None  # shared by the joint's twins
         for kind in applicable_kinds(asset.joints[joint]):
             try:
                 twin = make_twin(asset, joint, kind)
@@ -147,7 +148,7 @@ def twin_rows(asset, judge: bool) -> list[dict]:
                 continue
             row = {"joint": joint, "kind": kind, "part": twin.part, "description": twin.description}
             if judge:
-                row["clean"] = bool(judge_break(asset, twin.asset, joint).clean)
+                row["clean"] = bool(judge_break(asset, twin.asset, joint, intact_path).clean)
             try:
                 row.update(both_engines(twin.asset))
             except Exception as exc:  # one twin must not end the object's run

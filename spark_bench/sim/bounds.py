@@ -1,5 +1,6 @@
-"""The box around a compiled MuJoCo model's geoms at its current pose: where the renderer aims its camera, what
-the checks' strips frame, and what a ray cast can possibly hit (:mod:`spark_bench.sim.crossing`)."""
+"""Where a compiled MuJoCo model is at its current pose: the box around its geoms (where the renderer aims its
+camera, what the checks' strips frame, what a ray cast can possibly hit: :mod:`spark_bench.sim.crossing`) and each
+body's pose (the contact rule's paths and cuts: :mod:`spark_bench.sim.phantom`, :mod:`spark_bench.sim.rest_trim`)."""
 
 from __future__ import annotations
 
@@ -21,3 +22,11 @@ def model_bounds(model, data, group: int | None = None) -> tuple[np.ndarray, np.
     if not lows:
         return np.zeros(3) - 0.5, np.zeros(3) + 0.5
     return np.min(lows, axis=0), np.max(highs, axis=0)
+
+
+def body_pose(data, body: int) -> np.ndarray:
+    """4x4 world pose of body ``body`` at the current pose."""
+    out = np.eye(4)
+    out[:3, :3] = data.xmat[body].reshape(3, 3)
+    out[:3, 3] = data.xpos[body]
+    return out

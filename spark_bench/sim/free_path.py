@@ -35,7 +35,7 @@ TRAVEL_DEPTH = 0.1
 #: half's broken twins is decided by what happens beyond).
 JUDGED_REACH = SWEEP_REACH
 #: Points sampled on the moving part for :func:`part_crossing`, their inset into its surface and the steps of the
-#: path (per radian of a hinge, per slide).
+#: path (per radian of a hinge, per slide; the check-validity benchmark's judge steps its paths the same way).
 CROSSING_SAMPLES = 1000
 CROSSING_INSET = 0.0002
 CROSSING_STEPS_PER_RADIAN = 60
@@ -45,9 +45,9 @@ CROSSING_SLIDE_STEPS = 60
 CROSSING_START = 0.005
 
 
-def crossing_values(joint: Joint) -> np.ndarray:
-    """The joint values :func:`part_crossing` steps through: from rest over :data:`JUDGED_REACH` of the range."""
-    span = JUDGED_REACH * float(joint.upper - joint.lower)
+def crossing_values(joint: Joint, reach: float = JUDGED_REACH) -> np.ndarray:
+    """The joint values :func:`part_crossing` steps through: from rest over ``reach`` of the range."""
+    span = reach * float(joint.upper - joint.lower)
     steps = max(8, int(np.ceil(abs(span) * CROSSING_STEPS_PER_RADIAN))) if joint.is_rotational else CROSSING_SLIDE_STEPS
     return joint.rest_value + span * np.linspace(0.0, 1.0, steps + 1)
 

@@ -41,6 +41,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.sim.bounds import body_pose
 from spark_bench.sim.contacts import geometric_parents
 from spark_bench.sim.free_path import JUDGED_REACH, allowed_depth, part_crossing
 from spark_bench.sim.relief import HINGE_ZONE, MAX_DEPTH, hinge_radius, joint_bodies
@@ -105,13 +106,6 @@ def joint_steps(joint: Joint) -> np.ndarray:
     span = upper - lower
     count = max(STEPS, int(np.ceil(abs(span) * STEPS_PER_RADIAN))) if joint.is_rotational else STEPS
     return lower + span * np.linspace(0.0, 1.0, count + 1)[1:]
-
-
-def _pose(data, body: int) -> np.ndarray:
-    out = np.eye(4)
-    out[:3, :3] = data.xmat[body].reshape(3, 3)
-    out[:3, 3] = data.xpos[body]
-    return out
 
 
 def _hull_depth(model, data, body_a: int, body_b: int) -> float:
@@ -298,8 +292,8 @@ def trace(prepared, model, joint: Joint, moving: str, other: str, tolerance: flo
         data.qpos[qadr] = value
         mujoco.mj_forward(model, data)
         depths.append(_hull_depth(model, data, body_o, body_m))
-        to_moving = np.linalg.inv(_pose(data, body_m))
-        poses.append(to_moving @ _pose(data, body_o))  # other -> moving frame
+        to_moving = np.linalg.inv(body_pose(data, body_m))
+        poses.append(to_moving @ body_pose(data, body_o))  # other -> moving frame
         if joint.is_rotational:  # the hinge zone, in the moving link's frame
             anchor, axis = data.xanchor[jid].copy(), data.xaxis[jid].copy()
             radius = hinge_radius(model, data, turning, anchor, axis)

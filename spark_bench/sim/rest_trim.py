@@ -2,7 +2,8 @@
 
 Convex hulls bulge past the surface they wrap (CoACD's by up to about 1 % of a part's size), so on a real object a
 door's hulls overlap its cabinet's along the frame, a lid's its box's along the rim. A pair that collides
-(:mod:`spark_bench.sim.phantom` decides which do, from the part's own path) must not start pushed apart: each of
+(:mod:`spark_bench.sim.phantom` decides which do, from the part's own path, before any cut: an excluded pair keeps
+its hulls whole, as they meet the other parts and a gripper too) must not start pushed apart: each of
 its hull pairs that overlaps at rest by more than ``ConvertOptions.trim_overlap`` of the object's size (by
 default: at all) is cut apart along the direction of least penetration (the contact normal MuJoCo finds), leaving
 half the clearance between them: the part's hull is cut back to the plane of the parent hull's nearest extent, or,
@@ -24,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.sim.bounds import body_pose
 from spark_bench.sim.contacts import geometric_parents
 from spark_bench.sim.relief import MAX_REMOVED, as_mesh, cut_hull, summarize_cuts
 from spark_bench.sim.shapes import CollisionShape
@@ -128,17 +130,10 @@ def _cut_back(shape: CollisionShape, pose: np.ndarray, normal: np.ndarray, limit
     return cut_hull(as_mesh(shape), local_normal, float(limit - normal @ pose[:3, 3]))
 
 
-def _pose(data, body: int) -> np.ndarray:
-    out = np.eye(4)
-    out[:3, :3] = data.xmat[body].reshape(3, 3)
-    out[:3, 3] = data.xpos[body]
-    return out
-
-
 def _part(o: RestOverlap, data, model, prepared, gap: float) -> list[tuple]:
     """The ways to part the two hulls of ``o``, the part's hull first: ``(link, hull index, shape, pose, normal,
     bound, other geom)``, each a cut of one hull to ``normal . x <= bound`` (world)."""
-    child_pose, parent_pose = _pose(data, model.body(o.child).id), _pose(data, model.body(o.parent).id)
+    child_pose, parent_pose = body_pose(data, model.body(o.child).id), body_pose(data, model.body(o.parent).id)
     child_shape = prepared.shapes[o.child][o.child_hull]
     parent_shape = prepared.shapes[o.parent][o.parent_hull]
     nearest_parent = float(np.min(_world_vertices(parent_shape, parent_pose) @ o.normal))

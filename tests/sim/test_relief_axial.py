@@ -15,7 +15,8 @@ from spark_bench.sim import phantom, relief, run_checks  # noqa: E402
 from spark_bench.sim.options import ConvertOptions  # noqa: E402
 
 #: Rest overlaps up to 0.2 % of the object's size left in, as conv-8 left them: the rule under test is the one
-#: that handles them (by default, conv-9, such an overlap is cut apart at rest: spark_bench.sim.rest_trim).
+#: that handles them (by default, since conv-9, such an overlap of a pair that collides is cut apart at rest:
+#: spark_bench.sim.rest_trim).
 SHALLOW_KEPT = ConvertOptions(trim_overlap=0.002)
 
 
@@ -60,10 +61,23 @@ def test_lever_sunk_into_its_base_turns_after_relief(isolated_home, monkeypatch)
     assert jammed.details["joints"]["joint_lever"]["reached"] < 0.5
 
 
-def test_lever_sunk_into_its_base_is_cut_apart_at_rest_by_default(isolated_home):
+def test_lever_sunk_into_its_base_on_a_free_path_is_excluded_whole_by_default(isolated_home):
     report = run_checks(_lever_on_base(0.0008))
     assert report.passed, report.failures()
-    assert report.checks["mjcf_compiles"].details["rest_trim"]  # the overlap is gone before the relief looks
+    details = report.checks["mjcf_compiles"].details
+    # the lever's own path is free of the base's surface: the pair is excluded, judged before any cut (conv-10),
+    # so nothing is cut (under conv-9 the lever's hulls were cut apart from the base first)
+    assert [(b["parent"], b["child"]) for b in details["phantom_blocks"]] == [("body", "lever")]
+    assert details["rest_trim"] == {}
+
+
+def test_lever_sunk_into_its_base_is_cut_apart_at_rest_where_it_collides(isolated_home, monkeypatch):
+    monkeypatch.setattr(phantom, "CROSSING_BLOCK", 0.0)  # every path blocked: the pair collides
+    report = run_checks(_lever_on_base(0.0008))
+    assert report.passed, report.failures()
+    details = report.checks["mjcf_compiles"].details
+    assert details["excluded"] == []
+    assert details["rest_trim"]  # the overlap is gone before the relief looks
 
 
 def test_lever_clear_of_its_base_needs_no_relief(isolated_home):

@@ -1,6 +1,7 @@
-"""Which parts collide (conv-9): a part and its parent are excluded from collision only where the part's own path is
-free of the parent's surface (spark_bench.sim.phantom); the hulls of every pair that overlap at rest are cut apart
-(spark_bench.sim.rest_trim). Until conv-8 a pair whose hulls overlapped at rest was excluded whatever its path."""
+"""Which parts collide (conv-9, conv-10): a part and its parent are excluded from collision only where the part's own
+path is free of the parent's surface (spark_bench.sim.phantom); the hulls of every other pair that overlap at rest
+are cut apart (spark_bench.sim.rest_trim). Until conv-8 a pair whose hulls overlapped at rest was excluded whatever
+its path; under conv-9 the hulls were cut before the pairs were judged, excluded pairs included."""
 
 import numpy as np
 from helpers_assets import open_cabinet
@@ -36,29 +37,34 @@ def door_body_overlaps(prepared) -> list:
     return [o for o in rest_overlaps(model, mujoco.MjData(model), {("body", "door")}) if o.depth > 1e-6]
 
 
-def test_a_door_hull_that_bulges_into_its_body_is_cut_back_and_excluded_for_its_free_path(isolated_home):
-    plain = prepare(open_cabinet(), NO_CACHE)
+def test_a_door_whose_hull_bulges_into_its_body_on_a_free_path_is_excluded_with_its_hulls_whole(isolated_home):
     prepared = prepare(bulging_cabinet(), NO_CACHE)
-    assert door_body_overlaps(prepared) == []  # nothing overlaps at rest any more
     # the door opens outwards, away from the body: its hulls, not the object, made the two meet
     assert list(prepared.excluded) == [("body", "door")]
     [free] = prepared.phantom
     assert free.first == 0.0 and free.depth > 0.5 * BULGE and free.crossing < 0.02
-    # the bulge is a third of the door hull's thickness, more than the quarter of its volume a part may lose to
-    # rest trimming: the boards' hulls are cut back instead, each by a slab as deep as the bulge
-    assert prepared.trim and {c.link for c in prepared.trim} == {"body"}
-    assert all(c.removed < 0.05 and c.depth > 0.5 * BULGE for c in prepared.trim)
-    assert plain.trim == []  # exact boxes that do not overlap are left as they are
+    # judged before any cut (conv-10): an excluded pair is not cut apart, its hulls stay as made for every other
+    # contact (a neighbouring part, a gripper)
+    assert prepared.trim == []
+    assert max(o.depth for o in door_body_overlaps(prepared)) > 0.5 * BULGE
     model = build_spec(bulging_cabinet(), prepared=prepared).compile()
     assert model.nexclude == 1
 
 
-def test_a_bulging_door_turned_into_its_body_keeps_colliding_rests_still_and_is_blocked(isolated_home):
+def test_a_bulging_door_turned_into_its_body_is_cut_apart_at_rest_rests_still_and_is_blocked(isolated_home):
     right = run_checks(bulging_cabinet(), options=NO_CACHE)
     assert right.passed, right.failures()
-    assert right.checks["mjcf_compiles"].details["rest_trim"]["body"]["cuts"] >= 1
-    wrong = run_checks(bulging_cabinet(door_axis=(0.0, 0.0, -1.0)), options=NO_CACHE)
+    wrong_asset = bulging_cabinet(door_axis=(0.0, 0.0, -1.0))
+    prepared = prepare(wrong_asset, NO_CACHE)
+    assert prepared.excluded == {} and door_body_overlaps(prepared) == []  # it collides, cut apart at rest
+    # the bulge is a third of the door hull's thickness, more than the quarter of its volume a part may lose to
+    # rest trimming: the boards' hulls are cut back instead, each by a slab as deep as the bulge
+    assert prepared.trim and {c.link for c in prepared.trim} == {"body"}
+    assert all(c.removed < 0.05 and c.depth > 0.5 * BULGE for c in prepared.trim)
+    assert prepare(open_cabinet(), NO_CACHE).trim == []  # exact boxes that do not overlap are left as they are
+    wrong = run_checks(wrong_asset, options=NO_CACHE)
     assert wrong.checks["mjcf_compiles"].details["excluded"] == []  # its path crosses the body
+    assert wrong.checks["mjcf_compiles"].details["rest_trim"]["body"]["cuts"] >= 1
     assert wrong.checks["rest_stability"].passed and wrong.checks["rest_penetration"].passed
     sweep = wrong.checks["joint_sweep"]
     door = sweep.details["joints"]["door_joint"]
