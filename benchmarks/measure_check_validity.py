@@ -77,6 +77,18 @@ def names_part(verdict: dict, joint: str, part: str) -> bool:
     return any(pattern.search(reason) for reason in verdict["reasons"].values())
 
 
+#: How a sweep's reason says what stopped a part: ``link_0 runs into link_1 at 12 deg`` (or ``at 4 mm``).
+RUNS_INTO = re.compile(r"\b(\S+) runs into (\S+) at -?[\d.]+ (deg|mm)\b")
+
+
+def says_what_it_caught(verdict: dict, joint: str, part: str) -> bool:
+    """Whether a failing verdict says what it caught (issue #42): it names the broken joint or its part, the body
+    a part ran into and the angle or distance where it stopped."""
+    if verdict["passed"] or not names_part(verdict, joint, part):
+        return False
+    return any(RUNS_INTO.search(reason) for reason in verdict["reasons"].values())
+
+
 def twin_entry(asset, joint: str, kind: str, intact_passed: bool, intact_path=None) -> dict:
     """One twin: how it was made, whether it is a clean break, and (clean, intact passing) its verdict.
 
@@ -180,7 +192,7 @@ def summarize(rows: dict[str, dict], kinds: tuple[str, ...]) -> dict:
             counts[twin["status"]] += 1
             if twin["status"] in ("caught", "missed"):
                 counts["clean"] += 1
-            if twin.get("names_part"):
+            if twin["status"] == "caught" and says_what_it_caught(twin["verdict"], twin["joint"], twin["part"]):
                 counts["named"] += 1
     return out
 
@@ -192,11 +204,12 @@ def markdown(summary: dict, rows: dict[str, dict], args) -> str:
              "(`benchmarks/broken_twins.py`); a twin counts where it is a clean break "
              "(`benchmarks/clean_break.py`) and its intact object passes every check.", "",
              "## Catch rate per kind of break", "",
-             "Caught: the check fails; on its part: the failure names the broken joint or its part. Coverage: the "
+             "Caught: the check fails; said: the failure names the broken joint or its part, the body a part ran "
+             "into and the angle or distance where it stopped. Coverage: the "
              "objects with a drawer, door or lid out of those asked (the others have nothing to break), and the "
              "clean twins of objects whose intact form passes, out of the twins built.", "",
              "| set | objects with a drawer, door or lid / asked (errors) | intact objects passing | kind | twins built "
-             "| left out (not clean / intact fails / error) | clean twins | caught | caught on its part |",
+             "| left out (not clean / intact fails / error) | clean twins | caught | caught, saying part, body and where |",
              "|---|---|---|---|---|---|---|---|---|"]
     for set_name in [s for s in SETS if s in summary] + sorted(set(summary) - set(SETS)):
         entry = summary[set_name]

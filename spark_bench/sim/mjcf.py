@@ -90,10 +90,10 @@ def prepare(asset: ArticulatedAsset, options: ConvertOptions | None = None,
 
 def _resolve_contacts(prepared: PreparedObject) -> None:
     """Decide which parent-child pairs collide and make their hulls fit: exclude a pair whose hulls meet (at rest,
-    or on the child's path) while the child's own path is free of the parent's surface (:mod:`.phantom`); cut
-    apart the hulls of the other pairs that overlap at rest (:mod:`.rest_trim`; a pair no cut resolves, or with no
-    single joint to judge it by, is excluded); bevel hinge edges (:mod:`.relief`); then recompute masses and joint
-    dynamics from the final hulls."""
+    or on the child's path) while the child's own path is free of the parent's surface (:mod:`.phantom`, judged
+    on hulls cut apart at rest); cut apart the hulls of the other pairs that overlap at rest, from the hulls as
+    made (:mod:`.rest_trim`; a pair no cut resolves, or with no single joint to judge it by, is excluded); bevel
+    hinge edges (:mod:`.relief`); then recompute masses and joint dynamics from the final hulls."""
     from spark_bench.paths import cache_dir
     from spark_bench.sim.phantom import find_phantom_blocks, phantom_candidates
     from spark_bench.sim.relief import relieve
@@ -126,13 +126,20 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     for o in rest_overlaps(model, mujoco.MjData(model), pairs):
         at_rest[(o.parent, o.child)] = max(at_rest.get((o.parent, o.child), 0.0), o.depth)
     judged = {(parent, child) for parent, child, _ in phantom_candidates(prepared)}
-    prepared.excluded = {pair: depth for pair, depth in at_rest.items() if pair not in judged and depth > limit}
-    # judged first, on the hulls as made: a pair excluded keeps its hulls whole, since what a cut takes off is
-    # gone for every other contact too (toaster 103559: the lever's tab, cut to nothing against the body it is
-    # excluded from, no longer met the carriages it is modelled 20 mm into, a reviewed defect)
+    by_construction = {pair: depth for pair, depth in at_rest.items() if pair not in judged and depth > limit}
+    made = {link: list(shapes) for link, shapes in prepared.shapes.items()}  # the hulls as CoACD made them
+    # the paths judged on hulls cut apart at rest (nearer the surfaces they wrap), as if every pair collided, with
+    # what overlapped before the cuts
+    prepared.excluded = dict(by_construction)
+    _, unresolved = trim_rest_overlaps(prepared, probe_model, limit, gap)
+    prepared.excluded.update(unresolved)
     prepared.phantom = find_phantom_blocks(prepared, probe_model(), gap, at_rest)
     prepared.excluded.update({(b.parent, b.child): at_rest.get((b.parent, b.child), 0.0) for b in prepared.phantom})
-    # then only the pairs that collide are cut apart at rest (probe_model excludes the others)
+    # then cut again from the hulls as made, only where a pair collides (probe_model excludes the others): an
+    # excluded pair keeps its hulls whole, since what a cut takes off is gone for every other contact too (conv-10;
+    # toaster 103555: its lever's tab, cut to nothing against the body it is excluded from, no longer met the
+    # carriages it is modelled 20 mm into, a reviewed defect)
+    prepared.shapes = made
     prepared.trim, unresolved = trim_rest_overlaps(prepared, probe_model, limit, gap)
     prepared.excluded.update(unresolved)
     prepared.relief = relieve(prepared, probe_model, gap)

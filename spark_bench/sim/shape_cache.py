@@ -130,8 +130,8 @@ def object_key(prepared) -> str:
     exclusions and relief. The ``contacts-N`` tag is bumped whenever the rules (rest overlaps, hinge
     relief, phantom blockings) or what is stored change (12: the shapes stored are those used, as the link
     cache gives them back, :func:`as_cached`; 17: conv-9: a pair excluded only where the part's own path is free of its parent's surface, the hulls of the others cut apart at rest; 18: conv-10: the path judged over the part of the range
-    the sweep asks for; 19: conv-10: pairs judged before the cuts, which only the pairs that collide get)."""
-    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-19".encode())
+    the sweep asks for; 20: conv-10: the cuts kept only where a pair collides)."""
+    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-20".encode())
     options = prepared.options
     size = prepared.size
     digest.update(json.dumps([options.trim_overlap, options.clearance, list(options.base_quat)]).encode())

@@ -87,3 +87,26 @@ def test_the_judge_calls_a_door_into_its_body_clean_and_a_door_sliding_up_its_fr
     assert reversed_door.twin.first < 0.1
     sliding = judge_break(cabinet, type_swapped(cabinet, "door_joint").asset, "door_joint")
     assert not sliding.clean and "free space" in sliding.reason  # it slides up in front of the body
+
+
+def test_a_failure_says_what_it_caught_only_with_the_part_the_body_and_where():
+    from benchmarks.measure_check_validity import says_what_it_caught
+
+    # the reason of a caught twin of partnet_dev 100247 (a box whose lid's axis was reversed), as the check wrote it
+    reason = ("joint joint_0 reached 0% and returned 63% of its range (blocked: link_0 runs into link_1 at 0 deg: "
+              "link_0_collision_15 by link_1_collision_1); the surface of link_1 enters link_0 from 11 deg (6% of the "
+              "range), 5.2 mm deep at most: the object itself blocks joint_0 there (its range or its geometry is wrong)")
+    caught = {"passed": False, "failed": ["joint_sweep"], "reasons": {"joint_sweep": reason}, "sweep_failed": ["joint_0"]}
+    assert says_what_it_caught(caught, "joint_0", "link_0")
+    slide = {**caught, "reasons": {"joint_sweep": reason.replace("at 0 deg", "at 14 mm")}}
+    assert says_what_it_caught(slide, "joint_0", "link_0")
+    # another joint's failure says nothing of this one; a stop with no body, or no place, does not say enough
+    assert not says_what_it_caught({**caught, "sweep_failed": ["joint_3"]}, "joint_9", "link_9")
+    held = ("joint joint_0 reached 20% and returned 20% of its range (not blocked by a contact: held by its joint "
+            "friction)")
+    assert not says_what_it_caught({**caught, "reasons": {"joint_sweep": held}}, "joint_0", "link_0")
+    resting = {"passed": False, "failed": ["rest_penetration"], "sweep_failed": [],
+               "reasons": {"rest_penetration": "link_0_collision_1 and link_1_collision_3 interpenetrate by 0.94% of "
+                                               "the object's size at rest"}}
+    assert not says_what_it_caught(resting, "joint_0", "link_0")
+    assert not says_what_it_caught({**caught, "passed": True}, "joint_0", "link_0")
