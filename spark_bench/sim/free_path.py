@@ -1,10 +1,10 @@
 """Is a part's own path free? How deep its neighbour's surface may enter it, and how much of it crosses that surface.
 
 The two measures the contact rule (:mod:`spark_bench.sim.phantom`) judges a part's path by, as the joint moves it
-from rest over the part of its range the sweep asks it to reach (:data:`JUDGED_REACH`), every other joint at rest:
-:func:`allowed_depth`, how deep the neighbour's surface may enter the part and the path still count as free
+from rest, every other joint at rest: :func:`allowed_depth`, how deep the neighbour's surface may enter the part
+over the part of its range the sweep asks it to reach (:data:`DEPTH_REACH`) and the path still count as free
 (zero-gap modelling), and :func:`part_crossing`, the fraction of the part's own surface points that cross the
-neighbour's surface on the way (:mod:`spark_bench.sim.crossing`).
+neighbour's surface over its whole range (:mod:`spark_bench.sim.crossing`).
 """
 
 from __future__ import annotations
@@ -26,14 +26,15 @@ PART_DEPTH = 0.05
 #: ... and never deeper than this fraction of how far the part travels: a drawer with 3 mm of travel that meets a
 #: wall after 1 mm is blocked, however shallow that is.
 TRAVEL_DEPTH = 0.1
-#: The path is judged over this fraction of the range from rest: the part of it the joint sweep asks the part to reach
-#: (:data:`~spark_bench.sim.sweep.SWEEP_REACH`), as the check-validity benchmark judges a break. What a part meets
-#: beyond is its stop: PartNet-Mobility annotates ranges to where a part lies against its body (a bucket's handle
-#: on the rim), a few millimetres into it (conv-10, on partnet_dev's tune half: 7 of its 10 buckets' handles enter
-#: their bucket deepest at their upper limit, 100441's 2.35 mm right at its allowance; safe 101613's door
-#: crosses its body with 199 of its 1000 points over the whole range, 80 of them before 90 % of it; none of the
-#: half's broken twins is decided by what happens beyond).
-JUDGED_REACH = SWEEP_REACH
+#: How deep the neighbour's surface enters the part is judged over this fraction of the range from rest: the part of
+#: it the joint sweep asks the part to reach (:data:`~spark_bench.sim.sweep.SWEEP_REACH`), as the check-validity
+#: benchmark judges a break. A shallow entry beyond is the part lying on its stop: PartNet-Mobility annotates ranges
+#: to where a part lies against its body (a bucket's handle on the rim), a few millimetres into it (conv-10, on
+#: partnet_dev's tune half: 7 of its 10 buckets' handles enter their bucket deepest at their upper limit, 100441's
+#: 2.35 mm right at its allowance). How many of its points cross the body (:func:`part_crossing`) still counts over
+#: the whole range: a part that passes through its body on its last tenth passes through it (synth-v1 Door_00046's
+#: door turned the wrong way: 20 % of its points over the whole range, 17 % over nine tenths of it).
+DEPTH_REACH = SWEEP_REACH
 #: Points sampled on the moving part for :func:`part_crossing`, their inset into its surface and the steps of the
 #: path (per radian of a hinge, per slide; the check-validity benchmark's judge steps its paths the same way).
 CROSSING_SAMPLES = 1000
@@ -45,8 +46,8 @@ CROSSING_SLIDE_STEPS = 60
 CROSSING_START = 0.005
 
 
-def crossing_values(joint: Joint, reach: float = JUDGED_REACH) -> np.ndarray:
-    """The joint values :func:`part_crossing` steps through: from rest over ``reach`` of the range."""
+def crossing_values(joint: Joint, reach: float = 1.0) -> np.ndarray:
+    """The joint values :func:`part_crossing` steps through: from rest over ``reach`` of the range (all of it)."""
     span = reach * float(joint.upper - joint.lower)
     steps = max(8, int(np.ceil(abs(span) * CROSSING_STEPS_PER_RADIAN))) if joint.is_rotational else CROSSING_SLIDE_STEPS
     return joint.rest_value + span * np.linspace(0.0, 1.0, steps + 1)
@@ -54,7 +55,7 @@ def crossing_values(joint: Joint, reach: float = JUDGED_REACH) -> np.ndarray:
 
 def part_crossing(prepared, joint: Joint, moving: str, other: str, enough: float | None = None) -> float:
     """Fraction of ``moving``'s surface points that cross ``other``'s surface (their visual meshes) while ``joint``
-    moves from rest over :data:`JUDGED_REACH` of its range, every other joint at rest (:mod:`spark_bench.sim.crossing`).
+    moves from rest over its whole range, every other joint at rest (:mod:`spark_bench.sim.crossing`).
 
     :param prepared: the prepared object
     :param joint: the joint that moves ``moving`` relative to ``other``

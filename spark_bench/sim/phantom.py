@@ -12,12 +12,12 @@ exactly one joint, and for every link a joint carries beyond its child (a handle
 child hangs on (:func:`phantom_candidates`), that joint is stepped kinematically over its range. Where the link's
 hulls meet the parent's (deeper than ``tolerance`` at some step, or overlapping at rest) while the link's own path
 is free of the parent's surface, the pair is excluded from collision (:mod:`spark_bench.sim.contacts`). The path is
-free (conv-10: judged from rest over :data:`~spark_bench.sim.free_path.JUDGED_REACH` of the range, the part the
-joint sweep asks for; beyond it a part meets its stop) when
+free when
 
 - the parent's visual surface (its vertices and area samples near the link's path) enters the link no deeper than
-  :func:`allowed_depth` (a fraction of the object's, the link's and its travel's size) at every step, inside the
-  link's hulls and no farther from the link's own surface than that (:func:`surface_depth`);
+  :func:`allowed_depth` (a fraction of the object's, the link's and its travel's size) at every step up to
+  :data:`~spark_bench.sim.free_path.DEPTH_REACH` of the range (conv-10: what the part meets beyond, shallowly, is
+  its stop), inside the link's hulls and no farther from the link's own surface than that (:func:`surface_depth`);
 - and fewer than :data:`CROSSING_BLOCK` of the link's own surface points cross the parent's surface on the way
   (:func:`part_crossing`): the depth is bounded by how thick the link is, and a thin door turned through its
   cabinet's wall shows a shallow depth while most of its surface crosses the wall.
@@ -43,7 +43,7 @@ from spark_bench.asset.model import ArticulatedAsset, Joint
 from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.bounds import body_pose
 from spark_bench.sim.contacts import geometric_parents
-from spark_bench.sim.free_path import JUDGED_REACH, allowed_depth, part_crossing
+from spark_bench.sim.free_path import DEPTH_REACH, allowed_depth, part_crossing
 from spark_bench.sim.relief import HINGE_ZONE, MAX_DEPTH, hinge_radius, joint_bodies
 
 #: Joint values tried per range (at least; hinges get one per ``1 / STEPS_PER_RADIAN`` rad).
@@ -363,9 +363,10 @@ def phantom_candidates(prepared) -> list[tuple[str, str, Joint]]:
 def find_phantom_blocks(prepared, model, tolerance: float,
                         at_rest: dict[tuple[str, str], float] | None = None) -> list[PhantomBlock]:
     """The pairs (:func:`phantom_candidates`) whose hulls meet, at rest or along the joint's path, while the part's
-    own path is free of its neighbour's surface: over the :data:`~spark_bench.sim.free_path.JUDGED_REACH` of its
+    own path is free of its neighbour's surface: over the :data:`~spark_bench.sim.free_path.DEPTH_REACH` of its
     range that the sweep asks for, that neighbour's surface enters it no deeper than :func:`allowed_depth`, and
-    fewer than :data:`CROSSING_BLOCK` of its surface points cross that surface (:func:`part_crossing`). Such a pair is excluded from collision; any other pair collides (see the module
+    over its whole range fewer than :data:`CROSSING_BLOCK` of its surface points cross that surface
+    (:func:`part_crossing`). Such a pair is excluded from collision; any other pair collides (see the module
     docstring).
 
     :param prepared: a :class:`~spark_bench.sim.prepared.PreparedObject` (its exclusions so far applied
@@ -388,7 +389,7 @@ def find_phantom_blocks(prepared, model, tolerance: float,
         if blocked is None and overlap <= 0.0:
             continue  # the hulls never meet: nothing to decide
         span = joint.upper - joint.lower
-        judged = path.steps[:len(path.surface_depth)] - joint.lower <= JUDGED_REACH * span * (1 + 1e-9)
+        judged = path.steps[:len(path.surface_depth)] - joint.lower <= DEPTH_REACH * span * (1 + 1e-9)
         surface = max(np.asarray(path.surface_depth)[judged], default=0.0)
         if surface > allowed:
             continue  # the neighbour's surface enters the part on the path the sweep asks for: a real blocking

@@ -2,7 +2,8 @@
 
 Convex hulls bulge past the surface they wrap (CoACD's by up to about 1 % of a part's size), so on a real object a
 door's hulls overlap its cabinet's along the frame, a lid's its box's along the rim. A pair that collides
-(:mod:`spark_bench.sim.phantom` decides which do, from the part's own path, before any cut: an excluded pair keeps
+(:mod:`spark_bench.sim.phantom` decides which do, from the part's own path, judged on hulls cut this way as if
+every pair collided; the cuts are then made again for the pairs that collide only, so that an excluded pair keeps
 its hulls whole, as they meet the other parts and a gripper too) must not start pushed apart: each of
 its hull pairs that overlaps at rest by more than ``ConvertOptions.trim_overlap`` of the object's size (by
 default: at all) is cut apart along the direction of least penetration (the contact normal MuJoCo finds), leaving

@@ -140,24 +140,26 @@ def test_candidates_include_a_handle_carried_by_a_door():
 
 
 def _button_meeting_the_panel(at: float) -> ArticulatedAsset:
-    """The solid panel of :func:`_panel_with_button` and a button that slides 5 cm down onto it, its bottom meeting
-    the panel's top once it has travelled ``at`` of its range (it then goes on into the wood)."""
+    """The solid panel of :func:`_panel_with_button` and a 10 cm tall plunger that slides 5 cm down onto it, its
+    bottom meeting the panel's top once it has travelled ``at`` of its range (it then goes on into the wood): a
+    small share of its surface crosses the panel's."""
     asset = _panel_with_button(hole=False)
     travel = 0.05
     bottom = 0.04 + at * travel  # the panel's top is at 4 cm
-    asset.links["button"].visuals[:] = [box_visual((0.03, 0.03, 0.02), (0.0, 0.0, bottom + 0.01))]
+    asset.links["button"].visuals[:] = [box_visual((0.03, 0.03, 0.10), (0.0, 0.0, bottom + 0.05))]
     asset.joints["joint_button"].upper = travel
     return asset
 
 
 @pytest.mark.parametrize(("at", "free"), [(0.93, True), (0.7, False)])
 def test_what_a_part_meets_beyond_the_sweeps_reach_is_its_stop(isolated_home, at, free):
-    from spark_bench.sim.free_path import JUDGED_REACH
+    from spark_bench.sim.free_path import DEPTH_REACH
     from spark_bench.sim.mjcf import prepare
 
-    assert JUDGED_REACH == pytest.approx(0.9)
-    # the button ends 3.5 mm into the panel (more than its allowance, 0.5 % of the object's size): met after 93 %
-    # of its range it lies on its stop, and the pair is excluded; met at 70 % it is blocked and collides
+    assert DEPTH_REACH == pytest.approx(0.9)
+    # the plunger ends 3.5 mm into the panel (more than its allowance, 0.5 % of the object's size; about a tenth of
+    # its points cross the panel's top): met after 93 % of its range it lies on its stop, and the pair is excluded;
+    # met at 70 % it is blocked and collides
     prepared = prepare(_button_meeting_the_panel(at))
     blocks = [(b.parent, b.child) for b in prepared.phantom]
     assert (("panel", "button") in blocks) == free

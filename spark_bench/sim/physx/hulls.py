@@ -90,15 +90,19 @@ def _halves(shape: CollisionShape) -> list[CollisionShape]:
     return out
 
 
-def split_for_physx(shape: CollisionShape, depth: int = 0) -> list[CollisionShape]:
+def split_for_physx(shape: CollisionShape, depth: int = 0, size: tuple[int, int] | None = None) -> list[CollisionShape]:
     """``shape`` as pieces within PhysX's limits (itself when it is; a primitive is left as it is).
 
+    :param size: its :func:`hull_size`, where the caller has it already
     :raises ValueError: a piece is still over a limit after :data:`MAX_DEPTH` splits
     """
-    if shape.kind != "mesh" or within_limits(hull_size(shape)):
+    if shape.kind != "mesh":
+        return [shape]
+    size = hull_size(shape) if size is None else size
+    if within_limits(size):
         return [shape]
     if depth >= MAX_DEPTH:
-        raise ValueError(f"a hull is still over PhysX's limits after {MAX_DEPTH} splits: {hull_size(shape)}")
+        raise ValueError(f"a hull is still over PhysX's limits after {MAX_DEPTH} splits: {size}")
     return [piece for half in _halves(shape) for piece in split_for_physx(half, depth + 1)]
 
 
@@ -116,7 +120,7 @@ def physx_shapes(shapes: dict[str, list[CollisionShape]]) -> tuple[dict[str, lis
         pieces = []
         for index, shape in enumerate(link_shapes):
             size = hull_size(shape)
-            parts = split_for_physx(shape)
+            parts = split_for_physx(shape, size=size)
             if len(parts) > 1:
                 report.split.setdefault(link, []).append(
                     f"{index}: {size[0]} vertices, {size[1]} polygons -> {len(parts)} pieces")
