@@ -133,7 +133,8 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     prepared.excluded = dict(by_construction)
     _, unresolved = trim_rest_overlaps(prepared, probe_model, limit, gap)
     prepared.excluded.update(unresolved)
-    prepared.phantom = find_phantom_blocks(prepared, probe_model(), gap, at_rest)
+    decided: set[tuple[str, str]] = set()
+    prepared.phantom = find_phantom_blocks(prepared, probe_model(), gap, at_rest, decided=decided)
     prepared.excluded.update({(b.parent, b.child): at_rest.get((b.parent, b.child), 0.0) for b in prepared.phantom})
     # then cut again from the hulls as made, only where a pair collides (probe_model excludes the others): an
     # excluded pair keeps its hulls whole, since what a cut takes off is gone for every other contact too (conv-10;
@@ -142,6 +143,12 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     prepared.shapes = made
     prepared.trim, unresolved = trim_rest_overlaps(prepared, probe_model, limit, gap)
     prepared.excluded.update(unresolved)
+    # a hull left whole can meet, on a part's path, a hull it did not meet cut (microwave 7296: its body's hulls,
+    # not cut for its door, which is excluded, stopped its turntable): the pairs not judged yet are judged again on
+    # the final hulls (a pair judged blocked stays blocked: larger hulls only meet more, and deeper)
+    more = find_phantom_blocks(prepared, probe_model(), gap, at_rest, skip=decided)
+    prepared.phantom += more
+    prepared.excluded.update({(b.parent, b.child): at_rest.get((b.parent, b.child), 0.0) for b in more})
     prepared.relief = relieve(prepared, probe_model, gap)
     if cache is not None and not prepared.report.coacd.failed:
         store_contacts(cache, key, prepared)

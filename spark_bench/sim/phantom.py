@@ -360,8 +360,9 @@ def phantom_candidates(prepared) -> list[tuple[str, str, Joint]]:
     return out
 
 
-def find_phantom_blocks(prepared, model, tolerance: float,
-                        at_rest: dict[tuple[str, str], float] | None = None) -> list[PhantomBlock]:
+def find_phantom_blocks(prepared, model, tolerance: float, at_rest: dict[tuple[str, str], float] | None = None,
+                        skip: set[tuple[str, str]] | frozenset = frozenset(),
+                        decided: set[tuple[str, str]] | None = None) -> list[PhantomBlock]:
     """The pairs (:func:`phantom_candidates`) whose hulls meet, at rest or along the joint's path, while the part's
     own path is free of its neighbour's surface: over the :data:`~spark_bench.sim.free_path.DEPTH_REACH` of its
     range that the sweep asks for, that neighbour's surface enters it no deeper than :func:`allowed_depth`, and
@@ -374,11 +375,13 @@ def find_phantom_blocks(prepared, model, tolerance: float,
     :param model: the compiled model of ``prepared`` with every parent-child contact on
     :param tolerance: hull penetration ignored (m)
     :param at_rest: the deepest hull overlap at rest of each ``(parent, child)`` pair (m)
+    :param skip: ``(parent, child)`` pairs not to judge (decided already)
+    :param decided: where given, every pair whose hulls meet (and which is thus judged here) is added to it
     """
     at_rest = at_rest or {}
     found = []
     for parent, child, joint in phantom_candidates(prepared):
-        if (parent, child) in prepared.excluded or joint.upper - joint.lower < 1e-9:
+        if (parent, child) in prepared.excluded or (parent, child) in skip or joint.upper - joint.lower < 1e-9:
             continue
         allowed = allowed_depth(prepared, joint, child, tolerance)
         path = trace(prepared, model, joint, child, parent, tolerance, surface_tolerance=allowed)
@@ -388,6 +391,8 @@ def find_phantom_blocks(prepared, model, tolerance: float,
         overlap = at_rest.get((parent, child), 0.0)
         if blocked is None and overlap <= 0.0:
             continue  # the hulls never meet: nothing to decide
+        if decided is not None:
+            decided.add((parent, child))
         span = joint.upper - joint.lower
         judged = path.steps[:len(path.surface_depth)] - joint.lower <= DEPTH_REACH * span * (1 + 1e-9)
         surface = max(np.asarray(path.surface_depth)[judged], default=0.0)
