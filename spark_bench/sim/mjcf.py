@@ -143,9 +143,9 @@ def _resolve_contacts(prepared: PreparedObject) -> None:
     prepared.shapes = made
     prepared.trim, unresolved = trim_rest_overlaps(prepared, probe_model, limit, gap)
     prepared.excluded.update(unresolved)
-    # a hull left whole can meet, on a part's path, a hull it did not meet cut (microwave 7296: its body's hulls,
-    # not cut for its door, which is excluded, stopped its turntable): the pairs not judged yet are judged again on
-    # the final hulls (a pair judged blocked stays blocked: larger hulls only meet more, and deeper)
+    # a hull left whole can meet, on a part's path, a hull it did not meet cut (a body's hull not cut for a door
+    # that is excluded, in the way of a turntable): the pairs not judged yet are judged on the final hulls (a pair
+    # judged blocked stays blocked: larger hulls only meet more, and deeper)
     more = find_phantom_blocks(prepared, probe_model(), gap, at_rest, skip=decided)
     prepared.phantom += more
     prepared.excluded.update({(b.parent, b.child): at_rest.get((b.parent, b.child), 0.0) for b in more})
