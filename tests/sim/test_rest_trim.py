@@ -5,7 +5,7 @@ its path; under conv-9 the hulls were cut before the pairs were judged, excluded
 
 import numpy as np
 from helpers_assets import open_cabinet
-from helpers_boxes import box_between
+from helpers_boxes import box_between, box_visual
 
 from spark_bench.asset.model import ArticulatedAsset, Collision, Joint, Link, Visual
 from spark_bench.asset.transforms import make_transform
@@ -90,3 +90,38 @@ def test_an_overlap_by_construction_stays_excluded_and_the_knob_turns(isolated_h
     assert prepared.excluded[("panel", "knob")] > 0.005
     report = run_checks(shaft_through_panel(), options=NO_CACHE)
     assert report.checks["joint_sweep"].passed, report.checks["joint_sweep"].details
+
+
+def plate_with_lid_and_plunger() -> ArticulatedAsset:
+    """A 1 cm plate whose collision box bulges 2 cm above it (as a hull bulges past its surface), a lid lying in that
+    bulge and hinged to lift away, and a plunger 5 mm above the bulge that slides 2 cm down, to 5 mm above the
+    plate: both paths are free of the plate's surface."""
+    body = Link("body", visuals=[box_visual((0.4, 0.4, 0.01), (0.0, 0.0, 0.005))], label="base",
+                collisions=[Collision("box", make_transform(translation=(0, 0, -0.035)), np.array([0.4, 0.4, 0.13]))])
+    lid = Link("lid", visuals=[box_visual((0.2, 0.2, 0.02), (0.1, 0.0, -0.01))], label="lid")
+    plunger = Link("plunger", visuals=[box_visual((0.05, 0.05, 0.05), (0.125, 0.0, 0.06))], label="button")
+    joints = {"root": Joint("root", "fixed", "base", "body"),
+              "lid_joint": Joint("lid_joint", "revolute", "body", "lid", make_transform(translation=(-0.2, 0, 0.03)),
+                                 np.array([0.0, -1.0, 0.0]), 0.0, 1.5),
+              "plunger_joint": Joint("plunger_joint", "prismatic", "body", "plunger", axis=np.array([0.0, 0.0, -1.0]),
+                                     lower=0.0, upper=0.02)}
+    links = {link.name: link for link in (Link("base"), body, lid, plunger)}
+    return ArticulatedAsset("plate_lid_plunger", links, joints, category="Box")
+
+
+def test_hulls_left_whole_for_an_excluded_pair_are_judged_against_the_other_parts(isolated_home, monkeypatch):
+    from spark_bench.sim import phantom
+
+    prepared = prepare(plate_with_lid_and_plunger(), NO_CACHE)
+    # the lid's path is free: excluded, and the plate's box is not cut for it (judged as if cut, the box stopped
+    # below the plunger's path); on the box left whole the plunger's hulls meet it, its path is free: excluded too
+    assert prepared.trim == []
+    assert set(prepared.excluded) == {("body", "lid"), ("body", "plunger")}
+    report = run_checks(plate_with_lid_and_plunger(), options=NO_CACHE)
+    assert report.passed, report.failures()
+    # judged on the cut box only, the plunger would stay colliding with the whole one and stop at once
+    judge = phantom.find_phantom_blocks
+    monkeypatch.setattr(phantom, "find_phantom_blocks", lambda *a, **k: [] if k.get("skip") else judge(*a, **k))
+    monkeypatch.setenv("SPARK_BENCH_HOME", str(isolated_home / "first_pass_only"))
+    stuck = run_checks(plate_with_lid_and_plunger(), options=NO_CACHE).checks["joint_sweep"]
+    assert not stuck.passed and stuck.details["joints"]["plunger_joint"]["reached"] < 0.5
