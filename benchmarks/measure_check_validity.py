@@ -120,8 +120,7 @@ def twin_entry(asset, joint: str, kind: str, intact_passed: bool, intact_path=No
     except Exception as exc:  # one twin must not end the object's run
         entry.update(status="error", reason=f"{type(exc).__name__}: {exc}")
         return entry
-    entry.update(status="caught" if not verdict["passed"] else "missed", verdict=verdict,
-                 names_part=(not verdict["passed"]) and names_part(verdict, joint, twin.part))
+    entry.update(status="caught" if not verdict["passed"] else "missed", verdict=verdict)
     return entry
 
 
