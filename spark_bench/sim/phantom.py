@@ -45,6 +45,7 @@ from spark_bench.sim.bounds import body_pose
 from spark_bench.sim.contacts import geometric_parents
 from spark_bench.sim.free_path import DEPTH_REACH, allowed_depth, part_crossing
 from spark_bench.sim.relief import HINGE_ZONE, MAX_DEPTH, hinge_radius, joint_bodies
+from spark_bench.sim.solid import closed_pieces, inside_pieces
 
 #: Joint values tried per range (at least; hinges get one per ``1 / STEPS_PER_RADIAN`` rad).
 STEPS = 12
@@ -158,7 +159,7 @@ def surface_points(vertices: np.ndarray, faces: np.ndarray, lo: np.ndarray, hi: 
 
 
 def surface_depth(points: np.ndarray, hulls: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
-                  surface=None, floor: float = 0.0) -> float:
+                  surface=None, floor: float = 0.0, solid: list[trimesh.Trimesh] | None = None) -> float:
     """How deep the deepest of ``points`` lies inside the moving part; 0 when none is inside.
 
     Without ``surface``: the depth inside any of the part's convex ``hulls`` (planes and box, as
@@ -168,12 +169,15 @@ def surface_depth(points: np.ndarray, hulls: list[tuple[np.ndarray, np.ndarray, 
     a point can lie inside a hull and just outside the part; a point inside the part's solid is inside a
     hull too, and its distance to the surface is its penetration. The smaller of the two is thus an
     upper bound of the true penetration, exact for points inside the solid. (Whether a point is inside
-    the solid cannot be told reliably: PartNet-Mobility meshes are triangle soups with faces wound
-    either way, so a winding number says 0 inside a closed plank. A point in a recess the hull fills
-    still counts, as deep as it is far from the surface.)
+    the solid cannot be told reliably for most parts: PartNet-Mobility meshes are triangle soups with
+    faces wound either way, so a winding number says 0 inside a closed plank. A point in a recess the
+    hull fills still counts, as deep as it is far from the surface.) Where the part's mesh is closed
+    (``solid``, :func:`~spark_bench.sim.solid.closed_pieces`), only the points inside it count: the
+    bound is then the penetration itself (conv-11).
 
     :param floor: depths at or below this are not worth resolving (the caller's tolerance): the result
         is exact above it, and at most ``floor`` otherwise
+    :param solid: the part's closed pieces (same frame as ``surface``), or None where it has none
     """
     depth = np.zeros(len(points))
     if not hulls:
@@ -200,7 +204,10 @@ def surface_depth(points: np.ndarray, hulls: list[tuple[np.ndarray, np.ndarray, 
         if depth[chunk[0]] <= best:
             break
         _, distance, _ = surface.nearest.on_surface(points[chunk])
-        best = max(best, float(np.max(np.minimum(depth[chunk], distance))))
+        bound = np.minimum(depth[chunk], distance)
+        if solid is not None:
+            bound = np.where(inside_pieces(points[chunk], solid), bound, 0.0)
+        best = max(best, float(np.max(bound)))
     return best if best > floor else min(deepest, floor)
 
 
@@ -226,7 +233,8 @@ class HingeZone:
         return np.linalg.norm(offset - np.outer(offset @ self.axis, self.axis), axis=1) <= self.reach
 
 
-def zone_depth(points: np.ndarray, hulls, surface, tolerance: float, zone: HingeZone | None) -> float:
+def zone_depth(points: np.ndarray, hulls, surface, tolerance: float, zone: HingeZone | None,
+               solid: list[trimesh.Trimesh] | None = None) -> float:
     """:func:`surface_depth` of ``points`` with the hinge zone exempt, as the hinge relief exempts hull
     contacts there (:mod:`spark_bench.sim.relief`).
 
@@ -237,11 +245,11 @@ def zone_depth(points: np.ndarray, hulls, surface, tolerance: float, zone: Hinge
     farther out counts from ``tolerance``, as before. ``zone=None`` (a slide): every sample counts.
     """
     if zone is None:
-        return surface_depth(points, hulls, surface, tolerance)
+        return surface_depth(points, hulls, surface, tolerance, solid)
     near = zone.contains(points)
-    out = surface_depth(points[~near], hulls, surface, tolerance)
+    out = surface_depth(points[~near], hulls, surface, tolerance, solid)
     if near.any():
-        pivot = surface_depth(points[near], hulls, surface, max(tolerance, zone.depth))
+        pivot = surface_depth(points[near], hulls, surface, max(tolerance, zone.depth), solid)
         if pivot > max(tolerance, zone.depth):
             out = max(out, pivot)
     return out
@@ -307,6 +315,7 @@ def trace(prepared, model, joint: Joint, moving: str, other: str, tolerance: flo
     if surface is None or not hulls or max(depths, default=0.0) <= tolerance:
         return result
     own = prepared.visual(moving)
+    solid = closed_pieces([(v.mesh.vertices, v.mesh.faces) for v in prepared.asset.links[moving].visuals])
     own = None if own is None else trimesh.Trimesh(own[0], own[1], process=False)
     # the other link's surface near the moving link's path, in the other link's frame
     hull_points = np.concatenate([s.to_trimesh().vertices for s in prepared.shapes[moving]])
@@ -316,7 +325,7 @@ def trace(prepared, model, joint: Joint, moving: str, other: str, tolerance: flo
     points = surface_points(surface[0], surface[1], path.min(0) - tolerance, path.max(0) + tolerance, spacing)
     for pose, zone in zip(poses, zones):
         moved = points @ pose[:3, :3].T + pose[:3, 3]
-        result.surface_depth.append(zone_depth(moved, hulls, own, surface_tolerance, zone))
+        result.surface_depth.append(zone_depth(moved, hulls, own, surface_tolerance, zone, solid))
         if stop and result.surface_depth[-1] > surface_tolerance:
             break
     return result

@@ -189,7 +189,7 @@ def test_rows_of_older_conventions_left_out_and_noted(tmp_path):
     assert "per object (the mean over its joints), then averaged over objects" in md
     with ResultsStore(tmp_path / "old.sqlite") as s:
         s.put({**_row("old", "c1", axis_err=0.9), "convention": "spark-bench-conv-1"})
-        with pytest.raises(SparkBenchError, match=r"current metric definitions \(spark-bench-conv-10\).*"
+        with pytest.raises(SparkBenchError, match=r"current metric definitions \(spark-bench-conv-11\).*"
                                                   r"spark-bench-conv-1 \(1 rows\)"):
             build_leaderboard(s)
 

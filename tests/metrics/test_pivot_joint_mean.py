@@ -28,7 +28,7 @@ def test_revolute_predicted_as_prismatic_has_a_pivot_error():
     assert d["pivot_err"] == pytest.approx(0.2, abs=1e-9) and d["type_err"] == 0.5
     assert d["joint_mean"] == {"axis_err": pytest.approx(0.0, abs=1e-12), "pivot_err": pytest.approx(0.2, abs=1e-9),
                                "type_err": 0.5}
-    assert d["convention"] == CONVENTION_VERSION == "spark-bench-conv-10"
+    assert d["convention"] == CONVENTION_VERSION == "spark-bench-conv-11"
 
 
 def test_part_classes_per_joint_from_gapartnet_annotations():

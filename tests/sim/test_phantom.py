@@ -119,6 +119,53 @@ def test_surface_depth_is_bounded_by_the_distance_to_the_part():
     assert surface_depth(np.concatenate([beside, in_arm]), bulge, part, floor=0.015) <= 0.015
 
 
+def test_a_closed_part_counts_only_the_points_inside_it():
+    """conv-11: where the part's mesh is closed, a point in the slot its hull fills is not inside it, however far
+    from its surface; a point inside an arm counts as deep as it is from the surface."""
+    from scipy.spatial import ConvexHull
+
+    from spark_bench.sim.solid import closed_pieces
+
+    part = _u_part()
+    hulls = [(ConvexHull(part.vertices).equations, part.vertices.min(0), part.vertices.max(0))]
+    solid = closed_pieces([(bar.vertices, bar.faces) for bar in part.split(only_watertight=False)])
+    assert solid is not None and len(solid) == 3  # three bars, three closed pieces
+    in_slot = np.array([[0.0, 0.05, 0.0]])  # 1 cm deep in the hull, 3 cm from either arm, inside no bar
+    assert surface_depth(in_slot, hulls, part) == pytest.approx(0.01, abs=1e-6)  # the bound of a soup
+    assert surface_depth(in_slot, hulls, part, solid=solid) == 0.0
+    assert surface_depth(in_slot, hulls, part, floor=0.002, solid=solid) <= 0.002
+    in_arm = np.array([[0.04, 0.05, 0.0], [0.0, 0.05, 0.0]])
+    assert surface_depth(in_arm, hulls, part, solid=solid) == pytest.approx(0.01, abs=1e-6)
+
+
+def test_closed_pieces_of_a_soup_and_of_an_open_mesh():
+    from spark_bench.sim.solid import closed_pieces, inside_pieces
+
+    box = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
+    # as an OBJ writes it: every face with its own three vertices, one face twice (a two-sided panel)
+    vertices = box.vertices[box.faces].reshape(-1, 3)
+    faces = np.arange(len(vertices)).reshape(-1, 3)
+    pieces = closed_pieces([(vertices, np.concatenate([faces, faces[:1]]))])
+    assert pieces is not None and len(pieces) == 1
+    # two boxes overlapping: a point in both is inside (one parity over both would say outside)
+    other = trimesh.creation.box(extents=(0.1, 0.1, 0.1), transform=make_transform(translation=(0.05, 0, 0)))
+    both = trimesh.util.concatenate([box, other])
+    pieces = closed_pieces([(both.vertices, both.faces)])
+    points = np.array([[0.03, 0.0, 0.0], [0.09, 0.0, 0.0], [0.2, 0.0, 0.0], [-0.049, 0.049, 0.0]])
+    assert inside_pieces(points, pieces).tolist() == [True, True, False, True]
+    # a box with a face missing is open: nothing can be told inside it
+    assert closed_pieces([(box.vertices, box.faces[:-1])]) is None
+    # a closed piece beside an open one: the part as a whole cannot be told
+    open_panel = trimesh.creation.box(extents=(0.1, 0.1, 0.1), transform=make_transform(translation=(0.5, 0, 0)))
+    assert closed_pieces([(box.vertices, box.faces), (open_panel.vertices, open_panel.faces[:-2])]) is None
+    # two closed bars touching along an edge, in one mesh: welded, that edge has four faces and looks open;
+    # as two meshes (two OBJ pieces) each is closed
+    bar = trimesh.creation.box(extents=(0.1, 0.1, 0.1), transform=make_transform(translation=(0.1, 0.1, 0)))
+    touching = trimesh.util.concatenate([box, bar])
+    assert closed_pieces([(touching.vertices, touching.faces)]) is None
+    assert len(closed_pieces([(box.vertices, box.faces), (bar.vertices, bar.faces)])) == 2
+
+
 def test_candidates_include_a_handle_carried_by_a_door():
     body = Link("body", visuals=[box_visual((0.4, 0.4, 0.4), (0.0, 0.0, 0.2))], label="body")
     door = Link("door", visuals=[box_visual((0.02, 0.4, 0.4), (0.21, 0.0, 0.2))], label="door")
