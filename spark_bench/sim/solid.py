@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 import trimesh
+from trimesh.ray.ray_triangle import RayMeshIntersector
 from trimesh.ray.ray_util import contains_points
 
 from spark_bench.sim.hulls import vertex_components, weld
@@ -63,6 +64,9 @@ def inside_pieces(points: np.ndarray, pieces: list[trimesh.Trimesh]) -> np.ndarr
         todo = np.flatnonzero(~out & trimesh.bounds.contains(piece.bounds, points))
         if len(todo) == 0:
             continue
-        votes = sum(contains_points(piece.ray, points[todo], check_direction=d).astype(int) for d in DIRECTIONS)
+        # trimesh's own triangle intersector, not ``piece.ray``: that is Embree's (single precision) wherever the
+        # optional embreex is installed, and the verdicts would then depend on the machine
+        rays = RayMeshIntersector(piece)
+        votes = sum(contains_points(rays, points[todo], check_direction=d).astype(int) for d in DIRECTIONS)
         out[todo[votes >= 2]] = True
     return out
