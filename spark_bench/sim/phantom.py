@@ -45,7 +45,7 @@ from spark_bench.sim.bounds import body_pose
 from spark_bench.sim.contacts import geometric_parents
 from spark_bench.sim.free_path import DEPTH_REACH, allowed_depth, part_crossing
 from spark_bench.sim.relief import HINGE_ZONE, MAX_DEPTH, hinge_radius, joint_bodies
-from spark_bench.sim.solid import closed_pieces, inside_pieces
+from spark_bench.sim.solid import Solid, inside_pieces
 
 #: Joint values tried per range (at least; hinges get one per ``1 / STEPS_PER_RADIAN`` rad).
 STEPS = 12
@@ -54,6 +54,8 @@ STEPS_PER_RADIAN = 16
 MAX_POINTS = 60_000
 #: Points whose distance to the moving part's surface is computed at once (:func:`surface_depth`).
 SURFACE_CHUNK = 256
+#: Points tested at once for lying inside a closed part, deepest first (:func:`surface_depth`).
+INSIDE_BATCH = 16
 #: A part whose own path takes at least this fraction of its surface points across its neighbour's surface passes
 #: through it: the pair collides (:func:`part_crossing`). Chosen on partnet_dev's tune half, between the crossings
 #: of intact parts and those of the same parts turned into their bodies; a turned part that crosses less is caught
@@ -159,7 +161,7 @@ def surface_points(vertices: np.ndarray, faces: np.ndarray, lo: np.ndarray, hi: 
 
 
 def surface_depth(points: np.ndarray, hulls: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
-                  surface=None, floor: float = 0.0, solid: list[trimesh.Trimesh] | None = None) -> float:
+                  surface=None, floor: float = 0.0, solid: Solid | None = None) -> float:
     """How deep the deepest of ``points`` lies inside the moving part; 0 when none is inside.
 
     Without ``surface``: the depth inside any of the part's convex ``hulls`` (planes and box, as
@@ -172,12 +174,12 @@ def surface_depth(points: np.ndarray, hulls: list[tuple[np.ndarray, np.ndarray, 
     the solid cannot be told reliably for most parts: PartNet-Mobility meshes are triangle soups with
     faces wound either way, so a winding number says 0 inside a closed plank. A point in a recess the
     hull fills still counts, as deep as it is far from the surface.) Where the part's mesh is closed
-    (``solid``, :func:`~spark_bench.sim.solid.closed_pieces`), only the points inside it count: the
+    (``solid``, :func:`~spark_bench.sim.solid.closed_solid`), only the points inside it count: the
     bound is then the penetration itself (conv-11).
 
     :param floor: depths at or below this are not worth resolving (the caller's tolerance): the result
         is exact above it, and at most ``floor`` otherwise
-    :param solid: the part's closed pieces (same frame as ``surface``), or None where it has none
+    :param solid: the part's closed pieces (same frame as ``surface``), or None where it is not closed
     """
     depth = np.zeros(len(points))
     if not hulls:
@@ -205,10 +207,26 @@ def surface_depth(points: np.ndarray, hulls: list[tuple[np.ndarray, np.ndarray, 
             break
         _, distance, _ = surface.nearest.on_surface(points[chunk])
         bound = np.minimum(depth[chunk], distance)
-        if solid is not None:
-            bound = np.where(inside_pieces(points[chunk], solid), bound, 0.0)
+        if solid is not None:  # only a point that would raise ``best`` needs the (costly) inside test
+            bound = _inside_bound(points[chunk], bound, best, solid)
         best = max(best, float(np.max(bound)))
     return best if best > floor else min(deepest, floor)
+
+
+def _inside_bound(points: np.ndarray, bound: np.ndarray, best: float, solid: Solid) -> np.ndarray:
+    """``bound`` where the point lies inside the ``solid``, else 0, for the points whose bound exceeds ``best``
+    (the others are left as they are: they cannot raise it). Tested deepest first, a few at a time, up to the first
+    inside: no point after it can raise the maximum past its bound."""
+    out = np.where(bound > best, 0.0, bound)
+    order = np.argsort(-bound)
+    order = order[bound[order] > best]
+    for start in range(0, len(order), INSIDE_BATCH):
+        batch = order[start:start + INSIDE_BATCH]
+        found = inside_pieces(points[batch], solid)
+        if found.any():
+            out[batch[found]] = bound[batch[found]]
+            break
+    return out
 
 
 @dataclass
@@ -234,7 +252,7 @@ class HingeZone:
 
 
 def zone_depth(points: np.ndarray, hulls, surface, tolerance: float, zone: HingeZone | None,
-               solid: list[trimesh.Trimesh] | None = None) -> float:
+               solid: Solid | None = None) -> float:
     """:func:`surface_depth` of ``points`` with the hinge zone exempt, as the hinge relief exempts hull
     contacts there (:mod:`spark_bench.sim.relief`).
 
@@ -315,7 +333,7 @@ def trace(prepared, model, joint: Joint, moving: str, other: str, tolerance: flo
     if surface is None or not hulls or max(depths, default=0.0) <= tolerance:
         return result
     own = prepared.visual(moving)
-    solid = closed_pieces([(v.mesh.vertices, v.mesh.faces) for v in prepared.asset.links[moving].visuals])
+    solid = prepared.solid(moving)
     own = None if own is None else trimesh.Trimesh(own[0], own[1], process=False)
     # the other link's surface near the moving link's path, in the other link's frame
     hull_points = np.concatenate([s.to_trimesh().vertices for s in prepared.shapes[moving]])

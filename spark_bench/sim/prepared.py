@@ -37,6 +37,8 @@ class PreparedObject:
         every spec and the PyBullet URDF reuse it)
     :param phantom: parent-child pairs excluded because only the hulls, not the meshes, block the
         child's joint (:class:`~spark_bench.sim.phantom.PhantomBlock`)
+    :param solids: per link, its closed pieces ready for inside tests, or None where it is not closed
+        (:func:`~spark_bench.sim.solid.closed_solid`), filled on first use by :meth:`solid`
     """
 
     asset: ArticulatedAsset
@@ -51,12 +53,22 @@ class PreparedObject:
     relief: list = field(default_factory=list)
     visuals: dict = field(default_factory=dict)
     phantom: list = field(default_factory=list)
+    solids: dict = field(default_factory=dict)
 
     def visual(self, name: str) -> tuple[np.ndarray, np.ndarray, list[float]] | None:
         """:func:`link_visual_mesh` of link ``name``, computed once."""
         if name not in self.visuals:
             self.visuals[name] = link_visual_mesh(self.asset.links[name])
         return self.visuals[name]
+
+
+    def solid(self, name: str):
+        """:func:`~spark_bench.sim.solid.closed_solid` of link ``name``'s visuals, computed once."""
+        if name not in self.solids:
+            from spark_bench.sim.solid import closed_solid
+
+            self.solids[name] = closed_solid([(v.mesh.vertices, v.mesh.faces) for v in self.asset.links[name].visuals])
+        return self.solids[name]
 
 
 def link_visual_mesh(link: Link) -> tuple[np.ndarray, np.ndarray, list[float]] | None:

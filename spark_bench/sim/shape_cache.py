@@ -130,10 +130,10 @@ def object_key(prepared) -> str:
     exclusions and relief. The ``contacts-N`` tag is bumped whenever the rules (rest overlaps, hinge
     relief, phantom blockings) or what is stored change (12: the shapes stored are those used, as the link
     cache gives them back, :func:`as_cached`; 17: conv-9: a pair excluded only where the part's own path is free of its parent's surface, the hulls of the others cut apart at rest; ``contacts-conv-10``: the depth judged over the part of
-    the range the sweep asks for, the cuts kept only where a pair collides; ``contacts-conv-11c``: a closed part's depth counted
-    only inside its closed surface (``contacts-conv-11`` and ``-11b`` were its drafts). Numbered tags past 17 were taken by
+    the range the sweep asks for, the cuts kept only where a pair collides; ``contacts-conv-11d``: a closed part's depth counted
+    only inside its closed surface (``contacts-conv-11``, ``-11b`` and ``-11c`` were its drafts). Numbered tags past 17 were taken by
     drafts whose entries may still lie in a cache: a tag is never used twice)."""
-    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-conv-11c".encode())
+    digest = hashlib.sha256(f"{SHAPES_VERSION}/contacts-conv-11d".encode())
     options = prepared.options
     size = prepared.size
     digest.update(json.dumps([options.trim_overlap, options.clearance, list(options.base_quat)]).encode())

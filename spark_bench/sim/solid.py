@@ -11,11 +11,13 @@ held by rim points up to 2.4 mm from the wire inside the hull of its bend, none 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import trimesh
-from trimesh.ray.ray_triangle import RayMeshIntersector
-from trimesh.ray.ray_util import contains_points
 
+from spark_bench.mujoco_gl import mujoco_module
+from spark_bench.sim.crossing import surface_model
 from spark_bench.sim.hulls import vertex_components, weld
 
 #: Vertices closer than this (m) are one vertex when the pieces are looked for (the OBJ pieces' shared corners are
@@ -26,6 +28,24 @@ WELD = 1e-6
 DIRECTIONS = np.array([[0.4395064455, 0.617598629942, 0.652231566745],
                        [-0.7071067812, 0.5, 0.5],
                        [0.2672612419, -0.5345224838, 0.8017837257]])
+#: Surfaces counted along one ray at most (a ray along a seam could otherwise meet the same point again and again).
+MAX_HITS = 256
+
+
+@dataclass
+class Solid:
+    """A part's closed pieces as MuJoCo mesh geoms (one per piece, in the part's frame), for :func:`inside_pieces`.
+
+    :param model: the compiled model (:func:`~spark_bench.sim.crossing.surface_model`)
+    :param data: its data
+    :param lower: ``(pieces, 3)`` each piece's box
+    :param upper: ``(pieces, 3)``
+    """
+
+    model: object
+    data: object
+    lower: np.ndarray
+    upper: np.ndarray
 
 
 def closed_pieces(meshes: list[tuple[np.ndarray, np.ndarray]]) -> list[trimesh.Trimesh] | None:
@@ -54,19 +74,43 @@ def closed_pieces(meshes: list[tuple[np.ndarray, np.ndarray]]) -> list[trimesh.T
     return pieces or None
 
 
-def inside_pieces(points: np.ndarray, pieces: list[trimesh.Trimesh]) -> np.ndarray:
-    """Which of ``points`` lie inside any of the closed ``pieces`` (:func:`closed_pieces`), by a vote of three rays'
-    parity per piece (pieces that overlap are tested one by one: one parity over both would say "outside" where
-    they overlap)."""
+def closed_solid(meshes: list[tuple[np.ndarray, np.ndarray]]) -> Solid | None:
+    """:func:`closed_pieces` of ``meshes`` made ready for :func:`inside_pieces`; None where the part is not closed."""
+    pieces = closed_pieces(meshes)
+    if pieces is None:
+        return None
+    model, data = surface_model([(piece.vertices, piece.faces) for piece in pieces])
+    return Solid(model, data, np.array([piece.bounds[0] for piece in pieces]),
+                 np.array([piece.bounds[1] for piece in pieces]))
+
+
+def _crossings(solid: Solid, geom: int, start: np.ndarray, ray: np.ndarray) -> int:
+    """How many surfaces of piece ``geom`` the segment ``start`` -> ``start + ray`` crosses (MuJoCo's ray-mesh test,
+    which meets a triangle from either side)."""
+    mujoco = mujoco_module()
+    count, offset = 0, 0.0
+    while count < MAX_HITS:
+        hit = mujoco.mj_rayMesh(solid.model, solid.data, geom, start + offset * ray, ray * (1.0 - offset))
+        if not 0.0 <= hit <= 1.0:
+            return count
+        count += 1
+        offset += hit * (1.0 - offset) + 1e-9
+        if offset >= 1.0:
+            return count
+    return count
+
+
+def inside_pieces(points: np.ndarray, solid: Solid) -> np.ndarray:
+    """Which of ``points`` lie inside any piece of ``solid`` (:func:`closed_solid`), by a vote of three rays' parity
+    per piece (pieces that overlap are tested one by one: one parity over both would say "outside" where they
+    overlap). The third ray is cast only where the first two disagree."""
     points = np.asarray(points, float).reshape(-1, 3)
     out = np.zeros(len(points), bool)
-    for piece in pieces:
-        todo = np.flatnonzero(~out & trimesh.bounds.contains(piece.bounds, points))
-        if len(todo) == 0:
-            continue
-        # trimesh's own triangle intersector, not ``piece.ray``: that is Embree's (single precision) wherever the
-        # optional embreex is installed, and the verdicts would then depend on the machine
-        rays = RayMeshIntersector(piece)
-        votes = sum(contains_points(rays, points[todo], check_direction=d).astype(int) for d in DIRECTIONS)
-        out[todo[votes >= 2]] = True
+    for geom, (lower, upper) in enumerate(zip(solid.lower, solid.upper)):
+        reach = 2.0 * float(np.linalg.norm(upper - lower)) + 1e-6
+        for index in np.flatnonzero(~out & np.all((points >= lower) & (points <= upper), axis=1)):
+            votes = [_crossings(solid, geom, points[index], reach * d) % 2 for d in DIRECTIONS[:2]]
+            if votes[0] != votes[1]:
+                votes.append(_crossings(solid, geom, points[index], reach * DIRECTIONS[2]) % 2)
+            out[index] = sum(votes) >= 2
     return out

@@ -124,12 +124,13 @@ def test_a_closed_part_counts_only_the_points_inside_it():
     from its surface; a point inside an arm counts as deep as it is from the surface."""
     from scipy.spatial import ConvexHull
 
-    from spark_bench.sim.solid import closed_pieces
+    from spark_bench.sim.solid import closed_pieces, closed_solid
 
     part = _u_part()
     hulls = [(ConvexHull(part.vertices).equations, part.vertices.min(0), part.vertices.max(0))]
-    solid = closed_pieces([(bar.vertices, bar.faces) for bar in part.split(only_watertight=False)])
-    assert solid is not None and len(solid) == 3  # three bars, three closed pieces
+    bars = [(bar.vertices, bar.faces) for bar in part.split(only_watertight=False)]
+    assert len(closed_pieces(bars)) == 3  # three bars, three closed pieces
+    solid = closed_solid(bars)
     in_slot = np.array([[0.0, 0.05, 0.0]])  # 1 cm deep in the hull, 3 cm from either arm, inside no bar
     assert surface_depth(in_slot, hulls, part) == pytest.approx(0.01, abs=1e-6)  # the bound of a soup
     assert surface_depth(in_slot, hulls, part, solid=solid) == 0.0
@@ -139,7 +140,7 @@ def test_a_closed_part_counts_only_the_points_inside_it():
 
 
 def test_closed_pieces_of_a_soup_and_of_an_open_mesh():
-    from spark_bench.sim.solid import closed_pieces, inside_pieces
+    from spark_bench.sim.solid import closed_pieces, closed_solid, inside_pieces
 
     box = trimesh.creation.box(extents=(0.1, 0.1, 0.1))
     # as an OBJ writes it: every face with its own three vertices, one face twice (a two-sided panel)
@@ -150,9 +151,14 @@ def test_closed_pieces_of_a_soup_and_of_an_open_mesh():
     # two boxes overlapping: a point in both is inside (one parity over both would say outside)
     other = trimesh.creation.box(extents=(0.1, 0.1, 0.1), transform=make_transform(translation=(0.05, 0, 0)))
     both = trimesh.util.concatenate([box, other])
-    pieces = closed_pieces([(both.vertices, both.faces)])
+    assert len(closed_pieces([(both.vertices, both.faces)])) == 2
     points = np.array([[0.03, 0.0, 0.0], [0.09, 0.0, 0.0], [0.2, 0.0, 0.0], [-0.049, 0.049, 0.0]])
-    assert inside_pieces(points, pieces).tolist() == [True, True, False, True]
+    assert inside_pieces(points, closed_solid([(both.vertices, both.faces)])).tolist() == [True, True, False, True]
+    # faces wound either way (a triangle soup's habit): the rays meet them from both sides all the same
+    flipped = box.faces.copy()
+    flipped[::2] = flipped[::2, ::-1]
+    solid = closed_solid([(box.vertices, flipped)])
+    assert inside_pieces(np.array([[0.01, 0.02, -0.03], [0.06, 0.0, 0.0]]), solid).tolist() == [True, False]
     # a box with a face missing is open: nothing can be told inside it
     assert closed_pieces([(box.vertices, box.faces[:-1])]) is None
     # a closed piece beside an open one: the part as a whole cannot be told
