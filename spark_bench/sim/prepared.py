@@ -61,7 +61,6 @@ class PreparedObject:
             self.visuals[name] = link_visual_mesh(self.asset.links[name])
         return self.visuals[name]
 
-
     def solid(self, name: str):
         """:func:`~spark_bench.sim.solid.closed_solid` of link ``name``'s visuals, computed once."""
         if name not in self.solids:

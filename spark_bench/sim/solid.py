@@ -75,11 +75,15 @@ def closed_pieces(meshes: list[tuple[np.ndarray, np.ndarray]]) -> list[trimesh.T
 
 
 def closed_solid(meshes: list[tuple[np.ndarray, np.ndarray]]) -> Solid | None:
-    """:func:`closed_pieces` of ``meshes`` made ready for :func:`inside_pieces`; None where the part is not closed."""
+    """:func:`closed_pieces` of ``meshes`` made ready for :func:`inside_pieces`; None where the part is not closed, or
+    where MuJoCo refuses a piece (the depth is then bounded as for a soup)."""
     pieces = closed_pieces(meshes)
     if pieces is None:
         return None
-    model, data = surface_model([(piece.vertices, piece.faces) for piece in pieces])
+    try:
+        model, data = surface_model([(piece.vertices, piece.faces) for piece in pieces])
+    except ValueError:
+        return None
     return Solid(model, data, np.array([piece.bounds[0] for piece in pieces]),
                  np.array([piece.bounds[1] for piece in pieces]))
 
