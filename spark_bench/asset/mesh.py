@@ -7,6 +7,8 @@
   watertight only get the cleanup (appendix "Watertight Part Preprocessing"). The voxel steps live
   in :mod:`spark_bench.asset.voxel`.
 - :func:`sample_surface`: seeded, area-weighted uniform surface samples.
+- :func:`weld`, :func:`vertex_components`: vertices merged on a grid; the pieces that share no vertex (the
+  converter's hulls and the inside test of closed parts, :mod:`spark_bench.sim.solid`).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from spark_bench.asset.voxel import VOXEL_MEMORY_CAP, fill_holes, voxel_pitch, v
 
 __all__ = ["VOXEL_MEMORY_CAP", "WELD_RADIUS", "WatertightReport", "cleanup", "drop_degenerate_faces", "fill_holes",
            "make_watertight", "merge_meshes", "sample_surface", "sample_triangles", "signed_volume",
-           "simplify_manifold", "voxel_pitch", "voxelize_surface"]
+           "simplify_manifold", "vertex_components", "voxel_pitch", "voxelize_surface", "weld"]
 
 WELD_RADIUS = 1e-6
 
@@ -321,6 +323,42 @@ def simplify_manifold(mesh: trimesh.Trimesh, tolerance: float) -> trimesh.Trimes
     simplified = trimesh.Trimesh(np.asarray(out.vert_properties[:, :3], float), np.asarray(out.tri_verts),
                                  process=False)
     return simplified if simplified.is_watertight and len(simplified.faces) else mesh
+
+
+def weld(mesh: trimesh.Trimesh, tolerance: float) -> trimesh.Trimesh:
+    """``mesh`` with vertices on the same ``tolerance`` grid cell merged (a grid in units of the
+    tolerance, so that a scaled mesh welds the same) and degenerate faces dropped."""
+    tolerance = max(tolerance, 1e-12)
+    vertices = np.asarray(mesh.vertices, np.float64)
+    _, first, inverse = np.unique(np.round(vertices / tolerance), axis=0, return_index=True, return_inverse=True)
+    faces = inverse.reshape(-1)[np.asarray(mesh.faces, np.int64)]
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+    welded = trimesh.Trimesh(vertices[first], faces, process=False)
+    welded.update_faces(welded.nondegenerate_faces())
+    welded.remove_unreferenced_vertices()
+    return welded
+
+
+def vertex_components(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
+    """Pieces of ``mesh`` that share no vertex (after welding). Unlike trimesh's ``split``, which follows
+    shared manifold edges, this keeps two-sided and non-manifold surfaces in one piece."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    faces = np.asarray(mesh.faces)
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]]])
+    n = len(mesh.vertices)
+    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    count, labels = connected_components(graph, directed=False)
+    if count <= 1:
+        return [mesh]
+    face_label = labels[faces[:, 0]]
+    out = []
+    for label in np.unique(face_label):
+        part = trimesh.Trimesh(mesh.vertices, faces[face_label == label], process=False)
+        part.remove_unreferenced_vertices()
+        out.append(part)
+    return out
 
 
 def drop_degenerate_faces(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:

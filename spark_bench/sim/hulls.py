@@ -25,6 +25,7 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
+from spark_bench.asset.mesh import vertex_components, weld
 from spark_bench.asset.model import ArticulatedAsset, Link
 from spark_bench.sim.decompose import decompose_many, normalized
 from spark_bench.sim.options import ConvertOptions
@@ -138,20 +139,6 @@ class _Pending:
     mesh: trimesh.Trimesh
 
 
-def weld(mesh: trimesh.Trimesh, tolerance: float) -> trimesh.Trimesh:
-    """``mesh`` with vertices on the same ``tolerance`` grid cell merged (a grid in units of the
-    tolerance, so that a scaled mesh welds the same) and degenerate faces dropped."""
-    tolerance = max(tolerance, 1e-12)
-    vertices = np.asarray(mesh.vertices, np.float64)
-    _, first, inverse = np.unique(np.round(vertices / tolerance), axis=0, return_index=True, return_inverse=True)
-    faces = inverse.reshape(-1)[np.asarray(mesh.faces, np.int64)]
-    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
-    welded = trimesh.Trimesh(vertices[first], faces, process=False)
-    welded.update_faces(welded.nondegenerate_faces())
-    welded.remove_unreferenced_vertices()
-    return welded
-
-
 def simplify(mesh: trimesh.Trimesh, max_faces: int) -> trimesh.Trimesh:
     """A watertight ``mesh`` with more than ``max_faces`` faces simplified to about that many
     (quadric decimation, deterministic); any other mesh, or any with ``max_faces`` 0, unchanged.
@@ -191,28 +178,6 @@ def _element_meshes(link: Link, options: ConvertOptions) -> tuple[list[Collision
     if not link.collisions and options.decompose_visuals:
         meshes = [v.mesh for v in link.visuals if len(v.mesh.faces)]
     return ready, meshes
-
-
-def vertex_components(mesh: trimesh.Trimesh) -> list[trimesh.Trimesh]:
-    """Pieces of ``mesh`` that share no vertex (after welding). Unlike trimesh's ``split``, which follows
-    shared manifold edges, this keeps two-sided and non-manifold surfaces in one piece."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    faces = np.asarray(mesh.faces)
-    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]]])
-    n = len(mesh.vertices)
-    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
-    count, labels = connected_components(graph, directed=False)
-    if count <= 1:
-        return [mesh]
-    face_label = labels[faces[:, 0]]
-    out = []
-    for label in np.unique(face_label):
-        part = trimesh.Trimesh(mesh.vertices, faces[face_label == label], process=False)
-        part.remove_unreferenced_vertices()
-        out.append(part)
-    return out
 
 
 @dataclass

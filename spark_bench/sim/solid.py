@@ -16,9 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from spark_bench.asset.mesh import vertex_components, weld
 from spark_bench.mujoco_gl import mujoco_module
 from spark_bench.sim.crossing import surface_model
-from spark_bench.sim.hulls import vertex_components, weld
 
 #: Vertices closer than this (m) are one vertex when the pieces are looked for (the OBJ pieces' shared corners are
 #: written once per piece, at the same coordinates).
