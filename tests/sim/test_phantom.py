@@ -217,3 +217,46 @@ def test_what_a_part_meets_beyond_the_sweeps_reach_is_its_stop(isolated_home, at
     blocks = [(b.parent, b.child) for b in prepared.phantom]
     assert (("panel", "button") in blocks) == free
     assert (("panel", "button") in prepared.excluded) == free
+
+
+def _bail_over_fin(open_bar: bool = False) -> ArticulatedAsset:
+    """A bucket-handle-like bail (a U of three closed bars, its collision one box that fills the slot between the arms,
+    as a convex hull of the U would), hinged at its arms' tips to lift 1.5 rad, and on the body a 4 mm fin standing in
+    the plane between the arms: lifted, the bail's box sweeps through the fin, its bars pass either side of it.
+    ``open_bar``: one bar with a face missing, so the bail is no longer a closed part."""
+    bars = [box_visual((0.02, 0.1, 0.02), (x, -0.05, 0.0)) for x in (-0.04, 0.04)]
+    bars.append(box_visual((0.1, 0.02, 0.02), (0.0, -0.11, 0.0)))
+    if open_bar:
+        mesh = bars[2].mesh
+        bars[2] = Visual(mesh=trimesh.Trimesh(mesh.vertices, mesh.faces[:-1], process=False), rgba=bars[2].rgba)
+    bail = Link("bail", visuals=bars, label="handle",
+                collisions=[Collision("box", make_transform(translation=(0.0, -0.06, 0.0)), np.array([0.1, 0.12, 0.02]))])
+    fin = box_visual((0.004, 0.03, 0.03), (0.0, -0.0329, 0.0307))
+    body = Link("body", visuals=[fin], label="base",
+                collisions=[Collision("box", make_transform(translation=(0.0, -0.0329, 0.0307)),
+                                      np.array([0.004, 0.03, 0.03]))])
+    joints = {"root": Joint("root", "fixed", "base", "body"),
+              "bail_joint": Joint("bail_joint", "revolute", "body", "bail", axis=np.array([-1.0, 0.0, 0.0]),
+                                  lower=0.0, upper=1.5)}
+    links = {link.name: link for link in (Link("base"), body, bail)}
+    return ArticulatedAsset("bail_over_fin", links, joints, category="Bucket")
+
+
+def test_a_closed_part_is_not_held_by_what_lies_in_its_hull_only(isolated_home):
+    """conv-11: the fin lies inside the bail's box (10 mm deep) but inside none of its closed bars: the bail's path is
+    free, the pair excluded, the bail lifts; the same bail with a bar left open cannot be told from a soup, the fin
+    counts as deep as it is far from the bars (bounded by the box's half thickness) and the bail stops on it."""
+    from spark_bench.sim.mjcf import prepare
+    from spark_bench.sim.options import ConvertOptions
+
+    options = ConvertOptions(use_cache=False)
+    closed = prepare(_bail_over_fin(), options)
+    assert ("body", "bail") in closed.excluded
+    assert closed.solid("bail") is not None
+    report = run_checks(_bail_over_fin(), options=options)
+    assert report.passed, report.failures()
+    opened = prepare(_bail_over_fin(open_bar=True), options)
+    assert opened.solid("bail") is None
+    assert ("body", "bail") not in opened.excluded
+    stuck = run_checks(_bail_over_fin(open_bar=True), options=options).checks["joint_sweep"]
+    assert not stuck.passed and stuck.details["joints"]["bail_joint"]["reached"] < 0.5
